@@ -1,0 +1,344 @@
+"""Incremental construction of a :class:`Morphology`; every reader goes through here."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+
+import numpy as np
+
+from morphkit.errors import GraphError, SourceLocation
+from morphkit.graph.elements import IDENTITY, EndEffector, Joint, Limit, Link, Mimic, Shape, Transform, Wheels
+from morphkit.graph.morphology import Morphology
+from morphkit.graph.types import BaseType, EndEffectorRole, JointType, ShapeType, parse_enum
+
+__all__ = ["MorphologyBuilder"]
+
+
+def _finite(values: Iterable[float], what: str, location: SourceLocation | None) -> tuple[float, ...]:
+    out = []
+    for v in values:
+        if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
+            raise GraphError(f"{what}: expected a number, got {v!r}", location=location)
+        if not math.isfinite(float(v)):
+            raise GraphError(f"{what}: non-finite number {v!r}", location=location)
+        out.append(float(v))
+    return tuple(out)
+
+
+def _vec(values: Sequence[float], n: int, what: str, location: SourceLocation | None) -> tuple[float, ...]:
+    if isinstance(values, (str, bytes)) or not isinstance(values, (Sequence, np.ndarray)) or len(values) != n:
+        raise GraphError(f"{what}: expected {n} numbers, got {values!r}", location=location)
+    return _finite(values, what, location)
+
+
+class MorphologyBuilder:
+    """Collects links, joints and end-effectors, then validates them into a :class:`Morphology`.
+
+    Element errors (bad numbers, duplicate names, unknown enums) are raised as they are added;
+    structural errors (missing links, two parents, cycles, disconnected links) by :meth:`build`.
+    Every error carries the ``location`` given for the element.
+
+    Args:
+        name: Creature name.
+        source: Path of the description being read, if any (used in error locations).
+    """
+
+    def __init__(self, name: str, *, source: str | None = None) -> None:
+        self.name = name
+        self.source = source
+        self.base = BaseType.FLOATING
+        self.root: str | None = None
+        self._root_location: SourceLocation | None = None
+        self._links: dict[str, Link] = {}
+        self._joints: dict[str, Joint] = {}
+        self._ees: dict[str, EndEffector] = {}
+        self._wheels: Wheels | None = None
+        self._wheels_location: SourceLocation | None = None
+
+    def _loc(self, location: SourceLocation | None) -> SourceLocation | None:
+        return location if location is not None else (SourceLocation(self.source) if self.source else None)
+
+    # ---- base and root ---------------------------------------------------------------------
+    def set_base(self, base: BaseType | str, *, location: SourceLocation | None = None) -> None:
+        """Set how the root moves (floating by default)."""
+        self.base = parse_enum(BaseType, base, what="base type", location=self._loc(location))  # type: ignore[assignment]
+
+    def set_root(self, link: str, *, location: SourceLocation | None = None) -> None:
+        """Name the root link (by default, the one link without a parent)."""
+        self.root = link
+        self._root_location = self._loc(location)
+
+    # ---- links and shapes ------------------------------------------------------------------
+    def add_link(self, name: str, *, shapes: Sequence[Shape] = (), location: SourceLocation | None = None) -> int:
+        """Add a link; returns its insertion index."""
+        loc = self._loc(location)
+        if not isinstance(name, str) or not name:
+            raise GraphError(f"link name must be a non-empty string, got {name!r}", location=loc)
+        if name in self._links:
+            raise GraphError(f"duplicate link name {name!r}", location=loc)
+        for s in shapes:
+            self._check_shape(s, name, loc)
+        self._links[name] = Link(name, tuple(shapes), loc)
+        return len(self._links) - 1
+
+    def add_shape(self, link: str, shape: Shape, *, location: SourceLocation | None = None) -> None:
+        """Attach one more shape to an existing link."""
+        loc = self._loc(location)
+        if link not in self._links:
+            raise GraphError(f"shape on unknown link {link!r}", location=loc)
+        self._check_shape(shape, link, loc)
+        old = self._links[link]
+        self._links[link] = Link(old.name, (*old.shapes, shape), old.location)
+
+    def _check_shape(self, s: Shape, link: str, loc: SourceLocation | None) -> None:
+        what = f"link {link!r} {s.type.name.lower()} shape"
+        _vec(s.origin.xyz, 3, f"{what} origin", loc)
+        _vec(s.origin.quat, 4, f"{what} origin rotation", loc)
+        if s.type in (ShapeType.SPHERE, ShapeType.CAPSULE, ShapeType.CYLINDER):
+            (r,) = _finite([s.radius], f"{what} radius", loc)
+            if r <= 0:
+                raise GraphError(f"{what}: radius must be > 0, got {r}", location=loc)
+        if s.type in (ShapeType.CAPSULE, ShapeType.CYLINDER):
+            (length,) = _finite([s.length], f"{what} length", loc)
+            if length < 0 or (s.type == ShapeType.CYLINDER and length == 0):
+                raise GraphError(f"{what}: length must be > 0, got {length}", location=loc)
+        if s.type == ShapeType.BOX and min(_vec(s.size, 3, f"{what} size", loc)) <= 0:
+            raise GraphError(f"{what}: size must be 3 positive extents, got {list(s.size)}", location=loc)
+        if s.type == ShapeType.MESH:
+            if not s.mesh:
+                raise GraphError(f"{what}: needs a mesh file", location=loc)
+            if min(_vec(s.scale, 3, f"{what} scale", loc)) <= 0:
+                raise GraphError(f"{what}: scale must be positive, got {list(s.scale)}", location=loc)
+
+    # ---- joints ----------------------------------------------------------------------------
+    def add_joint(
+        self,
+        name: str,
+        type: JointType | str,
+        parent: str,
+        child: str,
+        *,
+        origin: Transform = IDENTITY,
+        axis: Sequence[float] = (1.0, 0.0, 0.0),
+        limit: Limit | None = None,
+        mimic: Mimic | None = None,
+        location: SourceLocation | None = None,
+    ) -> int:
+        """Add a joint of any type; returns its insertion index.
+
+        ``axis`` is normalised; it must be non-zero for revolute, continuous and prismatic joints.
+        Revolute and prismatic joints need a ``limit`` with ``lower <= upper``.
+        """
+        loc = self._loc(location)
+        jtype = parse_enum(JointType, type, what="joint type", location=loc)
+        if not isinstance(name, str) or not name:
+            raise GraphError(f"joint name must be a non-empty string, got {name!r}", location=loc)
+        if name in self._joints:
+            raise GraphError(f"duplicate joint name {name!r}", location=loc)
+        for what, v in (("parent", parent), ("child", child)):
+            if not isinstance(v, str) or not v:
+                raise GraphError(f"joint {name!r}: {what} must be a link name, got {v!r}", location=loc)
+        if parent == child:
+            raise GraphError(f"joint {name!r}: parent and child are the same link {parent!r}", location=loc)
+        xyz = _vec(origin.xyz, 3, f"joint {name!r} origin xyz", loc)
+        quat = np.asarray(_vec(origin.quat, 4, f"joint {name!r} origin rotation", loc))
+        qn = float(np.linalg.norm(quat))
+        if qn < 1e-9:
+            raise GraphError(f"joint {name!r}: zero origin rotation quaternion", location=loc)
+        origin = Transform(xyz, tuple(float(v) for v in quat / qn))  # type: ignore[arg-type]
+        a = np.asarray(_vec(axis, 3, f"joint {name!r} axis", loc))
+        norm = float(np.linalg.norm(a))
+        if jtype in (JointType.REVOLUTE, JointType.CONTINUOUS, JointType.PRISMATIC):
+            if norm < 1e-9:
+                raise GraphError(f"joint {name!r}: zero axis {list(axis)}", location=loc)
+            a = a / norm
+        elif norm > 1e-9:
+            a = a / norm
+        else:
+            a = np.array([1.0, 0.0, 0.0])
+        if jtype in (JointType.REVOLUTE, JointType.PRISMATIC):
+            if limit is None:
+                hint = " (use type continuous for an unlimited revolute joint)" if jtype == JointType.REVOLUTE else ""
+                raise GraphError(f"joint {name!r}: {jtype.name.lower()} joint needs a limit{hint}", location=loc)
+        if limit is not None:
+            lo, hi = _finite([limit.lower, limit.upper], f"joint {name!r} limit", loc)
+            if lo > hi:
+                raise GraphError(f"joint {name!r}: limit lower {lo} > upper {hi}", location=loc)
+            extra = [v for v in (limit.velocity, limit.effort) if v is not None]
+            _finite(extra, f"joint {name!r} limit", loc)
+            limit = Limit(lo, hi, limit.velocity, limit.effort)
+            if jtype in (JointType.FIXED, JointType.CONTINUOUS, JointType.SPHERICAL):
+                limit = None
+        if mimic is not None:
+            _finite([mimic.multiplier, mimic.offset], f"joint {name!r} mimic", loc)
+        self._joints[name] = Joint(name, jtype, parent, child, origin, tuple(a), limit, mimic, loc)  # type: ignore[arg-type]
+        return len(self._joints) - 1
+
+    def add_joint_fixed(self, name: str, parent: str, child: str, **kw: object) -> int:
+        return self.add_joint(name, JointType.FIXED, parent, child, **kw)  # type: ignore[arg-type]
+
+    def add_joint_revolute(self, name: str, parent: str, child: str, **kw: object) -> int:
+        return self.add_joint(name, JointType.REVOLUTE, parent, child, **kw)  # type: ignore[arg-type]
+
+    def add_joint_continuous(self, name: str, parent: str, child: str, **kw: object) -> int:
+        return self.add_joint(name, JointType.CONTINUOUS, parent, child, **kw)  # type: ignore[arg-type]
+
+    def add_joint_prismatic(self, name: str, parent: str, child: str, **kw: object) -> int:
+        return self.add_joint(name, JointType.PRISMATIC, parent, child, **kw)  # type: ignore[arg-type]
+
+    def add_joint_spherical(self, name: str, parent: str, child: str, **kw: object) -> int:
+        return self.add_joint(name, JointType.SPHERICAL, parent, child, **kw)  # type: ignore[arg-type]
+
+    # ---- end-effectors and wheels ----------------------------------------------------------
+    def add_end_effector(
+        self,
+        name: str,
+        link: str,
+        *,
+        offset: Sequence[float] = (0.0, 0.0, 0.0),
+        role: EndEffectorRole | str = EndEffectorRole.TOOL,
+        location: SourceLocation | None = None,
+    ) -> int:
+        """Add a named point on ``link`` at ``offset`` [m] (link frame)."""
+        loc = self._loc(location)
+        r = parse_enum(EndEffectorRole, role, what="end-effector role", location=loc)
+        if not isinstance(name, str) or not name:
+            raise GraphError(f"end-effector name must be a non-empty string, got {name!r}", location=loc)
+        if name in self._ees:
+            raise GraphError(f"duplicate end-effector name {name!r}", location=loc)
+        off = _vec(offset, 3, f"end-effector {name!r} offset", loc)
+        self._ees[name] = EndEffector(name, link, off, r, loc)  # type: ignore[arg-type]
+        return len(self._ees) - 1
+
+    def set_wheels(self, joints: Sequence[str], radius: float, *, location: SourceLocation | None = None) -> None:
+        """Name the drive wheels of a wheeled base and their radius [m]."""
+        loc = self._loc(location)
+        (r,) = _finite([radius], "wheel radius", loc)
+        if r <= 0:
+            raise GraphError(f"wheel radius must be > 0, got {r}", location=loc)
+        if isinstance(joints, str) or not all(isinstance(j, str) for j in joints):
+            raise GraphError(f"wheels: joints must be a list of joint names, got {joints!r}", location=loc)
+        self._wheels = Wheels(tuple(joints), r)
+        self._wheels_location = loc
+
+    # ---- build -----------------------------------------------------------------------------
+    def build(self) -> Morphology:
+        """Validate the whole graph and return it in topological order.
+
+        Raises:
+            GraphError: missing root or link, two parents, cycle, disconnected link, unknown
+                end-effector link, bad mimic or wheel reference.
+        """
+        where = SourceLocation(self.source) if self.source else None
+        if not self._links:
+            raise GraphError("a morphology needs at least one link", location=where)
+        parent_of: dict[str, Joint] = {}
+        for j in self._joints.values():
+            for end in (j.parent, j.child):
+                if end not in self._links:
+                    raise GraphError(
+                        f"joint {j.name!r} names missing link {end!r} (links: {', '.join(self._links)})",
+                        location=j.location,
+                    )
+            if j.child in parent_of:
+                raise GraphError(
+                    f"link {j.child!r} has two parents (joints {parent_of[j.child].name!r} and {j.name!r})",
+                    location=j.location,
+                )
+            parent_of[j.child] = j
+        roots = [n for n in self._links if n not in parent_of]
+        if self.root is None:
+            if len(roots) != 1:
+                if not roots:
+                    raise GraphError("the joints form a cycle: every link has a parent", location=where)
+                raise GraphError(
+                    f"several links have no parent ({', '.join(roots)}); name the root or connect them",
+                    location=where,
+                )
+            root = roots[0]
+        else:
+            root = self.root
+            if root not in self._links:
+                raise GraphError(f"root link {root!r} does not exist (links: {', '.join(self._links)})",
+                                 location=self._root_location)
+            if root in parent_of:
+                # Either a cycle through the root or a root that is someone's child.
+                raise GraphError(f"root link {root!r} has a parent (joint {parent_of[root].name!r})",
+                                 location=parent_of[root].location)
+        children: dict[str, list[Joint]] = {n: [] for n in self._links}
+        for j in self._joints.values():
+            children[j.parent].append(j)
+        # Depth-first preorder so each limb's joints are contiguous.
+        order: list[Joint] = []
+        self._dfs(root, children, order)
+        reached = {root} | {j.child for j in order}
+        missing = [n for n in self._links if n not in reached]
+        if missing:
+            j = parent_of.get(missing[0])
+            if j is not None and self._on_cycle(missing[0], parent_of):
+                raise GraphError(f"the joints form a cycle through link {missing[0]!r}", location=j.location)
+            link = self._links[missing[0]]
+            raise GraphError(f"link {missing[0]!r} is not connected to the root {root!r}", location=link.location)
+        joint_names = set(self._joints)
+        for j in order:
+            if j.mimic is not None:
+                if j.mimic.joint not in joint_names or j.mimic.joint == j.name:
+                    raise GraphError(f"joint {j.name!r} mimics unknown joint {j.mimic.joint!r}", location=j.location)
+                target = self._joints[j.mimic.joint]
+                if target.mimic is not None or target.type not in (
+                    JointType.REVOLUTE, JointType.CONTINUOUS, JointType.PRISMATIC
+                ) or j.type not in (JointType.REVOLUTE, JointType.CONTINUOUS, JointType.PRISMATIC):
+                    raise GraphError(
+                        f"joint {j.name!r}: mimic needs two 1-DoF joints and a target that is not itself a mimic",
+                        location=j.location,
+                    )
+        for ee in self._ees.values():
+            if ee.link not in self._links:
+                raise GraphError(
+                    f"end-effector {ee.name!r} on unknown link {ee.link!r} (links: {', '.join(self._links)})",
+                    location=ee.location,
+                )
+        if self._wheels is not None:
+            if self.base != BaseType.WHEELED:
+                raise GraphError(f"wheels are only meaningful on a wheeled base (base is {self.base.name.lower()})",
+                                 location=self._wheels_location)
+            for w in self._wheels.joints:
+                if w not in joint_names or self._joints[w].type != JointType.CONTINUOUS:
+                    raise GraphError(f"wheel {w!r} must name a continuous joint", location=self._wheels_location)
+                if self._joints[w].mimic is not None:
+                    raise GraphError(f"wheel {w!r} cannot also be a mimic joint", location=self._wheels_location)
+        links = (self._links[root], *(self._links[j.child] for j in order))
+        return Morphology(
+            name=self.name,
+            base=self.base,
+            root=root,
+            links=links,
+            joints=tuple(order),
+            end_effectors=tuple(self._ees.values()),
+            wheels=self._wheels,
+            source=self.source,
+        )
+
+    @staticmethod
+    def _dfs(root: str, children: dict[str, list[Joint]], order: list[Joint]) -> None:
+        stack = list(reversed(children[root]))
+        visited = {root}
+        while stack:
+            j = stack.pop()
+            if j.child in visited:  # a cycle back into the tree; reported as disconnected/cycle later
+                continue
+            visited.add(j.child)
+            order.append(j)
+            stack.extend(reversed(children[j.child]))
+
+    @staticmethod
+    def _on_cycle(link: str, parent_of: dict[str, Joint]) -> bool:
+        seen = set()
+        cur = link
+        while cur in parent_of:
+            if cur in seen:
+                return True
+            seen.add(cur)
+            cur = parent_of[cur].parent
+        return False
