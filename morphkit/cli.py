@@ -1,0 +1,68 @@
+"""The ``morphkit`` command line.
+
+Each subcommand lives in ``morphkit.commands.<name>`` and exposes ``add_parser(subparsers)`` and
+``run(args) -> int``. This module is the only place that turns a :class:`MorphkitError` into
+``error: <file>:<line>: <message>`` on stderr and exit code 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from collections.abc import Sequence
+
+from morphkit._version import __version__
+from morphkit.errors import MorphkitError
+
+__all__ = ["main"]
+
+COMMANDS = [
+    "info",
+    "convert",
+]
+"""Subcommand modules under ``morphkit.commands``, in help order."""
+
+
+class _Parser(argparse.ArgumentParser):
+    # argparse exits with 2 on usage errors already; keep its message on one line, no traceback.
+    def error(self, message: str) -> None:  # type: ignore[override]
+        self.print_usage(sys.stderr)
+        sys.stderr.write(f"error: {message}\n")
+        raise SystemExit(2)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser with every subcommand registered."""
+    parser = _Parser(prog="morphkit", description="Differentiable kinematics for creatures of any morphology.")
+    parser.add_argument("--version", action="version", version=f"morphkit {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    sub.required = True
+    for name in COMMANDS:
+        importlib.import_module(f"morphkit.commands.{name}").add_parser(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the CLI; returns the exit code (0 success, 2 bad input)."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.run(args) or 0)
+    except MorphkitError as exc:
+        sys.stderr.write(f"error: {exc}\n")
+        return 2
+    except OSError as exc:
+        # Unreadable or unwritable paths are bad input too: one line, no traceback.
+        where = f"{exc.filename}: " if exc.filename else ""
+        sys.stderr.write(f"error: {where}{exc.strerror or exc}\n")
+        return 2
+    except KeyboardInterrupt:
+        sys.stderr.write("interrupted\n")
+        return 130
+    except BrokenPipeError:
+        return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,1 @@
+"""Subcommands of the ``morphkit`` CLI (one module each; see :mod:`morphkit.cli`)."""

@@ -1,0 +1,69 @@
+"""``morphkit info PATH...``: summarise creatures (links, joints, DoF, end-effectors, base, size)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from collections import Counter
+from typing import Any
+
+from morphkit.graph import JointType, Morphology
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("info", help="summarise a creature description (.yaml/.urdf/.usd[a|c]/.bvh or a shipped name)")
+    p.add_argument("paths", nargs="+", metavar="PATH", help="description file or shipped creature name")
+    p.add_argument("--json", action="store_true", help="print JSON (a list when several paths are given)")
+    p.set_defaults(run=run)
+
+
+def summary(m: Morphology) -> dict[str, Any]:
+    """The ``info --json`` record of a morphology."""
+    counts = Counter(j.type.name.lower() for j in m.joints)
+    return {
+        "name": m.name,
+        "source": m.source,
+        "base": m.base.name.lower(),
+        "root": m.root,
+        "link_count": m.link_count,
+        "joint_count": m.joint_count,
+        "joint_counts": {t.name.lower(): counts.get(t.name.lower(), 0) for t in JointType},
+        "dof": m.dof,
+        "coordinate_count": m.coordinate_count,
+        "base_dof": m.base_dof,
+        "driven_joints": [j.name for j in m.joints if m.is_driven(j)],
+        "end_effectors": [{"name": e.name, "link": e.link, "role": e.role.name.lower()} for e in m.end_effectors],
+        "characteristic_length": round(m.characteristic_length, 6),
+    }
+
+
+def _text(s: dict[str, Any]) -> str:
+    joints = ", ".join(f"{n} {t}" for t, n in s["joint_counts"].items() if n)
+    ees = ", ".join(f"{e['name']} ({e['role']}, on {e['link']})" for e in s["end_effectors"]) or "none"
+    lines = [
+        f"{s['name']}  ({s['source']})" if s["source"] else s["name"],
+        f"  base                  {s['base']} ({s['base_dof']} DoF), root link {s['root']}",
+        f"  links                 {s['link_count']}",
+        f"  joints                {s['joint_count']}: {joints or 'none'}",
+        f"  DoF                   {s['dof']} (without base and driven joints)",
+        f"  coordinates           {s['coordinate_count']} (base included)",
+    ]
+    if s["driven_joints"]:
+        lines.append(f"  driven joints         {', '.join(s['driven_joints'])}")
+    lines += [
+        f"  end-effectors         {len(s['end_effectors'])}: {ees}",
+        f"  characteristic length {s['characteristic_length']:.3f} m",
+    ]
+    return "\n".join(lines)
+
+
+def run(args: argparse.Namespace) -> int:
+    from morphkit.io import read_morphology
+    from morphkit.io.shipped import resolve_morphology
+
+    records = [summary(read_morphology(resolve_morphology(p))) for p in args.paths]
+    if args.json:
+        print(json.dumps(records[0] if len(records) == 1 else records, indent=2))
+    else:
+        print("\n\n".join(_text(r) for r in records))
+    return 0

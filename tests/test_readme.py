@@ -1,0 +1,23 @@
+"""README opens with exactly the two set-up commands, and CI runs the second verbatim."""
+
+import re
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_readme_two_setup_commands_and_ci_uses_the_test_line():
+    text = (ROOT / "README.md").read_text()
+    block = re.search(r"```bash\n(.*?)```", text, re.S)
+    assert block is not None and text.index(block.group(0)) < 200, "README must open with the set-up block"
+    lines = [ln for ln in block.group(1).splitlines() if ln.strip()]
+    assert len(lines) == 2
+    assert lines[0].startswith("pip install") and "morphkit" in lines[0]
+    assert lines[1].startswith("pip install") and "pytest" in lines[1]
+    ci = (ROOT / ".ci" / "run").read_text()
+    # .ci/run picks the README line that installs and runs pytest; it must be this one.
+    pattern = re.search(r"grep -m1 -E '([^']+)' README.md", ci)
+    assert pattern is not None
+    matches = [ln for ln in text.splitlines() if re.search(pattern.group(1), ln)]
+    assert matches and matches[0] == lines[1]
+    assert "torch==2.13.0" in ci
