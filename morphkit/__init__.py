@@ -10,4 +10,4 @@ from morphkit.errors import SourceLocation as SourceLocation
 from morphkit.graph import Morphology as Morphology
 from morphkit.graph import MorphologyBuilder as MorphologyBuilder
 
-__all__ = ["Morphology", "MorphkitError", "MorphologyBuilder", "SourceLocation", "__version__"]
+__all__ = ["MorphkitError", "Morphology", "MorphologyBuilder", "SourceLocation", "__version__"]

@@ -260,12 +260,15 @@ class MorphologyBuilder:
         else:
             root = self.root
             if root not in self._links:
-                raise GraphError(f"root link {root!r} does not exist (links: {', '.join(self._links)})",
-                                 location=self._root_location)
+                raise GraphError(
+                    f"root link {root!r} does not exist (links: {', '.join(self._links)})", location=self._root_location
+                )
             if root in parent_of:
                 # Either a cycle through the root or a root that is someone's child.
-                raise GraphError(f"root link {root!r} has a parent (joint {parent_of[root].name!r})",
-                                 location=parent_of[root].location)
+                raise GraphError(
+                    f"root link {root!r} has a parent (joint {parent_of[root].name!r})",
+                    location=parent_of[root].location,
+                )
         children: dict[str, list[Joint]] = {n: [] for n in self._links}
         for j in self._joints.values():
             children[j.parent].append(j)
@@ -286,9 +289,11 @@ class MorphologyBuilder:
                 if j.mimic.joint not in joint_names or j.mimic.joint == j.name:
                     raise GraphError(f"joint {j.name!r} mimics unknown joint {j.mimic.joint!r}", location=j.location)
                 target = self._joints[j.mimic.joint]
-                if target.mimic is not None or target.type not in (
-                    JointType.REVOLUTE, JointType.CONTINUOUS, JointType.PRISMATIC
-                ) or j.type not in (JointType.REVOLUTE, JointType.CONTINUOUS, JointType.PRISMATIC):
+                if (
+                    target.mimic is not None
+                    or target.type not in (JointType.REVOLUTE, JointType.CONTINUOUS, JointType.PRISMATIC)
+                    or j.type not in (JointType.REVOLUTE, JointType.CONTINUOUS, JointType.PRISMATIC)
+                ):
                     raise GraphError(
                         f"joint {j.name!r}: mimic needs two 1-DoF joints and a target that is not itself a mimic",
                         location=j.location,
@@ -301,8 +306,10 @@ class MorphologyBuilder:
                 )
         if self._wheels is not None:
             if self.base != BaseType.WHEELED:
-                raise GraphError(f"wheels are only meaningful on a wheeled base (base is {self.base.name.lower()})",
-                                 location=self._wheels_location)
+                raise GraphError(
+                    f"wheels are only meaningful on a wheeled base (base is {self.base.name.lower()})",
+                    location=self._wheels_location,
+                )
             for w in self._wheels.joints:
                 if w not in joint_names or self._joints[w].type != JointType.CONTINUOUS:
                     raise GraphError(f"wheel {w!r} must name a continuous joint", location=self._wheels_location)
