@@ -251,10 +251,21 @@ class MorphologyBuilder:
         if self.root is None:
             if len(roots) != 1:
                 if not roots:
-                    raise GraphError("the joints form a cycle: every link has a parent", location=where)
+                    # Walk up from the first link until a link repeats: that link's joint is on the cycle.
+                    seen: set[str] = set()
+                    cur = next(iter(self._links))
+                    while cur not in seen:
+                        seen.add(cur)
+                        cur = parent_of[cur].parent
+                    raise GraphError(
+                        f"the joints form a cycle through link {cur!r}: every link has a parent",
+                        location=parent_of[cur].location or where,
+                    )
+                # Point at the first parentless link after the first one (usually the intended root).
+                stray = self._links[roots[1]].location if roots[0] == next(iter(self._links)) else None
                 raise GraphError(
                     f"several links have no parent ({', '.join(roots)}); name the root or connect them",
-                    location=where,
+                    location=stray or self._links[roots[0]].location or where,
                 )
             root = roots[0]
         else:

@@ -206,7 +206,7 @@ def test_element_errors_name_the_line(mutate, message, line):
         (
             lambda b: b.add_link("island", location=SourceLocation("chain.yaml", 83)),
             "several links have no parent",
-            None,
+            83,  # the parentless link other than the first one
         ),
         (lambda b: b.set_root("l1", location=SourceLocation("chain.yaml", 3)), "has a parent", 21),
     ],
