@@ -1,0 +1,436 @@
+"""URDF reader and writer, with morphkit's extension elements.
+
+Reading: links with ``<collision>`` geometry (``<visual>`` where a link has no collision),
+geometries ``box``, ``sphere``, ``cylinder`` (length along z, as in morphkit), ``mesh``
+(``package://`` and relative paths resolved against the file's folder; a missing mesh file
+warns, it does not fail) and morphkit's own ``<capsule radius= length=/>``; joints
+``revolute``, ``continuous``, ``prismatic``, ``fixed`` with origin, axis (default ``1 0 0``),
+limit and mimic. A ``floating``, ``planar`` or ``fixed`` joint from a link named ``world`` sets
+the base type (floating, planar, fixed) instead of becoming a joint.
+
+Extension elements under ``<robot>`` (other URDF tools ignore unknown elements)::
+
+    <base type="floating|planar|wheeled|fixed"/>          absent: floating (or what a world joint says)
+    <end_effector name="fl_foot" link="fl_lower" role="foot" xyz="0 0 -0.32"/>
+    <wheels joints="wheel_l wheel_r" radius="0.05"/>
+
+Writing produces standard URDF (every revolute/prismatic ``<limit>`` carries ``effort`` and
+``velocity``, written as 0 where unknown, because urdfdom requires them) plus the extension
+elements. Each shape becomes a ``<collision>`` and a ``<visual>``. URDF has no capsule, and
+tools that read URDF (urdfdom, yourdfpy) reject a ``<capsule>`` geometry outright, so a capsule
+is written as a cylinder of the same radius and length, marked in the collision as
+``<cylinder ... morphkit_shape="capsule"/>`` (an attribute other tools ignore) so that morphkit
+reads a capsule back. The reader also accepts a ``<capsule radius= length=/>`` geometry in
+hand-written files. Spherical joints have no URDF equivalent: writing one raises
+:class:`~morphkit.errors.DescriptionError` (use USD or YAML).
+
+We parse with lxml directly rather than through yourdfpy/urdfpy because errors must name the
+line of the offending element (``element.sourceline``) and because documents that declare
+entities (XML bombs, external entities) must be refused before any parser expands them.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+import warnings
+from collections.abc import Sequence
+from enum import IntEnum
+from pathlib import Path
+from typing import Any
+from xml.sax.saxutils import quoteattr
+
+import numpy as np
+from lxml import etree
+
+from morphkit._atomic import atomic_write_text
+from morphkit.conventions import quat_from_rpy
+from morphkit.errors import DescriptionError, SourceLocation
+from morphkit.graph import (
+    BaseType,
+    EndEffectorRole,
+    JointType,
+    Limit,
+    Mimic,
+    Morphology,
+    MorphologyBuilder,
+    Shape,
+    ShapeType,
+    Transform,
+)
+from morphkit.graph.types import parse_enum
+from morphkit.io._source import read_text, relative_mesh_path, resolve_mesh_path
+
+__all__ = ["dump_urdf", "parse_urdf", "read_urdf", "write_urdf"]
+
+_URDF_JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
+_WORLD = "world"
+_ENTITY_DECL = re.compile(r"<!ENTITY", re.IGNORECASE)
+_XML_DECL = re.compile(r"^(\ufeff?\s*<\?xml[^>]*?)\s+encoding\s*=\s*(['\"])[^'\"]*\2")
+
+
+def _parser() -> etree.XMLParser:
+    # Hardened: no entity substitution, no DTD loading, no network, no huge trees.
+    return etree.XMLParser(
+        resolve_entities=False,
+        no_network=True,
+        load_dtd=False,
+        huge_tree=False,
+        remove_comments=True,
+        remove_pis=True,
+    )
+
+
+class _Reader:
+    def __init__(self, source: str | None) -> None:
+        self.source = source
+
+    def loc(self, el: Any) -> SourceLocation:
+        line = el.sourceline if el is not None else None
+        return SourceLocation(self.source, line if isinstance(line, int) else None)
+
+    def error(self, message: str, el: Any) -> DescriptionError:
+        return DescriptionError(message, location=self.loc(el))
+
+    # -- attribute readers
+    def attr(self, el: Any, name: str, what: str, *, default: str | None = None) -> str:
+        value = el.get(name)
+        if value is None:
+            if default is not None:
+                return default
+            raise self.error(f"{what}: <{el.tag}> needs attribute {name!r}", el)
+        return value
+
+    def name(self, el: Any, attr: str, what: str) -> str:
+        value = self.attr(el, attr, what).strip()
+        if not value:
+            raise self.error(f"{what}: <{el.tag}> attribute {attr!r} is empty", el)
+        return value
+
+    def floats(self, el: Any, attr: str, n: int, what: str, *, default: Sequence[float] | None = None) -> tuple:
+        text = el.get(attr)
+        if text is None:
+            if default is not None:
+                return tuple(float(v) for v in default)
+            raise self.error(f"{what}: <{el.tag}> needs attribute {attr!r}", el)
+        parts = text.split()
+        if len(parts) != n:
+            raise self.error(f"{what}: {attr}={text!r} must be {n} number{'s' if n > 1 else ''}", el)
+        out = []
+        for p in parts:
+            try:
+                v = float(p)
+            except ValueError:
+                raise self.error(f"{what}: {attr}={text!r}: {p!r} is not a number", el) from None
+            if not math.isfinite(v):
+                raise self.error(f"{what}: {attr}={text!r}: non-finite number {p!r}", el)
+            out.append(v)
+        return tuple(out)
+
+    def number(self, el: Any, attr: str, what: str, *, default: float | None = None) -> float:
+        return self.floats(el, attr, 1, what, default=None if default is None else (default,))[0]
+
+    def enum(self, cls: type[IntEnum], value: str, what: str, el: Any) -> Any:
+        return parse_enum(cls, value, what=what, location=self.loc(el))
+
+    def origin(self, parent: Any, what: str) -> Transform:
+        els = parent.findall("origin")
+        if not els:
+            return Transform()
+        if len(els) > 1:
+            raise self.error(f"{what}: more than one <origin>", els[1])
+        el = els[0]
+        xyz = self.floats(el, "xyz", 3, f"{what} origin", default=(0, 0, 0))
+        rpy = self.floats(el, "rpy", 3, f"{what} origin", default=(0, 0, 0))
+        return Transform(xyz, tuple(float(v) for v in quat_from_rpy(np.asarray(rpy))))  # type: ignore[arg-type]
+
+    def single(self, parent: Any, tag: str, what: str, *, required: bool = False) -> Any:
+        els = parent.findall(tag)
+        if len(els) > 1:
+            raise self.error(f"{what}: more than one <{tag}>", els[1])
+        if not els:
+            if required:
+                raise self.error(f"{what}: missing <{tag}>", parent)
+            return None
+        return els[0]
+
+    # -- elements
+    def shape(self, holder: Any, what: str) -> Shape:
+        geometry = self.single(holder, "geometry", what, required=True)
+        kids = [k for k in geometry if isinstance(k.tag, str)]
+        if len(kids) != 1:
+            raise self.error(f"{what}: <geometry> must hold exactly one shape, found {len(kids)}", geometry)
+        g = kids[0]
+        origin = self.origin(holder, what)
+        gwhat = f"{what} {g.tag}"
+        if g.tag == "box":
+            return Shape(ShapeType.BOX, origin, size=self.floats(g, "size", 3, gwhat))
+        if g.tag == "sphere":
+            return Shape(ShapeType.SPHERE, origin, radius=self.number(g, "radius", gwhat))
+        if g.tag in ("cylinder", "capsule"):
+            capsule = g.tag == "capsule" or g.get("morphkit_shape", "").strip() == "capsule"
+            stype = ShapeType.CAPSULE if capsule else ShapeType.CYLINDER
+            return Shape(stype, origin, radius=self.number(g, "radius", gwhat), length=self.number(g, "length", gwhat))
+        if g.tag == "mesh":
+            raw = self.name(g, "filename", gwhat)
+            mesh = resolve_mesh_path(raw, self.source, loc=self.loc(g))
+            scale = self.floats(g, "scale", 3, gwhat, default=(1, 1, 1))
+            return Shape(ShapeType.MESH, origin, mesh=mesh, scale=scale)
+        raise self.error(
+            f"{what}: unknown geometry <{g.tag}>; expected one of: box, sphere, cylinder, capsule, mesh", g
+        )
+
+    def read(self, root: Any) -> Morphology:
+        if root.tag != "robot":
+            raise self.error(f"expected a <robot> document, found <{root.tag}>", root)
+        default_name = Path(self.source).stem if self.source else "robot"
+        name = root.get("name", "").strip() or default_name
+        b = MorphologyBuilder(name, source=self.source)
+        links = [el for el in root if el.tag == "link"]
+        joints = [el for el in root if el.tag == "joint"]
+        link_names = [self.name(el, "name", "link") for el in links]
+        joint_els = [(self.name(el, "name", "joint"), el) for el in joints]
+
+        # A `world` link whose only role is to anchor the root (fixed/floating/planar joint) is the base.
+        world_base: BaseType | None = None
+        world_joint: Any = None
+        if _WORLD in link_names:
+            from_world = [(n, el) for n, el in joint_els if self._end(el, "parent", n) == _WORLD]
+            into_world = [el for n, el in joint_els if self._end(el, "child", n) == _WORLD]
+            if len(from_world) == 1 and not into_world:
+                jname, jel = from_world[0]
+                jtype = self.attr(jel, "type", f"joint {jname!r}").strip()
+                base_of = {"fixed": BaseType.FIXED, "floating": BaseType.FLOATING, "planar": BaseType.PLANAR}
+                if jtype in base_of:
+                    world_base, world_joint = base_of[jtype], jel
+                    origin = self.origin(jel, f"joint {jname!r}")
+                    if not origin.is_identity(1e-12):
+                        warnings.warn(
+                            f"{self.loc(jel)}: origin of world joint {jname!r} is ignored "
+                            "(morphkit places the base by its coordinates)",
+                            stacklevel=3,
+                        )
+        for link_name, el in zip(link_names, links, strict=True):
+            if world_joint is not None and link_name == _WORLD:
+                continue
+            what = f"link {link_name!r}"
+            b.add_link(link_name, location=self.loc(el))
+            holders = el.findall("collision") or el.findall("visual")
+            for h in holders:
+                b.add_shape(link_name, self.shape(h, what), location=self.loc(h))
+
+        for jname, el in joint_els:
+            if el is world_joint:
+                continue
+            self.joint(b, jname, el)
+
+        base_el = self.single(root, "base", "robot")
+        if base_el is not None:
+            b.set_base(self.enum(BaseType, self.attr(base_el, "type", "base").strip(), "base type", base_el))
+        elif world_base is not None:
+            b.set_base(world_base)
+        for el in root.findall("end_effector"):
+            ee_name = self.name(el, "name", "end_effector")
+            what = f"end-effector {ee_name!r}"
+            role = self.enum(EndEffectorRole, self.attr(el, "role", what, default="tool"), "end-effector role", el)
+            offset = self.floats(el, "xyz", 3, what, default=(0, 0, 0))
+            b.add_end_effector(ee_name, self.name(el, "link", what), offset=offset, role=role, location=self.loc(el))
+        wheels = self.single(root, "wheels", "robot")
+        if wheels is not None:
+            names = self.attr(wheels, "joints", "wheels").split()
+            b.set_wheels(names, self.number(wheels, "radius", "wheels"), location=self.loc(wheels))
+        return b.build()
+
+    def _end(self, el: Any, tag: str, jname: str) -> str | None:
+        sub = el.find(tag)
+        return sub.get("link") if sub is not None else None
+
+    def joint(self, b: MorphologyBuilder, jname: str, el: Any) -> None:
+        what = f"joint {jname!r}"
+        jtype_text = self.attr(el, "type", what).strip()
+        if jtype_text in ("floating", "planar"):
+            raise self.error(
+                f"{what}: a {jtype_text} joint is only supported from the '{_WORLD}' link (as the base); "
+                "morphkit joints are fixed, revolute, continuous, prismatic or spherical",
+                el,
+            )
+        if jtype_text not in _URDF_JOINT_TYPES:
+            raise self.error(f"unknown joint type {jtype_text!r}; expected one of: {', '.join(_URDF_JOINT_TYPES)}", el)
+        jtype = JointType[jtype_text.upper()]
+        parent = self.name(self.single(el, "parent", what, required=True), "link", f"{what} parent")
+        child = self.name(self.single(el, "child", what, required=True), "link", f"{what} child")
+        kw: dict[str, Any] = {"origin": self.origin(el, what)}
+        axis = self.single(el, "axis", what)
+        if axis is not None:
+            kw["axis"] = self.floats(axis, "xyz", 3, f"{what} axis", default=(1, 0, 0))
+        lim = self.single(el, "limit", what)
+        if lim is not None:
+            lw = f"{what} limit"
+            velocity = self.number(lim, "velocity", lw) if lim.get("velocity") is not None else None
+            effort = self.number(lim, "effort", lw) if lim.get("effort") is not None else None
+            if jtype in (JointType.REVOLUTE, JointType.PRISMATIC):
+                if lim.get("lower") is None and lim.get("upper") is None:
+                    warnings.warn(f"{self.loc(lim)}: {what} limit has no lower/upper: URDF reads both as 0 "
+                                  "(a locked joint)", stacklevel=3)
+                lower = self.number(lim, "lower", lw, default=0.0)
+                upper = self.number(lim, "upper", lw, default=0.0)
+                if lower > upper:
+                    raise self.error(f"{what}: limit lower {lower} > upper {upper}", lim)
+                kw["limit"] = Limit(lower, upper, velocity, effort)
+        elif jtype in (JointType.REVOLUTE, JointType.PRISMATIC):
+            hint = " (use type continuous for an unlimited revolute joint)" if jtype == JointType.REVOLUTE else ""
+            raise self.error(f"{what}: a {jtype_text} joint needs a <limit>{hint}", el)
+        mimic = self.single(el, "mimic", what)
+        if mimic is not None:
+            mw = f"{what} mimic"
+            kw["mimic"] = Mimic(
+                self.name(mimic, "joint", mw),
+                self.number(mimic, "multiplier", mw, default=1.0),
+                self.number(mimic, "offset", mw, default=0.0),
+            )
+        b.add_joint(jname, jtype, parent, child, location=self.loc(el), **kw)
+
+
+def _parse_xml(text: str, source: str | None) -> Any:
+    """Parse URDF text with the hardened parser; refuse entity declarations outright."""
+    where = SourceLocation(source)
+    m = _ENTITY_DECL.search(text)
+    if m is not None:
+        raise DescriptionError(
+            "refusing an XML document that declares entities (<!ENTITY ...>): entity expansion and "
+            "external entities are not allowed in URDF files",
+            location=where.at_line(text.count("\n", 0, m.start()) + 1),
+        )
+    # lxml refuses str input that carries an encoding declaration; we hand it UTF-8 bytes instead.
+    data = _XML_DECL.sub(r"\1", text, count=1).encode("utf-8", errors="replace")
+    try:
+        root = etree.fromstring(data, _parser())
+    except etree.XMLSyntaxError as exc:
+        line = exc.lineno if isinstance(exc.lineno, int) and exc.lineno > 0 else None
+        msg = exc.msg or str(exc)
+        raise DescriptionError(f"malformed XML: {msg}", location=where.at_line(line)) from exc
+    except (etree.LxmlError, ValueError, LookupError) as exc:
+        raise DescriptionError(f"malformed XML: {exc}", location=where) from exc
+    if root is None:
+        raise DescriptionError("empty XML document", location=where)
+    dtd = root.getroottree().docinfo.internalDTD
+    if dtd is not None and any(True for _ in dtd.iterentities()):
+        raise DescriptionError("refusing an XML document that declares entities", location=where)
+    for el in root.iter():
+        if not isinstance(el.tag, str):  # entity references, or anything else that is not an element
+            raise DescriptionError(
+                "refusing XML entity references in a URDF file", location=where.at_line(el.sourceline)
+            )
+    return root
+
+
+def parse_urdf(text: str, *, source: str | None = None) -> Morphology:
+    """Build a :class:`Morphology` from URDF text (with morphkit's extension elements).
+
+    Args:
+        text: The URDF document.
+        source: Path the text came from (for error locations and mesh paths).
+
+    Raises:
+        DescriptionError: malformed XML, declared entities, missing/bad attributes, unsupported joints.
+        GraphError: structural problems (cycle, two parents, missing link, ...), located at the element.
+    """
+    return _Reader(source).read(_parse_xml(text, source))
+
+
+def read_urdf(path: str | os.PathLike[str]) -> Morphology:
+    """Read a URDF file (see :func:`parse_urdf`)."""
+    return parse_urdf(read_text(path, what="URDF"), source=str(path))
+
+
+# ---- the writer ------------------------------------------------------------------------------
+def _num(x: float) -> str:
+    x = float(x)
+    return str(int(x)) if x.is_integer() and abs(x) < 1e15 else repr(x)
+
+
+def _nums(values: Sequence[float]) -> str:
+    return " ".join(_num(v) for v in values)
+
+
+def _origin(t: Transform) -> str:
+    return f"<origin xyz={quoteattr(_nums(t.xyz))} rpy={quoteattr(_nums(t.rpy))}/>"
+
+
+def _geometry(s: Shape, *, visual: bool, target: str | os.PathLike[str] | None) -> str:
+    if s.type == ShapeType.BOX:
+        return f"<box size={quoteattr(_nums(s.size))}/>"
+    if s.type == ShapeType.SPHERE:
+        return f"<sphere radius={quoteattr(_num(s.radius))}/>"
+    if s.type in (ShapeType.CYLINDER, ShapeType.CAPSULE):
+        marker = ' morphkit_shape="capsule"' if s.type == ShapeType.CAPSULE and not visual else ""
+        return f"<cylinder radius={quoteattr(_num(s.radius))} length={quoteattr(_num(s.length))}{marker}/>"
+    mesh = relative_mesh_path(s.mesh or "", target)
+    return f"<mesh filename={quoteattr(mesh)} scale={quoteattr(_nums(s.scale))}/>"
+
+
+def dump_urdf(m: Morphology, *, target: str | os.PathLike[str] | None = None) -> str:
+    """The URDF text of ``m`` (standard URDF plus morphkit's extension elements).
+
+    Args:
+        m: The morphology.
+        target: File the text will be saved as; absolute mesh paths are written relative to its folder.
+
+    Raises:
+        DescriptionError: ``m`` has a spherical joint (URDF cannot express one).
+    """
+    for j in m.joints:
+        if j.type == JointType.SPHERICAL:
+            raise DescriptionError(
+                f"joint {j.name!r} is spherical, which URDF cannot express; write USD or YAML instead",
+                location=j.location,
+            )
+    out = ['<?xml version="1.0"?>', f"<robot name={quoteattr(m.name)}>"]
+    out.append("  <!-- morphkit extensions: base, end_effector, wheels (other URDF tools ignore them) -->")
+    out.append(f'  <base type="{m.base.name.lower()}"/>')
+    for link in m.links:
+        if not link.shapes:
+            out.append(f"  <link name={quoteattr(link.name)}/>")
+            continue
+        out.append(f"  <link name={quoteattr(link.name)}>")
+        for s in link.shapes:
+            for tag in ("visual", "collision"):
+                geometry = _geometry(s, visual=tag == "visual", target=target)
+                out.append(f"    <{tag}>{_origin(s.origin)}<geometry>{geometry}</geometry></{tag}>")
+        out.append("  </link>")
+    for j in m.joints:
+        out.append(f"  <joint name={quoteattr(j.name)} type={quoteattr(j.type.name.lower())}>")
+        out.append(f"    <parent link={quoteattr(j.parent)}/>")
+        out.append(f"    <child link={quoteattr(j.child)}/>")
+        out.append(f"    {_origin(j.origin)}")
+        if j.type != JointType.FIXED or tuple(j.axis) != (1.0, 0.0, 0.0):
+            out.append(f"    <axis xyz={quoteattr(_nums(j.axis))}/>")
+        if j.limit is not None and j.type in (JointType.REVOLUTE, JointType.PRISMATIC):
+            lim = j.limit
+            out.append(
+                f"    <limit lower={quoteattr(_num(lim.lower))} upper={quoteattr(_num(lim.upper))}"
+                f" effort={quoteattr(_num(lim.effort or 0.0))} velocity={quoteattr(_num(lim.velocity or 0.0))}/>"
+            )
+        if j.mimic is not None:
+            mm = j.mimic
+            out.append(
+                f"    <mimic joint={quoteattr(mm.joint)} multiplier={quoteattr(_num(mm.multiplier))}"
+                f" offset={quoteattr(_num(mm.offset))}/>"
+            )
+        out.append("  </joint>")
+    for ee in m.end_effectors:
+        out.append(
+            f"  <end_effector name={quoteattr(ee.name)} link={quoteattr(ee.link)}"
+            f" role={quoteattr(ee.role.name.lower())} xyz={quoteattr(_nums(ee.offset))}/>"
+        )
+    if m.wheels is not None:
+        joints = quoteattr(" ".join(m.wheels.joints))
+        out.append(f"  <wheels joints={joints} radius={quoteattr(_num(m.wheels.radius))}/>")
+    out.append("</robot>")
+    return "\n".join(out) + "\n"
+
+
+def write_urdf(m: Morphology, path: str | os.PathLike[str]) -> None:
+    """Write ``m`` as URDF, atomically (see :func:`dump_urdf`)."""
+    atomic_write_text(path, dump_urdf(m, target=path))
