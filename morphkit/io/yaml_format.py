@@ -222,7 +222,10 @@ class _Reader:
             raise self.error(f"{what}: expected a list, got {_show(value)}", line)
         return value
 
-    def keys(self, m: _Map, what: str, allowed: Sequence[str], required: Sequence[str] = ()) -> None:
+    def keys(
+        self, m: _Map, what: str, allowed: Sequence[str], required: Sequence[str] = (), *, line: int | None = None
+    ) -> None:
+        """Refuse unknown keys (at their line) and missing ones (at ``line``, else the mapping's line)."""
         for key in m:
             if key not in allowed:
                 raise self.error(
@@ -230,7 +233,7 @@ class _Reader:
                 )
         for key in required:
             if key not in m:
-                raise self.error(f"{what}: missing required key {key!r}", m.line)
+                raise self.error(f"{what}: missing required key {key!r}", line or m.line)
 
     def line_of(self, m: _Map, key: str) -> int:
         return m.key_lines.get(key, m.line)
@@ -283,10 +286,10 @@ class _Reader:
     def shape(self, value: Any, what: str, line: int) -> Shape:
         m = self.mapping(value, what, line)
         if "type" not in m:
-            raise self.error(f"{what}: missing required key 'type'", m.line)
+            raise self.error(f"{what}: missing required key 'type'", line)
         stype = self.enum(ShapeType, m["type"], "shape type", self.line_of(m, "type"))
         required, optional = _SHAPE_KEYS[stype]
-        self.keys(m, f"{what} ({stype.name.lower()})", ("type", "origin", *required, *optional), required)
+        self.keys(m, f"{what} ({stype.name.lower()})", ("type", "origin", *required, *optional), required, line=line)
         kw: dict[str, Any] = {}
         if "origin" in m:
             kw["origin"] = self.transform(m["origin"], f"{what} origin", self.line_of(m, "origin"))
@@ -344,7 +347,7 @@ class _Reader:
                 ee_name = self.name(ee_name, "end-effector name", line)
                 what = f"end-effector {ee_name!r}"
                 m = self.mapping(value, what, line)
-                self.keys(m, what, _EE_KEYS, ("link",))
+                self.keys(m, what, _EE_KEYS, ("link",), line=line)
                 kw: dict[str, Any] = {}
                 if "offset" in m:
                     kw["offset"] = self.vector(m["offset"], 3, f"{what} offset", self.line_of(m, "offset"))
@@ -356,7 +359,7 @@ class _Reader:
         if "wheels" in top:
             line = self.line_of(top, "wheels")
             m = self.mapping(top["wheels"], "wheels", line)
-            self.keys(m, "wheels", _WHEEL_KEYS, _WHEEL_KEYS)
+            self.keys(m, "wheels", _WHEEL_KEYS, _WHEEL_KEYS, line=line)
             jl = self.sequence(m["joints"], "wheels joints", self.line_of(m, "joints"))
             names = [self.name(v, "wheels joint", jl.item_lines[i]) for i, v in enumerate(jl)]
             radius = self.number(m["radius"], "wheels radius", self.line_of(m, "radius"))
@@ -368,7 +371,7 @@ class _Reader:
         joint_name = self.name(joint_name, "joint name", line)
         what = f"joint {joint_name!r}"
         m = self.mapping(value, what, line)
-        self.keys(m, what, _JOINT_KEYS, ("type", "parent", "child"))
+        self.keys(m, what, _JOINT_KEYS, ("type", "parent", "child"), line=line)
         jtype = self.enum(JointType, m["type"], "joint type", self.line_of(m, "type"))
         parent = self.name(m["parent"], f"{what} parent", self.line_of(m, "parent"))
         child = self.name(m["child"], f"{what} child", self.line_of(m, "child"))
@@ -379,14 +382,15 @@ class _Reader:
             kw["axis"] = self.vector(m["axis"], 3, f"{what} axis", self.line_of(m, "axis"))
         if "limit" in m:
             lim = self.mapping(m["limit"], f"{what} limit", self.line_of(m, "limit"))
-            self.keys(lim, f"{what} limit", _LIMIT_KEYS, ("lower", "upper"))
+            self.keys(lim, f"{what} limit", _LIMIT_KEYS, ("lower", "upper"), line=self.line_of(m, "limit"))
             vals = {k: self.number(lim[k], f"{what} limit {k}", self.line_of(lim, k)) for k in _LIMIT_KEYS if k in lim}
             if vals["lower"] > vals["upper"]:
-                raise self.error(f"{what}: limit lower {vals['lower']} > upper {vals['upper']}", lim.line)
+                lo, hi = vals["lower"], vals["upper"]
+                raise self.error(f"{what}: limit lower {lo} > upper {hi}", self.line_of(m, "limit"))
             kw["limit"] = Limit(vals["lower"], vals["upper"], vals.get("velocity"), vals.get("effort"))
         if "mimic" in m:
             mim = self.mapping(m["mimic"], f"{what} mimic", self.line_of(m, "mimic"))
-            self.keys(mim, f"{what} mimic", _MIMIC_KEYS, ("joint",))
+            self.keys(mim, f"{what} mimic", _MIMIC_KEYS, ("joint",), line=self.line_of(m, "mimic"))
             target = self.name(mim["joint"], f"{what} mimic joint", self.line_of(mim, "joint"))
             mult = self.number(mim["multiplier"], f"{what} mimic multiplier", self.line_of(mim, "multiplier")) \
                 if "multiplier" in mim else 1.0
