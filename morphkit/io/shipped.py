@@ -28,7 +28,11 @@ _PACKAGE_DIR = Path(__file__).resolve().parent.parent
 
 def shipped_dirs() -> tuple[Path, ...]:
     """Folders that hold shipped creatures and exist on this install (wheel location first)."""
-    candidates = (_PACKAGE_DIR / "_morphologies", _PACKAGE_DIR.parent / "morphologies")
+    candidates = [_PACKAGE_DIR / "_morphologies"]
+    # The repository root only counts in a checkout (it holds pyproject.toml), never a stray
+    # ``morphologies`` folder beside an installed package in site-packages.
+    if (_PACKAGE_DIR.parent / "pyproject.toml").is_file():
+        candidates.append(_PACKAGE_DIR.parent / "morphologies")
     return tuple(d for d in candidates if d.is_dir())
 
 
