@@ -20,6 +20,7 @@ __all__ = ["main"]
 COMMANDS = [
     "info",
     "convert",
+    "bench",
 ]
 """Subcommand modules under ``morphkit.commands``, in help order."""
 

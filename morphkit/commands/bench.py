@@ -1,0 +1,739 @@
+"""``morphkit bench fk``: forward-kinematics throughput of morphkit against its peers, in one run.
+
+Measures poses per second for every (creature, implementation, mode, batch size):
+
+- creatures: ``spot`` (the shipped URDF) and ``human`` (a CMU BVH skeleton read from
+  ``$MORPHKIT_DATA/human/cmu``: 22 joints, spherical; the shipped ``human`` when the variable is unset);
+- implementations: ``morphkit`` (raw Warp kernels), ``morphkit_torch`` (through the autograd bridge),
+  ``pytorch_kinematics``, ``pinocchio`` and ``mujoco`` (Python loops over poses) and ``torch``
+  (plain batched torch FK, :mod:`morphkit.torch.reference`);
+- modes: ``fwd`` (world transforms of every link) and ``fwd_bwd`` (the gradient of the sum of link
+  positions with respect to the coordinates; Pinocchio's and MuJoCo's Jacobians as their analogue).
+
+Every implementation is built from the same :class:`~morphkit.graph.Morphology` and checked against
+the reference FK at random poses before it is timed. Inputs are prepared outside the timed region;
+each measurement is warmed up, then the best of a few repeats is kept. Python-loop peers time at most
+``loop_poses`` poses per call (their rate does not depend on the batch size).
+
+``benchmarks/fk.py`` is a thin wrapper around :func:`main`; ``benchmarks/README.md`` holds results.
+This module imports torch, Warp and the peers inside functions only, so ``morphkit --help`` stays light.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from morphkit.errors import ConfigError
+from morphkit.graph import BaseType, JointType, Morphology
+
+__all__ = [
+    "BATCHES",
+    "IMPLS",
+    "MODES",
+    "QUICK_BATCHES",
+    "BenchConfig",
+    "BenchResult",
+    "Creature",
+    "TargetCheck",
+    "add_parser",
+    "check_targets",
+    "load_creature",
+    "make_impl",
+    "markdown_report",
+    "random_q",
+    "run",
+    "run_fk_benchmark",
+]
+
+IMPLS: tuple[str, ...] = ("morphkit", "morphkit_torch", "pytorch_kinematics", "pinocchio", "mujoco", "torch")
+"""Implementation names, as they appear in the JSON records."""
+MODES: tuple[str, ...] = ("fwd", "fwd_bwd")
+BATCHES: tuple[int, ...] = (1, 64, 1024, 16384, 131072)
+QUICK_BATCHES: tuple[int, ...] = (1, 64, 1024)
+TARGET_BATCH = 16384
+"""Batch size the issue's throughput targets refer to."""
+LOOP_PEERS = frozenset({"pinocchio", "mujoco"})
+HUMAN_BVH = "01_01.bvh"
+"""CMU take whose skeleton is the benchmark human (any CMU file has the same 22-joint skeleton)."""
+
+
+@dataclass(frozen=True)
+class BenchConfig:
+    """What ``morphkit bench fk`` measures and how long it tries."""
+
+    creatures: tuple[str, ...] = ("spot", "human")
+    """``spot``, ``human`` or any description path / shipped name."""
+    impls: tuple[str, ...] = IMPLS
+    modes: tuple[str, ...] = MODES
+    batches: tuple[int, ...] = BATCHES
+    loop_poses: int = 2000
+    """Poses per timed call at most for the Python-loop peers (Pinocchio, MuJoCo)."""
+    repeats: int = 3
+    """Timed repeats per measurement (the best is kept), after one warm-up call."""
+    min_time: float = 0.05
+    """Each repeat calls the workload until this many seconds [s] have passed."""
+    threads: int = 2
+    """``torch.set_num_threads`` and morphkit's CPU launch threads."""
+    seed: int = 0
+    compile_probe: bool = True
+    """Measure first-call kernel compile time in fresh subprocesses (cold and warm cache)."""
+    device: str = "cpu"
+
+
+@dataclass(frozen=True)
+class Creature:
+    """A benchmark creature and where it came from."""
+
+    key: str
+    """Name in the records (``spot``, ``human``)."""
+    morphology: Morphology
+    path: Path
+    note: str
+
+
+@dataclass(frozen=True)
+class TargetCheck:
+    """One issue target: the measured value against its threshold."""
+
+    name: str
+    value: float
+    threshold: float
+    unit: str
+    higher_is_better: bool = True
+
+    @property
+    def passed(self) -> bool:
+        return self.value >= self.threshold if self.higher_is_better else self.value <= self.threshold
+
+    @property
+    def margin(self) -> float:
+        """Measured over threshold (≥ 1 passes) for higher-is-better targets, threshold over measured otherwise."""
+        if self.higher_is_better:
+            return self.value / self.threshold
+        return self.threshold / self.value if self.value > 0 else float("inf")
+
+
+@dataclass
+class BenchResult:
+    """Everything one run measured."""
+
+    records: list[dict[str, Any]] = field(default_factory=list)
+    """``{"creature", "impl", "mode", "batch", "poses_per_s"}`` per measurement."""
+    creatures: dict[str, str] = field(default_factory=dict)
+    """Creature key → description of its source and size."""
+    agreement: dict[str, dict[str, float]] = field(default_factory=dict)
+    """Creature → impl → max |Δp| [m] of link positions against the reference at random poses."""
+    skipped: dict[str, str] = field(default_factory=dict)
+    """Impl (or ``creature/impl``) → why it was not measured."""
+    compile: dict[str, dict[str, float]] = field(default_factory=dict)
+    """Creature → first-call timings [s] (``cold``, ``warm_cache``, ``torch_cold``...)."""
+    notes: list[str] = field(default_factory=list)
+    config: BenchConfig = field(default_factory=BenchConfig)
+
+    def rate(self, creature: str, impl: str, mode: str, batch: int) -> float | None:
+        for r in self.records:
+            if (r["creature"], r["impl"], r["mode"], r["batch"]) == (creature, impl, mode, batch):
+                return float(r["poses_per_s"])
+        return None
+
+
+# ---------------------------------------------------------------------------------------------
+# creatures and poses
+# ---------------------------------------------------------------------------------------------
+def load_creature(key: str) -> Creature:
+    """The benchmark creature ``key``: ``human`` is a CMU BVH skeleton when ``MORPHKIT_DATA`` is set.
+
+    Raises:
+        MorphkitError: when the description cannot be found or read.
+    """
+    from morphkit.io import read_morphology
+    from morphkit.io.shipped import resolve_morphology
+
+    if key == "human":
+        data = os.environ.get("MORPHKIT_DATA")
+        cmu = Path(data) / "human" / "cmu" if data else None
+        if cmu is not None and cmu.is_dir():
+            path = cmu / HUMAN_BVH
+            if not path.is_file():
+                candidates = sorted(cmu.glob("*.bvh"))
+                if not candidates:
+                    raise ConfigError(f"{cmu}: no .bvh file")
+                path = candidates[0]
+            from morphkit.io.bvh import read_bvh_skeleton
+
+            m = read_bvh_skeleton(path)
+            note = f"CMU BVH skeleton {path.name} ($MORPHKIT_DATA/human/cmu)"
+        else:
+            path = resolve_morphology("human")
+            m = read_morphology(path)
+            note = "shipped human (MORPHKIT_DATA unset: no CMU skeleton)"
+    else:
+        path = resolve_morphology(key)
+        m = read_morphology(path)
+        note = f"{path.name}"
+    counts = {t: sum(j.type == t for j in m.joints) for t in JointType}
+    kinds = ", ".join(f"{n} {t.name.lower()}" for t, n in counts.items() if n)
+    note += f": {m.base.name.lower()} base, {m.link_count} links, {m.joint_count} joints ({kinds}), "
+    note += f"{m.coordinate_count} coordinates"
+    return Creature(key, m, Path(path), note)
+
+
+def random_q(m: Morphology, batch: int, rng: np.random.Generator) -> np.ndarray:
+    """Random valid coordinates [batch, coordinate_count] (float64).
+
+    Base position ~ N(0, 0.5²) [m], rotations uniform unit quaternions, bounded joints uniform within
+    their limits, unbounded ones uniform in [-π, π].
+    """
+    lower, upper = m.coordinate_limits
+    lo = np.where(np.isfinite(lower), lower, -np.pi)
+    hi = np.where(np.isfinite(upper), upper, np.pi)
+    q = rng.uniform(lo, hi, size=(batch, m.coordinate_count))
+    quat_starts = []
+    if m.base == BaseType.FLOATING:
+        q[:, :3] = rng.normal(scale=0.5, size=(batch, 3))
+        quat_starts.append(3)
+    quat_starts += [
+        s
+        for j, s in zip(m.joints, m.joint_q_start[:-1], strict=True)
+        if j.type == JointType.SPHERICAL and not m.is_driven(j)
+    ]
+    for s in quat_starts:
+        v = rng.normal(size=(batch, 4))
+        q[:, s : s + 4] = v / np.linalg.norm(v, axis=1, keepdims=True)
+    return q
+
+
+# ---------------------------------------------------------------------------------------------
+# implementations
+# ---------------------------------------------------------------------------------------------
+class MorphkitFK:
+    """morphkit's raw Warp kernels (float32).
+
+    ``fwd`` is :func:`~morphkit.kernels.eval_fk` (every link transform); ``fwd_bwd`` is the positions
+    fast path :func:`~morphkit.kernels.eval_link_positions` and its adjoint with a seed of ones (the
+    gradient of the sum of link positions), outputs and gradients preallocated and reused.
+    """
+
+    name = "morphkit"
+
+    def __init__(self, m: Morphology, *, device: str = "cpu") -> None:
+        from morphkit.model import compile_model
+
+        self.m, self.device = m, device
+        self.model = compile_model(m, device=device)
+
+    def link_positions(self, q: np.ndarray) -> np.ndarray:
+        from morphkit.kernels.fk import eval_fk
+
+        return eval_fk(self.model, np.asarray(q, dtype=np.float32), device=self.device).numpy()[..., :3].astype(float)
+
+    def workload(self, q: np.ndarray) -> Any:
+        import warp as wp
+
+        from morphkit.commands._bench_peers import Workload
+        from morphkit.kernels.fk import eval_fk, eval_link_positions, eval_link_positions_adjoint
+
+        model, device = self.model, self.device
+        B, L = q.shape[0], self.m.link_count
+        qw = wp.array(np.ascontiguousarray(q, dtype=np.float32), dtype=wp.float32, device=device)
+        T = wp.empty((B, L), dtype=wp.transform, device=device)
+        p = wp.empty((B, L), dtype=wp.vec3, device=device)
+        seed = wp.array(np.ones((B, L, 3), dtype=np.float32), dtype=wp.vec3, device=device)
+        grad = wp.zeros_like(qw)
+
+        def fwd() -> Any:
+            eval_fk(model, qw, out=T, device=device)
+            wp.synchronize_device(device)
+            return T
+
+        def fwd_bwd() -> Any:
+            eval_link_positions(model, qw, out=p, device=device)
+            grad.zero_()
+            eval_link_positions_adjoint(model, qw, seed, adj_q=grad, device=device)
+            wp.synchronize_device(device)
+            return grad
+
+        return Workload(fwd, fwd_bwd, B)
+
+
+class MorphkitTorchFK:
+    """morphkit through its torch autograd bridge (:class:`morphkit.torch.ForwardKinematics`, float32)."""
+
+    name = "morphkit_torch"
+
+    def __init__(self, m: Morphology, *, device: str = "cpu") -> None:
+        from morphkit.torch import ForwardKinematics
+
+        self.m, self.device = m, device
+        self.module = ForwardKinematics(m, device=device)
+
+    def _positions(self, q: Any) -> Any:
+        return self.module(q)[..., :3]
+
+    def link_positions(self, q: np.ndarray) -> np.ndarray:
+        import torch
+
+        with torch.no_grad():
+            return self._positions(torch.as_tensor(q, dtype=torch.float32)).double().numpy()
+
+    def workload(self, q: np.ndarray) -> Any:
+        import torch
+
+        from morphkit.commands._bench_peers import Workload
+
+        qt = torch.as_tensor(np.ascontiguousarray(q), dtype=torch.float32)
+        qg = qt.clone().requires_grad_(True)
+
+        def fwd() -> Any:
+            with torch.no_grad():
+                return self.module(qt)
+
+        def fwd_bwd() -> Any:
+            qg.grad = None
+            self._positions(qg).sum().backward()
+            return qg.grad
+
+        return Workload(fwd, fwd_bwd, q.shape[0])
+
+
+class TorchReferenceFK:
+    """Plain batched torch FK: :func:`morphkit.torch.reference.fk_reference` (float32 when timed, float64 as oracle)."""
+
+    name = "torch"
+
+    def __init__(self, m: Morphology, *, device: str = "cpu") -> None:
+        from morphkit.model import compile_model
+        from morphkit.torch.reference import fk_reference
+
+        self.m, self.device = m, device
+        self.model = compile_model(m, device=device)
+        self.fk = fk_reference
+
+    def link_positions(self, q: np.ndarray) -> np.ndarray:
+        import torch
+
+        with torch.no_grad():
+            return self.fk(self.model, torch.as_tensor(q, dtype=torch.float64))[..., :3].numpy()
+
+    def workload(self, q: np.ndarray) -> Any:
+        import torch
+
+        from morphkit.commands._bench_peers import Workload
+
+        qt = torch.as_tensor(np.ascontiguousarray(q), dtype=torch.float32)
+        qg = qt.clone().requires_grad_(True)
+        model, fk = self.model, self.fk
+
+        def fwd() -> Any:
+            with torch.no_grad():
+                return fk(model, qt)
+
+        def fwd_bwd() -> Any:
+            qg.grad = None
+            fk(model, qg)[..., :3].sum().backward()
+            return qg.grad
+
+        return Workload(fwd, fwd_bwd, q.shape[0])
+
+
+def make_impl(name: str, m: Morphology, *, device: str = "cpu", loop_poses: int = 2000) -> Any:
+    """Build implementation ``name`` for ``m``.
+
+    Raises:
+        ImportError: when the peer library is not installed.
+        ConfigError: for an unknown name or a creature the peer cannot express.
+    """
+    from morphkit.commands import _bench_peers as peers
+
+    if name == "morphkit":
+        return MorphkitFK(m, device=device)
+    if name == "morphkit_torch":
+        return MorphkitTorchFK(m, device=device)
+    if name == "torch":
+        return TorchReferenceFK(m, device=device)
+    if name == "pytorch_kinematics":
+        return peers.PytorchKinematicsFK(m)
+    if name == "pinocchio":
+        return peers.PinocchioFK(m, max_poses=loop_poses)
+    if name == "mujoco":
+        return peers.MujocoFK(m, max_poses=loop_poses)
+    raise ConfigError(f"unknown implementation {name!r}; expected one of: {', '.join(IMPLS)}")
+
+
+# ---------------------------------------------------------------------------------------------
+# measurement
+# ---------------------------------------------------------------------------------------------
+def time_call(fn: Callable[[], Any], poses: int, *, repeats: int, min_time: float) -> float:
+    """Poses per second of ``fn`` (which evaluates ``poses`` poses): one warm-up, best of ``repeats``."""
+    fn()
+    best = float("inf")
+    for _ in range(max(1, repeats)):
+        calls = 0
+        t0 = time.perf_counter()
+        while True:
+            fn()
+            calls += 1
+            elapsed = time.perf_counter() - t0
+            if elapsed >= min_time:
+                break
+        best = min(best, elapsed / calls)
+    return poses / best
+
+
+def _set_threads(n: int) -> None:
+    import torch
+
+    torch.set_num_threads(n)
+    try:
+        from morphkit.kernels.fk import set_cpu_thread_count
+
+        set_cpu_thread_count(n)
+    except ImportError:  # pragma: no cover - the kernels are part of morphkit
+        pass
+
+
+def compile_probe(path: Path, *, device: str = "cpu", timeout: float = 300.0) -> dict[str, float]:
+    """First-call timings [s] of morphkit's FK for the creature at ``path``, in fresh subprocesses.
+
+    Runs :func:`_probe_main` twice with new, empty Warp and morphkit kernel caches for the first run
+    (``cold``: code generation + C++ compile + load + launch) and the same caches for the second
+    (``warm_cache``: the cached binary is loaded). Both include compiling the torch bridge's kernels
+    when they differ (``torch_*``). Process start-up and ``import warp`` are excluded.
+    """
+    out: dict[str, float] = {}
+    with tempfile.TemporaryDirectory(prefix="morphkit-bench-") as tmp:
+        env = dict(os.environ, WARP_CACHE_PATH=str(Path(tmp) / "warp"), MORPHKIT_CACHE_DIR=str(Path(tmp) / "mk"))
+        for label in ("cold", "warm_cache"):
+            proc = subprocess.run(
+                [sys.executable, "-m", "morphkit.commands.bench", "--probe", str(path), device],
+                capture_output=True,
+                text=True,
+                env=env,
+                timeout=timeout,
+                check=False,
+            )
+            if proc.returncode != 0:
+                raise ConfigError(f"compile probe failed for {path}: {proc.stderr.strip()[-2000:]}")
+            timings = json.loads(proc.stdout.strip().splitlines()[-1])
+            for k, v in timings.items():
+                out[f"{label}{k}"] = v
+    return out
+
+
+def _probe_main(path: str, device: str) -> None:
+    """Body of the compile probe subprocess: prints ``{"": fk_first_call, "_torch": torch_first_call}``."""
+    import warp as wp
+
+    wp.config.quiet = True
+    wp.init()
+    from morphkit.io import read_morphology
+    from morphkit.kernels.fk import eval_fk
+
+    p = Path(path)
+    if p.suffix.lower() == ".bvh":
+        from morphkit.io.bvh import read_bvh_skeleton
+
+        m = read_bvh_skeleton(p)
+    else:
+        m = read_morphology(p)
+    from morphkit.model import compile_model
+
+    q = random_q(m, 4, np.random.default_rng(0)).astype(np.float32)
+    t0 = time.perf_counter()
+    model = compile_model(m, device=device)
+    eval_fk(model, q, device=device)
+    wp.synchronize_device(device)
+    timings = {"": time.perf_counter() - t0}
+    try:
+        import torch
+
+        from morphkit.torch import ForwardKinematics
+    except ImportError:
+        pass
+    else:
+        t0 = time.perf_counter()
+        qt = torch.as_tensor(q).requires_grad_(True)
+        ForwardKinematics(m, device=device)(qt)[..., :3].sum().backward()
+        timings["_torch"] = time.perf_counter() - t0
+    sys.stdout.write(json.dumps(timings) + "\n")
+
+
+def _agreement(impls: dict[str, Any], reference: Any, m: Morphology, rng: np.random.Generator) -> dict[str, float]:
+    q = random_q(m, 8, rng)
+    ref = reference.link_positions(q)
+    return {name: float(np.abs(impl.link_positions(q) - ref).max()) for name, impl in impls.items()}
+
+
+def run_fk_benchmark(config: BenchConfig, *, log: Callable[[str], None] | None = None) -> BenchResult:
+    """Run every measurement of ``config``; peers that are not installed are skipped (and listed).
+
+    Args:
+        config: What to measure.
+        log: Called with one line of progress per measurement (e.g. ``print`` to stderr).
+    """
+    log = log or (lambda _line: None)
+    result = BenchResult(config=config)
+    _set_threads(config.threads)
+    rng = np.random.default_rng(config.seed)
+    for key in config.creatures:
+        creature = load_creature(key)
+        m = creature.morphology
+        result.creatures[key] = creature.note
+        impls: dict[str, Any] = {}
+        for name in config.impls:
+            try:
+                impls[name] = make_impl(name, m, device=config.device, loop_poses=config.loop_poses)
+            except ImportError as exc:
+                result.skipped[name] = f"not installed ({exc.name or exc})"
+            except ConfigError as exc:
+                result.skipped[f"{key}/{name}"] = str(exc)
+        reference = impls.get("torch") or TorchReferenceFK(m, device=config.device)
+        result.agreement[key] = _agreement(impls, reference, m, rng)
+        if config.compile_probe and "morphkit" in impls:
+            log(f"{key}: compile probe (fresh subprocesses)")
+            result.compile[key] = compile_probe(creature.path, device=config.device)
+        q_all = random_q(m, max(config.batches), rng)
+        for mode in config.modes:
+            for batch in config.batches:
+                for name, impl in impls.items():
+                    work = impl.workload(q_all[:batch])
+                    fn = work.fwd if mode == "fwd" else work.fwd_bwd
+                    if fn is None:
+                        result.skipped[f"{key}/{name}/{mode}"] = "no gradient analogue"
+                        continue
+                    rate = time_call(fn, work.poses, repeats=config.repeats, min_time=config.min_time)
+                    del work
+                    result.records.append(
+                        {"creature": key, "impl": name, "mode": mode, "batch": batch, "poses_per_s": round(rate, 1)}
+                    )
+                    log(f"{key:6s} {mode:7s} B={batch:<7d} {name:19s} {rate:14,.0f} poses/s")
+    if any(n in LOOP_PEERS for n in config.impls):
+        result.notes.append(
+            f"pinocchio and mujoco run one pose per call in a Python loop: each timed call covers "
+            f"min(B, {config.loop_poses}) poses."
+        )
+    return result
+
+
+# ---------------------------------------------------------------------------------------------
+# report
+# ---------------------------------------------------------------------------------------------
+def _fmt_rate(r: float | None) -> str:
+    if r is None:
+        return "—"
+    for scale, suffix in ((1e6, " M"), (1e3, " k")):
+        if r >= scale:
+            return f"{r / scale:.3g}{suffix}"
+    return f"{r:.3g}"
+
+
+def check_targets(result: BenchResult) -> list[TargetCheck]:
+    """The issue's targets that this run measured (B = 16384, float32)."""
+    checks: list[TargetCheck] = []
+    B = TARGET_BATCH
+
+    def rate(creature: str, impl: str, mode: str) -> float | None:
+        return result.rate(creature, impl, mode, B)
+
+    spot_fwd = rate("spot", "morphkit", "fwd")
+    if spot_fwd is not None:
+        checks.append(TargetCheck("spot fwd, morphkit", spot_fwd, 4e6, "poses/s"))
+        for peer, factor in (("pinocchio", 3.0), ("pytorch_kinematics", 30.0)):
+            other = rate("spot", peer, "fwd")
+            if other:
+                checks.append(TargetCheck(f"spot fwd, morphkit / {peer}", spot_fwd / other, factor, "×"))
+    human_fwd = rate("human", "morphkit", "fwd")
+    if human_fwd is not None:
+        checks.append(TargetCheck("human fwd, morphkit", human_fwd, 2e6, "poses/s"))
+    spot_fb = rate("spot", "morphkit_torch", "fwd_bwd")
+    if spot_fb is not None:
+        checks.append(TargetCheck("spot fwd+bwd, morphkit_torch", spot_fb, 1e6, "poses/s"))
+        other = rate("spot", "pytorch_kinematics", "fwd_bwd")
+        if other:
+            checks.append(TargetCheck("spot fwd+bwd, morphkit_torch / pytorch_kinematics", spot_fb / other, 15.0, "×"))
+    for key in ("spot", "human"):
+        t_torch = result.rate(key, "morphkit_torch", "fwd", 1)
+        t_raw = result.rate(key, "morphkit", "fwd", 1)
+        if t_torch and t_raw:
+            overhead = max(0.0, 1e6 / t_torch - 1e6 / t_raw)
+            checks.append(TargetCheck(f"{key} torch bridge overhead at B=1", overhead, 40.0, "µs", False))
+    for key, timings in result.compile.items():
+        if "cold" in timings:
+            checks.append(TargetCheck(f"{key} first-call compile (cold cache)", timings["cold"], 10.0, "s", False))
+    return checks
+
+
+def markdown_report(result: BenchResult) -> str:
+    """The run as markdown: per creature and mode, poses/s per implementation with morphkit's speedup."""
+    cfg = result.config
+    impls = [i for i in cfg.impls if any(r["impl"] == i for r in result.records)]
+    lines = [
+        f"FK throughput, poses/s (float32 unless noted; {cfg.threads} threads; best of {cfg.repeats}); "
+        "`(×N)` = morphkit is N× faster than that implementation.",
+        "",
+        f"Machine: {platform.platform()}, {platform.processor() or platform.machine()}, {os.cpu_count()} CPUs; "
+        f"date {time.strftime('%Y-%m-%d')}.",
+        "",
+    ]
+    for key, note in result.creatures.items():
+        lines.append(f"- **{key}**: {note}")
+    lines.append("")
+    for key in result.creatures:
+        for mode in cfg.modes:
+            title = "forward" if mode == "fwd" else "forward + backward (∂ Σ link positions / ∂ q)"
+            lines += [f"### {key}, {title}", ""]
+            lines.append("| B | " + " | ".join(impls) + " |")
+            lines.append("|---:|" + "---:|" * len(impls))
+            for batch in cfg.batches:
+                ref = result.rate(key, "morphkit", mode, batch)
+                cells = []
+                for impl in impls:
+                    r = result.rate(key, impl, mode, batch)
+                    cell = _fmt_rate(r)
+                    if r and ref and impl != "morphkit":
+                        cell += f" (×{ref / r:.3g})"
+                    cells.append(cell)
+                lines.append(f"| {batch} | " + " | ".join(cells) + " |")
+            lines.append("")
+    lines += ["### Agreement with the torch reference (max |Δ link position| at 8 random poses)", ""]
+    lines.append("| creature | " + " | ".join(impls) + " |")
+    lines.append("|---|" + "---:|" * len(impls))
+    for key, errs in result.agreement.items():
+        lines.append(f"| {key} | " + " | ".join(f"{errs[i]:.1e} m" if i in errs else "—" for i in impls) + " |")
+    lines.append("")
+    if result.compile:
+        lines += ["### First call (fresh subprocess; excludes interpreter start and `import warp`)", ""]
+        lines.append(
+            "| creature | FK, cold kernel cache | FK, warm cache | torch fwd+bwd, cold | torch fwd+bwd, warm |"
+        )
+        lines.append("|---|---:|---:|---:|---:|")
+        for key, t in result.compile.items():
+            cells = [t.get(k) for k in ("cold", "warm_cache", "cold_torch", "warm_cache_torch")]
+            lines.append(f"| {key} | " + " | ".join("—" if v is None else f"{v:.2f} s" for v in cells) + " |")
+        lines.append("")
+    overheads = []
+    for key in result.creatures:
+        t_torch = result.rate(key, "morphkit_torch", "fwd", 1)
+        t_raw = result.rate(key, "morphkit", "fwd", 1)
+        if t_torch and t_raw:
+            overheads.append(
+                f"- {key}: {1e6 / t_torch:.1f} µs per torch forward call vs {1e6 / t_raw:.1f} µs raw "
+                f"→ bridge overhead {max(0.0, 1e6 / t_torch - 1e6 / t_raw):.1f} µs"
+            )
+    if overheads:
+        lines += ["### Torch bridge at B = 1", "", *overheads, ""]
+    checks = check_targets(result)
+    if checks:
+        lines += [f"### Targets (B = {TARGET_BATCH})", ""]
+        for c in checks:
+            verdict = "PASS" if c.passed else "MISS"
+            cmp = "≥" if c.higher_is_better else "≤"
+            lines.append(
+                f"- {verdict} {c.name}: {_fmt_value(c.value, c.unit)} (target {cmp} {_fmt_value(c.threshold, c.unit)}; "
+                f"margin {c.margin:.2f}×)"
+            )
+        lines.append("")
+    for note in result.notes:
+        lines.append(f"Note: {note}")
+    for what, why in result.skipped.items():
+        lines.append(f"Skipped {what}: {why}")
+    return "\n".join(lines).rstrip() + "\n"
+
+
+def _fmt_value(v: float, unit: str) -> str:
+    if unit == "poses/s":
+        return f"{_fmt_rate(v)} poses/s"
+    if unit == "×":
+        return f"{v:.3g}×"
+    return f"{v:.3g} {unit}"
+
+
+# ---------------------------------------------------------------------------------------------
+# command line
+# ---------------------------------------------------------------------------------------------
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("bench", help="benchmarks (fk: forward-kinematics throughput against the peers)")
+    bench_sub = p.add_subparsers(dest="bench_command", metavar="BENCH", parser_class=type(p))
+    bench_sub.required = True
+    fk = bench_sub.add_parser("fk", help="FK poses/s for morphkit, pytorch-kinematics, Pinocchio, MuJoCo, torch")
+    fk.add_argument("--json", action="store_true", help="print the records as a JSON list (the report goes to stderr)")
+    fk.add_argument("--quick", action="store_true", help="small batches, short timings, no compile probe (< 30 s)")
+    fk.add_argument(
+        "--batches", type=int, nargs="+", metavar="B", help=f"batch sizes (default {' '.join(map(str, BATCHES))})"
+    )
+    fk.add_argument(
+        "--creatures", nargs="+", metavar="NAME", help="spot, human, or description paths (default spot human)"
+    )
+    fk.add_argument("--impls", nargs="+", metavar="IMPL", choices=IMPLS, help="implementations (default all)")
+    fk.add_argument("--modes", nargs="+", choices=MODES, help="fwd, fwd_bwd (default both)")
+    fk.add_argument("--loop-poses", type=int, default=2000, help="poses per timed call for Python-loop peers")
+    fk.add_argument("--threads", type=int, default=2, help="CPU threads for torch and morphkit")
+    fk.add_argument("--no-compile-probe", action="store_true", help="skip the first-call compile measurement")
+    fk.set_defaults(run=run)
+
+
+def config_from_args(args: argparse.Namespace) -> BenchConfig:
+    """The :class:`BenchConfig` of parsed ``bench fk`` arguments (``--quick`` first, explicit flags win)."""
+    cfg = BenchConfig()
+    if args.quick:
+        cfg = BenchConfig(batches=QUICK_BATCHES, loop_poses=200, repeats=2, min_time=0.01, compile_probe=False)
+    batches = tuple(args.batches) if args.batches else cfg.batches
+    if any(b < 1 for b in batches):
+        raise ConfigError(f"--batches: batch sizes must be >= 1, got {list(batches)}")
+    loop_poses = args.loop_poses if args.loop_poses != 2000 or not args.quick else cfg.loop_poses
+    return BenchConfig(
+        creatures=tuple(args.creatures) if args.creatures else cfg.creatures,
+        impls=tuple(args.impls) if args.impls else cfg.impls,
+        modes=tuple(args.modes) if args.modes else cfg.modes,
+        batches=batches,
+        loop_poses=max(1, loop_poses),
+        repeats=cfg.repeats,
+        min_time=cfg.min_time,
+        threads=max(1, args.threads),
+        compile_probe=cfg.compile_probe and not args.no_compile_probe,
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``morphkit bench fk``: the markdown report on stdout (or records as JSON, report on stderr)."""
+    config = config_from_args(args)
+
+    def log(line: str) -> None:
+        sys.stderr.write(line + "\n")
+        sys.stderr.flush()
+
+    result = run_fk_benchmark(config, log=log)
+    report = markdown_report(result)
+    if args.json:
+        sys.stderr.write(report)
+        sys.stdout.write(json.dumps(result.records, indent=1) + "\n")
+    else:
+        sys.stdout.write(report)
+    return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``benchmarks/fk.py``'s entry point: ``bench fk`` through the CLI's error handling."""
+    from morphkit.cli import main as cli_main
+
+    return cli_main(["bench", "fk", *(argv if argv is not None else sys.argv[1:])])
+
+
+if __name__ == "__main__":
+    if len(sys.argv) == 4 and sys.argv[1] == "--probe":
+        _probe_main(sys.argv[2], sys.argv[3])
+    else:
+        raise SystemExit(main())
