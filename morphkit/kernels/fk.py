@@ -1,12 +1,11 @@
 """Forward kinematics kernels, specialised per morphology, and their launchers.
 
 One thread computes one pose: it walks the joints in topological order and writes the world
-transform of every link. The joint list is unrolled into a kernel generated for the
-morphology's *structure* (base type, joint types, parents, coordinate starts, mimic and wheel
-slots): no loop, no switch on the joint type and every intermediate transform in registers,
-which measured 2.5–3× faster than a data-driven loop (``docs/design/fk-kernels.md``). Joint
-origins, axes and mimic coefficients stay kernel *inputs*, so creatures that share a topology
-(NKN's skeletons, edited bone lengths) share one compiled kernel.
+transform of every link. The joint list is unrolled into straight-line scalar code generated
+for each morphology, with its constants (joint origins, axes, mimic coefficients) baked in and
+every product with a literal 0 or 1 removed: no loop, no switch on the joint type, every
+intermediate in registers (``docs/design/fk-kernels.md`` has the measurements). Per-sample bone
+offsets (NKN) go through the pure-torch reference path instead (:mod:`morphkit.torch.reference`).
 
 Generated sources are written to a cache directory (``MORPHKIT_CACHE_DIR``, default
 ``~/.cache/morphkit/<version>/kernels``) and imported as ordinary modules, so Warp can read
@@ -32,7 +31,7 @@ import warp as wp
 from morphkit._atomic import atomic_write_text
 from morphkit._version import __version__
 from morphkit.errors import GraphError
-from morphkit.graph.types import BaseType, JointType
+from morphkit.kernels._fk_codegen import generate_source
 from morphkit.model.kinematic_model import KinematicModel, resolve_float_dtype
 
 __all__ = [
@@ -51,9 +50,6 @@ __all__ = [
 # code generation
 # ---------------------------------------------------------------------------------------------
 
-_SCALAR = {"float32": ("wp.float32", "wp.transform", "wp.vec3"), "float64": ("wp.float64", "wp.transformd", "wp.vec3d")}
-
-
 def kernel_cache_dir() -> Path:
     """Where generated kernel sources go: ``$MORPHKIT_CACHE_DIR/<version>/kernels`` (default ``~/.cache/morphkit``)."""
     root = os.environ.get("MORPHKIT_CACHE_DIR")
@@ -61,89 +57,14 @@ def kernel_cache_dir() -> Path:
     return base / __version__ / "kernels"
 
 
-def _joint_lines(model: KinematicModel, *, store: str) -> list[str]:
-    """Body of a generated FK kernel (after ``b`` is bound); ``store`` formats the per-link write."""
-    base = BaseType(model.base_type)
-    lines: list[str] = []
-    if base == BaseType.FLOATING:
-        lines.append("T0 = base_floating(" + ", ".join(f"q[b, {i}]" for i in range(7)) + ")")
-    elif base in (BaseType.PLANAR, BaseType.WHEELED):
-        lines.append("T0 = base_planar(q[b, 0], q[b, 1], q[b, 2])")
-    else:
-        lines.append("T0 = wp.transform_identity(dtype=S)")
-    lines.append(store.format(link=0, T="T0"))
-    q_start = model.joint_q_start
-    for j in range(model.joint_count):
-        jt = JointType(int(model.joint_type[j]))
-        parent = int(model.joint_parent[j])
-        child = j + 1
-        target = int(model.joint_mimic_target[j])
-        wheel = int(model.joint_wheel[j])
-        if jt in (JointType.REVOLUTE, JointType.CONTINUOUS, JointType.PRISMATIC):
-            if target >= 0:
-                value = f"mimic_mul[{j}] * q[b, {int(q_start[target])}] + mimic_off[{j}]"
-            elif wheel >= 0:
-                value = f"wheel_q[b * wheel_batched, {wheel}]"
-            else:
-                value = f"q[b, {int(q_start[j])}]"
-            fn = "joint_prismatic" if jt == JointType.PRISMATIC else "joint_revolute"
-            motion = f"{fn}(axis[{j}], {value})"
-            lines.append(f"T{child} = wp.transform_multiply(T{parent}, wp.transform_multiply(X[{j}], {motion}))")
-        elif jt == JointType.SPHERICAL:
-            s = int(q_start[j])
-            motion = "joint_spherical(" + ", ".join(f"q[b, {s + k}]" for k in range(4)) + ")"
-            lines.append(f"T{child} = wp.transform_multiply(T{parent}, wp.transform_multiply(X[{j}], {motion}))")
-        else:
-            lines.append(f"T{child} = wp.transform_multiply(T{parent}, X[{j}])")
-        lines.append(store.format(link=child, T=f"T{child}"))
-    return lines
-
-
 def generate_fk_source(model: KinematicModel, dtype: Any = None) -> str:
-    """Python source of the FK kernels specialised for ``model``'s structure.
+    """Python source of the FK kernels specialised for ``model`` (and ``dtype``: float32 or float64).
 
     The module defines ``fk_transforms`` (``out[b, l]`` = ``T_world_link``) and
     ``fk_positions`` (``out[b, l]`` = link origin in world), both with the signature
-    ``(q, wheel_q, wheel_batched, X, axis, mimic_mul, mimic_off, offset, out)``; thread ``i``
-    computes pose ``b = i + offset``.
+    ``(q, wheel_q, wheel_batched, offset, out)``; thread ``i`` computes pose ``b = i + offset``.
     """
-    dt = resolve_float_dtype(dtype)
-    scalar, transform, vec3 = _SCALAR[dt.__name__]
-    key = repr((model.structure_key(), dt.__name__))
-    header = [
-        f"# Generated by morphkit.kernels.fk for a {model.base_type.name.lower()}-base morphology with "
-        f"{model.joint_count} joints ({model.name!r}); do not edit.",
-        f"# structure: {hashlib.sha1(key.encode()).hexdigest()}",
-        "import warp as wp",
-        "",
-        "from morphkit.kernels.spatial import base_floating, base_planar, joint_prismatic, joint_revolute, "
-        "joint_spherical",
-        "",
-        f"S = {scalar}",
-        "",
-    ]
-    signature = (
-        f"    q: wp.array2d[{scalar}],\n"
-        f"    wheel_q: wp.array2d[{scalar}],\n"
-        "    wheel_batched: int,\n"
-        f"    X: wp.array[{transform}],\n"
-        f"    axis: wp.array[{vec3}],\n"
-        f"    mimic_mul: wp.array[{scalar}],\n"
-        f"    mimic_off: wp.array[{scalar}],\n"
-        "    offset: int,\n"
-    )
-    out = []
-    for name, out_type, store in (
-        ("fk_transforms", transform, "out[b, {link}] = {T}"),
-        ("fk_positions", vec3, "out[b, {link}] = wp.transform_get_translation({T})"),
-    ):
-        out.append("@wp.kernel")
-        out.append(f"def {name}(\n{signature}    out: wp.array2d[{out_type}],\n):")
-        out.append("    b = wp.tid() + offset")
-        out.extend("    " + line for line in _joint_lines(model, store=store))
-        out.append("")
-        out.append("")
-    return "\n".join([*header, "", *out]).rstrip() + "\n"
+    return generate_source(model, resolve_float_dtype(dtype).__name__)
 
 
 _module_lock = threading.Lock()
@@ -319,11 +240,8 @@ def _device(model: KinematicModel, q: Any, device: Any) -> Any:
     return wp.get_device(model.device)
 
 
-def _fk_inputs(model: KinematicModel, q: wp.array, wheel: wp.array, wheel_batched: int, device: Any,
-               dtype: Any) -> list:
-    a = model.arrays(device, dtype)
-    return [q, wheel, wheel_batched, a.joint_X_parent, a.joint_axis, a.joint_mimic_multiplier,
-            a.joint_mimic_offset, 0]
+def _fk_inputs(q: wp.array, wheel: wp.array, wheel_batched: int) -> list:
+    return [q, wheel, wheel_batched, 0]
 
 
 def _eval(model: KinematicModel, q: Any, kernel_name: str, out_dtype_of: Any, *, out: Any, wheel_q: Any,
@@ -344,7 +262,7 @@ def _eval(model: KinematicModel, q: Any, kernel_name: str, out_dtype_of: Any, *,
     if B == 0:
         return out
     kernel = getattr(fk_module(model, dtype), kernel_name)
-    _launch(kernel, B, device, _fk_inputs(model, q2, wheel, wheel_batched, device, dtype), [out.reshape((B, L))])
+    _launch(kernel, B, device, _fk_inputs(q2, wheel, wheel_batched), [out.reshape((B, L))])
     return out
 
 
@@ -409,10 +327,10 @@ def _eval_adjoint(model: KinematicModel, q: wp.array, adj_out: wp.array, kernel_
     if B == 0:
         return adj_q
     kernel = getattr(fk_module(model, dtype), kernel_name)
-    inputs = _fk_inputs(model, q2, wheel, wheel_batched, device, dtype)
+    inputs = _fk_inputs(q2, wheel, wheel_batched)
     # ``out`` is not read by the adjoint of a store; a zero-size placeholder avoids allocating it.
     out_placeholder = adj_out.contiguous().reshape((B, L))
-    adj_inputs = [adj_q.reshape((B, C)), None, 0, None, None, None, None, 0]
+    adj_inputs = [adj_q.reshape((B, C)), None, 0, 0]
     _launch(kernel, B, device, inputs, [out_placeholder], adjoint=True, adj_inputs=adj_inputs,
             adj_outputs=[out_placeholder])
     return adj_q

@@ -229,21 +229,6 @@ class KinematicModel:
         """Index in ``q`` of coordinate ``name`` (see :attr:`coordinate_names`)."""
         return _lookup(self.coordinate_names, name, "coordinate")
 
-    def structure_key(self) -> tuple:
-        """Hashable description of everything a specialised kernel bakes in (see ``docs/design/fk-kernels.md``).
-
-        Two models with equal keys share generated kernels: the base type, joint types,
-        parents, coordinate starts, mimic targets and wheel slots, joint axes and the joint origins.
-        """
-        return (
-            int(self.base_type),
-            tuple(int(v) for v in self.joint_type),
-            tuple(int(v) for v in self.joint_parent),
-            tuple(int(v) for v in self.joint_q_start),
-            tuple(int(v) for v in self.joint_mimic_target),
-            tuple(int(v) for v in self.joint_wheel),
-        )
-
     # ---- device mirrors --------------------------------------------------------------------
     def to(self, device: Any) -> KinematicModel:
         """The same model with another default device (device arrays are shared and cached)."""
