@@ -1,0 +1,162 @@
+"""Motion data: the :class:`Motion` container, BVH/USD/NPZ motion files, ACE states and Ψ, the
+KL end-effector mapping, and windowed datasets.
+
+Importing this package loads NumPy and PyYAML only; FK (Warp), USD (``pxr``) and PyTorch
+(:class:`MotionDataset`) load when first used.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+from morphkit.errors import MotionFormatError, SourceLocation
+from morphkit.motion.ee_mapping import EndEffectorMapping as EndEffectorMapping
+from morphkit.motion.ee_mapping import Gaussian as Gaussian
+from morphkit.motion.ee_mapping import ee_distributions as ee_distributions
+from morphkit.motion.ee_mapping import fit_gaussian as fit_gaussian
+from morphkit.motion.ee_mapping import kl_divergence as kl_divergence
+from morphkit.motion.ee_mapping import map_end_effectors as map_end_effectors
+from morphkit.motion.ee_mapping import read_override as read_override
+from morphkit.motion.features import ROOT_FEATURE_DIM as ROOT_FEATURE_DIM
+from morphkit.motion.features import feature_dim as feature_dim
+from morphkit.motion.features import features as features
+from morphkit.motion.features import motion_features as motion_features
+from morphkit.motion.io_bvh import bvh_to_motion as bvh_to_motion
+from morphkit.motion.io_bvh import ground_motion as ground_motion
+from morphkit.motion.io_bvh import motion_to_bvh as motion_to_bvh
+from morphkit.motion.io_bvh import read_bvh_motion as read_bvh_motion
+from morphkit.motion.io_bvh import write_bvh_motion as write_bvh_motion
+from morphkit.motion.io_npz import read_npz_motion as read_npz_motion
+from morphkit.motion.io_npz import write_npz_motion as write_npz_motion
+from morphkit.motion.motion import Motion as Motion
+from morphkit.motion.states import NormStats as NormStats
+from morphkit.motion.states import StateLayout as StateLayout
+from morphkit.motion.states import character_state as character_state
+from morphkit.motion.states import character_state_from_motion as character_state_from_motion
+from morphkit.motion.states import character_state_layout as character_state_layout
+from morphkit.motion.states import heading_frame as heading_frame
+from morphkit.motion.states import human_state as human_state
+from morphkit.motion.states import human_state_from_motion as human_state_from_motion
+from morphkit.motion.states import human_state_layout as human_state_layout
+
+__all__ = [
+    "MOTION_READ_SUFFIXES",
+    "MOTION_WRITE_SUFFIXES",
+    "ROOT_FEATURE_DIM",
+    "EndEffectorMapping",
+    "Gaussian",
+    "Motion",
+    "MotionDataset",
+    "NormStats",
+    "StateLayout",
+    "bvh_to_motion",
+    "character_state",
+    "character_state_from_motion",
+    "character_state_layout",
+    "ee_distributions",
+    "feature_dim",
+    "features",
+    "fit_gaussian",
+    "ground_motion",
+    "heading_frame",
+    "human_state",
+    "human_state_from_motion",
+    "human_state_layout",
+    "kl_divergence",
+    "load_motions",
+    "map_end_effectors",
+    "motion_features",
+    "motion_to_bvh",
+    "read_bvh_motion",
+    "read_motion",
+    "read_npz_motion",
+    "read_override",
+    "read_usd_motion",
+    "write_bvh_motion",
+    "write_motion",
+    "write_npz_motion",
+    "write_usd_motion",
+]
+
+MOTION_READ_SUFFIXES = (".bvh", ".npz", ".usd", ".usda", ".usdc")
+"""File suffixes :func:`read_motion` understands."""
+MOTION_WRITE_SUFFIXES = (".bvh", ".npz", ".usd", ".usda", ".usdc")
+"""File suffixes :func:`write_motion` understands."""
+
+_LAZY = {
+    "MotionDataset": "morphkit.motion.datasets",
+    "load_motions": "morphkit.motion.datasets",
+    "read_usd_motion": "morphkit.motion.io_usd",
+    "write_usd_motion": "morphkit.motion.io_usd",
+}
+
+
+def __getattr__(name: str) -> Any:
+    # torch (datasets) and pxr (USD) load only when these names are used.
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'morphkit.motion' has no attribute {name!r}")
+    import importlib
+
+    return getattr(importlib.import_module(module), name)
+
+
+def read_motion(path: str | os.PathLike[str], **options: Any) -> Motion:
+    """Read a motion file, choosing the format by suffix.
+
+    Args:
+        path: A ``.bvh``, ``.npz`` or ``.usd``/``.usda``/``.usdc`` file.
+        **options: Passed to the format's reader (e.g. ``fps=``, ``scale=``, ``facing=`` for BVH;
+            ``fps=`` resamples any format).
+
+    Raises:
+        MotionFormatError: unknown suffix (listing the supported ones), missing file, or bad content.
+    """
+    p = Path(path)
+    suffix = p.suffix.lower()
+    where = SourceLocation(str(path))
+    if suffix not in MOTION_READ_SUFFIXES:
+        raise MotionFormatError(
+            f"unknown motion format {p.suffix or '(no suffix)'!r}; supported: {', '.join(MOTION_READ_SUFFIXES)}",
+            location=where,
+        )
+    if not p.is_file():
+        what = "is a folder, not a file" if p.is_dir() else "not found"
+        raise MotionFormatError(f"motion file {what}: {path}", location=where)
+    if suffix == ".bvh":
+        return read_bvh_motion(path, **options)
+    fps = options.pop("fps", None)
+    if options:
+        raise MotionFormatError(f"unknown option(s) for {suffix} motions: {', '.join(options)}", location=where)
+    if suffix == ".npz":
+        motion = read_npz_motion(path)
+    else:
+        from morphkit.motion.io_usd import read_usd_motion
+
+        motion = read_usd_motion(path)
+    return motion.resample(fps) if fps is not None else motion
+
+
+def write_motion(motion: Motion, path: str | os.PathLike[str], **options: Any) -> None:
+    """Write a motion in the format given by the suffix of ``path`` (atomically).
+
+    Raises:
+        MotionFormatError: unknown suffix (listing the supported ones).
+    """
+    p = Path(path)
+    suffix = p.suffix.lower()
+    if suffix == ".bvh":
+        write_bvh_motion(motion, path, **options)
+    elif suffix == ".npz":
+        write_npz_motion(motion, path, **options)
+    elif suffix in (".usd", ".usda", ".usdc"):
+        from morphkit.motion.io_usd import write_usd_motion
+
+        write_usd_motion(motion, path, **options)
+    else:
+        raise MotionFormatError(
+            f"cannot write {p.suffix or '(no suffix)'!r} motions; supported: {', '.join(MOTION_WRITE_SUFFIXES)}",
+            location=SourceLocation(str(path)),
+        )

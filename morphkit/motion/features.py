@@ -1,0 +1,105 @@
+"""The feature function Ψ of ACE (Li et al. 2023, §6.3), shared by the feature loss, the metrics
+and the end-effector mapping.
+
+Ψ reads the fields every state has in common (see :mod:`morphkit.motion.states`) and divides
+lengths by the creature's body length ``length`` (its
+:attr:`~morphkit.graph.Morphology.characteristic_length`):
+
+===========================  ==========  ===================================================
+block                        dims        value
+===========================  ==========  ===================================================
+``root_height``              1           root height / length
+``root_orientation``         4           root orientation in the heading frame (xyzw)
+``root_linear_velocity``     3           heading frame, / length [1/s]
+``root_angular_velocity``    3           heading frame [rad/s]
+``ee_positions``             3k          selected end-effectors, heading frame, / length
+===========================  ==========  ===================================================
+
+The same code runs on NumPy arrays and on torch tensors (slicing, division and concatenation
+only), so the feature loss stays differentiable. To compare a human and a creature, select the
+human's end-effectors in the order the mapping pairs them with the creature's.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from morphkit.errors import ConfigError
+from morphkit.motion.states import (
+    StateLayout,
+    character_state_from_motion,
+    character_state_layout,
+)
+
+if TYPE_CHECKING:
+    from morphkit.motion.motion import Motion
+
+__all__ = ["ROOT_FEATURE_DIM", "feature_dim", "features", "motion_features"]
+
+ROOT_FEATURE_DIM = 11
+"""Dimensions of Ψ before the end-effector block (height 1, orientation 4, velocities 6)."""
+
+
+def feature_dim(ee_count: int) -> int:
+    """Length of Ψ with ``ee_count`` selected end-effectors."""
+    return ROOT_FEATURE_DIM + 3 * ee_count
+
+
+def _ee_columns(layout: StateLayout, ee_names: Sequence[str] | None) -> list[int]:
+    start = layout.slice("ee_positions").start
+    if ee_names is None:
+        idx = range(len(layout.ee_names))
+    else:
+        idx = []
+        for n in ee_names:
+            if n not in layout.ee_names:
+                raise ConfigError(f"no end-effector {n!r} in the state (end-effectors: {', '.join(layout.ee_names)})")
+            idx.append(layout.ee_names.index(n))
+    return [start + 3 * i + k for i in idx for k in range(3)]
+
+
+def _cat(parts: list[Any]) -> Any:
+    if isinstance(parts[0], np.ndarray):
+        return np.concatenate(parts, axis=-1)
+    import torch
+
+    return torch.cat(parts, dim=-1)
+
+
+def features(state: Any, layout: StateLayout, *, length: float, ee_names: Sequence[str] | None = None) -> Any:
+    """Ψ of states (see the module docstring).
+
+    Args:
+        state: States [..., layout.dim] (NumPy array or torch tensor, not normalised).
+        layout: The states' layout (human or character).
+        length: Body length [m] the lengths are divided by.
+        ee_names: End-effectors to include, in this order (default: all, in layout order).
+
+    Returns:
+        [..., 11 + 3 k] features, same type as ``state``.
+
+    Raises:
+        ConfigError: an unknown end-effector name or a non-positive length.
+    """
+    if not length > 0:
+        raise ConfigError(f"body length must be > 0, got {length!r}")
+    cols = _ee_columns(layout, ee_names)
+    inv = 1.0 / float(length)
+    parts = [
+        state[..., layout.slice("root_height")] * inv,
+        state[..., layout.slice("root_orientation")],
+        state[..., layout.slice("root_linear_velocity")] * inv,
+        state[..., layout.slice("root_angular_velocity")],
+        state[..., cols] * inv,
+    ]
+    return _cat(parts)
+
+
+def motion_features(motion: Motion, *, ee_names: Sequence[str] | None = None) -> np.ndarray:
+    """Ψ of every frame of a motion, shape [T, 11 + 3 k], normalised by the morphology's body length."""
+    layout = character_state_layout(motion.morphology)
+    state = character_state_from_motion(motion)
+    return features(state, layout, length=motion.morphology.characteristic_length, ee_names=ee_names)

@@ -1,0 +1,521 @@
+"""BVH motion ⇄ :class:`~morphkit.motion.Motion`, for any skeleton and any creature.
+
+Parsing and the skeleton are :mod:`morphkit.io.bvh`'s (:func:`~morphkit.io.bvh.read_bvh`,
+:func:`~morphkit.io.bvh.skeleton_from_bvh`); this module turns the channel array into ``q``
+and back.
+
+Reading (:func:`read_bvh_motion`):
+
+- **Rotations**: each joint's rotation channels, in any Euler order, become one xyzw quaternion
+  (``R = R_c1 R_c2 R_c3`` in channel order, vectorised over frames and over joints sharing an
+  order), then change axes with the skeleton's frame rotation ``R_f``
+  (:func:`~morphkit.io.bvh.bvh_frame_rotation`, Y-up to Z-up): ``q ↦ (R_f v, w)``.
+- **Units**: positions are multiplied by ``scale`` (default: detected from the skeleton's size,
+  :func:`~morphkit.io.bvh.detect_bvh_scale`).
+- **Translation channels**: the root's place the root (they replace its ``OFFSET``, as BVH
+  does). A non-root joint's translation channels that stay at its ``OFFSET`` (Bandai Namco
+  writes them for every joint) are dropped silently; ones that move cannot be expressed by a
+  rigid skeleton and are dropped with a :class:`UserWarning` naming the joints and how far they
+  move. A *static* root (all channels constant, no rotation) with one child that carries the
+  translation — Bandai Namco's ``joint_Root`` above ``Hips`` — is removed first, so the moving
+  joint becomes the root (the pelvis, as ACE's states want).
+- **Frame rate**: ``1 / Frame Time``, snapped to the nearest integer when within 0.01 fps
+  (``Frame Time: 0.033333`` is 30 fps); ``fps=`` resamples (slerp for rotations).
+- **Ground**: with ``ground=True`` the root is shifted vertically so that the lowest foot
+  end-effector over the clip touches z = 0 (the lowest point of the body if there is no foot).
+
+Writing (:func:`write_bvh_motion`) works for any morphology: one BVH joint per link, named
+after it, each with ``Zrotation Xrotation Yrotation`` channels holding its rotation in the
+parent link (joint origin rotation times the joint's own motion); prismatic joints and the root
+add ``X/Y/Zposition``. A planar or wheeled base becomes a root with translation and yaw. Axes go
+back to Y up / +Z forward, units stay metres, Euler angles are unwrapped over time so Blender
+interpolates smoothly. Reading the file back with ``morphology=`` recovers the original ``q``.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import warnings
+
+import numpy as np
+
+from morphkit.conventions import quat_conjugate, quat_from_matrix, quat_multiply, quat_rotate
+from morphkit.errors import ConfigError, MotionFormatError
+from morphkit.graph import BaseType, JointType, Morphology
+from morphkit.io.bvh import (
+    BvhEndSite,
+    BvhFile,
+    bvh_frame_rotation,
+    detect_bvh_scale,
+    read_bvh,
+    skeleton_from_bvh,
+    write_bvh,
+)
+from morphkit.motion._rotations import (
+    euler_from_quat,
+    quat_canonical,
+    quat_from_euler,
+    quat_normalize,
+    yaw_from_quat,
+)
+from morphkit.motion.motion import Motion, base_pose_from_q
+
+__all__ = ["bvh_to_motion", "ground_motion", "motion_to_bvh", "read_bvh_motion", "write_bvh_motion"]
+
+EXPORT_ROTATION_ORDER = ("Zrotation", "Xrotation", "Yrotation")
+"""Rotation channels written for every joint (the Daz / Bandai Namco order; Blender reads any)."""
+
+_STATIC_TOL = 1e-3
+"""Channels count as constant when they stay within this fraction of the skeleton's size."""
+
+
+# ---------------------------------------------------------------------------------------------
+# reading
+# ---------------------------------------------------------------------------------------------
+def _snap_fps(fps: float) -> float:
+    r = round(fps)
+    return float(r) if r > 0 and abs(fps - r) <= 0.01 else fps
+
+
+def _skeleton_size(bvh: BvhFile) -> float:
+    pts = np.zeros((bvh.joint_count, 3))
+    for j in range(1, bvh.joint_count):
+        pts[j] = pts[bvh.joint_parents[j]] + bvh.joint_offsets[j]
+    return float(max((pts.max(axis=0) - pts.min(axis=0)).max(), 1e-9))
+
+
+def _rotation_columns(bvh: BvhFile, j: int) -> tuple[list[int], str]:
+    start = bvh.joint_channel_start[j]
+    cols, order = [], ""
+    for k, ch in enumerate(bvh.joint_channels[j]):
+        if ch.endswith("rotation"):
+            cols.append(start + k)
+            order += ch[0].lower()
+    return cols, order
+
+
+def _position_columns(bvh: BvhFile, j: int) -> dict[int, int]:
+    """``{axis: column}`` of joint ``j``'s position channels."""
+    start = bvh.joint_channel_start[j]
+    return {"XYZ".index(ch[0]): start + k for k, ch in enumerate(bvh.joint_channels[j]) if ch.endswith("position")}
+
+
+def _collapse_static_root(bvh: BvhFile) -> BvhFile:
+    """Drop a static root whose single child carries the translation (see the module docstring)."""
+    if bvh.joint_count < 2 or bvh.frame_count == 0:
+        return bvh
+    children = bvh.children(0)
+    if len(children) != 1 or any(s.parent == 0 for s in bvh.end_sites):
+        return bvh
+    child = children[0]
+    if not _position_columns(bvh, child):
+        return bvh
+    root_cols = list(range(bvh.joint_channel_start[0], bvh.joint_channel_start[1]))
+    values = bvh.motion[:, root_cols]
+    tol = _STATIC_TOL * _skeleton_size(bvh)
+    rot_cols, _ = _rotation_columns(bvh, 0)
+    if np.ptp(values, axis=0).max(initial=0.0) > tol or np.abs(bvh.motion[:, rot_cols]).max(initial=0.0) > 1e-6:
+        return bvh
+    # The root is the identity rotation at a fixed place: fold that place into the child's translation.
+    root_pos = np.array(bvh.joint_offsets[0], dtype=float)
+    for axis, col in _position_columns(bvh, 0).items():
+        root_pos[axis] = bvh.motion[0, col]
+    keep = list(range(1, bvh.joint_count))
+    cols = [c for j in keep for c in range(bvh.joint_channel_start[j], bvh.joint_channel_start[j + 1])]
+    motion = bvh.motion[:, cols].copy()
+    start = 0
+    for axis, col in _position_columns(bvh, child).items():
+        motion[:, col - bvh.joint_channel_start[1] + start] += root_pos[axis]
+    offsets = bvh.joint_offsets[1:].copy()
+    offsets[0] += root_pos
+    return BvhFile(
+        joint_names=bvh.joint_names[1:],
+        joint_parents=tuple(p - 1 for p in bvh.joint_parents[1:]),
+        joint_offsets=offsets,
+        joint_channels=bvh.joint_channels[1:],
+        end_sites=tuple(BvhEndSite(s.joint, s.parent - 1, s.offset, s.line) for s in bvh.end_sites),
+        frame_time=bvh.frame_time,
+        motion=motion,
+        source=bvh.source,
+        joint_lines=bvh.joint_lines[1:],
+        motion_line=bvh.motion_line,
+        frame_time_line=bvh.frame_time_line,
+        frame_lines=bvh.frame_lines,
+    )
+
+
+def _file_rotations(bvh: BvhFile) -> np.ndarray:
+    """Every joint's rotation in its parent, in file axes: xyzw quaternions [T, J, 4]."""
+    T, J = bvh.frame_count, bvh.joint_count
+    quats = np.zeros((T, J, 4))
+    quats[..., 3] = 1.0
+    groups: dict[str, list[tuple[int, list[int]]]] = {}
+    for j in range(J):
+        cols, order = _rotation_columns(bvh, j)
+        if cols:
+            groups.setdefault(order, []).append((j, cols))
+    for order, members in groups.items():
+        idx = [j for j, _ in members]
+        cols = np.array([c for _, c in members])  # [n, k]
+        angles = np.radians(bvh.motion[:, cols])  # [T, n, k]
+        quats[:, idx] = quat_from_euler(angles, order)
+    return quats
+
+
+def _detect_up(root_rotations: np.ndarray) -> str:
+    """``"+y"`` or ``"+z"``: the file axis the skeleton's rest up (+Y) points along on average."""
+    up = quat_rotate(root_rotations, np.broadcast_to([0.0, 1.0, 0.0], (*root_rotations.shape[:-1], 3)))
+    mean = up.mean(axis=0)
+    return "+z" if mean[2] > mean[1] else "+y"
+
+
+def _world_rotation(up: str, facing: str, root_rotations: np.ndarray) -> np.ndarray:
+    """``R_w`` with ``p_morphkit = R_w @ p_file`` for world positions."""
+    key = up.strip().lower() if isinstance(up, str) else up
+    if key == "auto":
+        key = _detect_up(root_rotations)
+    if key == "+y":
+        return bvh_frame_rotation(facing)
+    if key == "+z":
+        return np.eye(3)
+    raise ConfigError(f"unknown BVH up axis {up!r}; expected one of: auto, +y, +z")
+
+
+def _to_morphkit_rotations(file_rotations: np.ndarray, R_skel: np.ndarray, R_world: np.ndarray) -> np.ndarray:
+    """Joint rotations in morphkit axes [T, J, 4]: ``R_s R R_sᵀ``, and ``R_w R R_sᵀ`` for the root."""
+    out = file_rotations.copy()
+    # Conjugating a rotation by the axis change R_s rotates the quaternion's vector part by R_s.
+    out[..., :3] = out[..., :3] @ R_skel.T
+    q_w = quat_from_matrix(R_world)
+    q_s = quat_from_matrix(R_skel)
+    out[:, 0] = quat_multiply(q_w, quat_multiply(file_rotations[:, 0], quat_conjugate(q_s)))
+    return out
+
+
+def _joint_translations(bvh: BvhFile) -> np.ndarray:
+    """Every joint's translation in its parent (file units and axes), [T, J, 3]: channels replace ``OFFSET``."""
+    T, J = bvh.frame_count, bvh.joint_count
+    out = np.broadcast_to(bvh.joint_offsets, (T, J, 3)).copy()
+    for j in range(J):
+        for axis, col in _position_columns(bvh, j).items():
+            out[:, j, axis] = bvh.motion[:, col]
+    return out
+
+
+def _warn_moving_translations(bvh: BvhFile, translations: np.ndarray) -> None:
+    tol = _STATIC_TOL * _skeleton_size(bvh)
+    moving = []
+    for j in range(1, bvh.joint_count):
+        if _position_columns(bvh, j):
+            dev = float(np.abs(translations[:, j] - bvh.joint_offsets[j]).max())
+            if dev > tol:
+                moving.append(f"{bvh.joint_names[j]} (up to {dev:.4g} file units)")
+    if moving:
+        shown = ", ".join(moving[:5]) + (f" and {len(moving) - 5} more" if len(moving) > 5 else "")
+        warnings.warn(
+            f"{bvh.source or '<bvh>'}: translation channels of non-root joints move away from their OFFSET and "
+            f"are ignored (a rigid skeleton keeps its bone lengths): {shown}",
+            UserWarning,
+            stacklevel=3,
+        )
+
+
+_skeletons: dict[tuple, Morphology] = {}
+"""Skeletons by hierarchy: clips of one subject share one Morphology object (and its compiled model)."""
+
+
+def _shared_skeleton(bvh: BvhFile, scale: float, facing: str, name: str) -> Morphology:
+    key = (
+        bvh.joint_names,
+        bvh.joint_parents,
+        bvh.joint_offsets.tobytes(),
+        bvh.joint_channels,
+        tuple((e.parent, e.offset) for e in bvh.end_sites),
+        scale,
+        facing,
+    )
+    skeleton = _skeletons.get(key)
+    if skeleton is None:
+        skeleton = skeleton_from_bvh(bvh, scale=scale, facing=facing, name=name)
+        if len(_skeletons) > 256:
+            _skeletons.clear()
+        _skeletons[key] = skeleton
+    return skeleton
+
+
+def bvh_to_motion(
+    bvh: BvhFile,
+    *,
+    scale: float | None = None,
+    facing: str = "+z",
+    up: str = "auto",
+    fps: float | None = None,
+    ground: bool = True,
+    morphology: Morphology | None = None,
+    name: str | None = None,
+) -> Motion:
+    """Turn a parsed BVH file into a :class:`Motion` (see the module docstring for the rules).
+
+    Args:
+        bvh: From :func:`~morphkit.io.bvh.parse_bvh` / :func:`~morphkit.io.bvh.read_bvh`.
+        scale: File units to metres (``None``: detected from the skeleton's size).
+        facing: The BVH axis the skeleton faces at rest (``"+z"`` for CMU, Daz, Bandai Namco;
+            ``"+x"`` for the dog clips).
+        up: The world's up axis in the file's motion: ``"+y"``, ``"+z"`` or ``"auto"`` (the axis the
+            root's rest up, file +Y, points along on average). The skeleton's rest pose is always
+            taken as Y-up; the CMU (AMASS) clips have a Y-up skeleton moving in a Z-up world.
+        fps: Resample to this frame rate (``None``: keep the file's).
+        ground: Shift the root so the lowest foot touches z = 0 (ignored with ``morphology=``).
+        morphology: Read into this morphology instead of the file's skeleton: BVH joints are
+            matched to links by name (as :func:`write_bvh_motion` writes them), and each joint's
+            coordinates are recovered from its rotation (revolute, continuous, spherical) or
+            translation (prismatic).
+        name: The motion's name (default: the file's stem).
+
+    Raises:
+        MotionFormatError: the file has no frames, or (with ``morphology=``) misses a link.
+        ConfigError: bad ``scale`` or ``facing``.
+    """
+    if bvh.frame_count == 0:
+        raise MotionFormatError("BVH file has no frames", location=bvh.location(bvh.motion_line))
+    if name is None:
+        name = os.path.splitext(os.path.basename(bvh.source))[0] if bvh.source else "bvh"
+    if morphology is not None:
+        return _bvh_into_morphology(bvh, morphology, scale=scale, facing=facing, up=up, fps=fps, name=name)
+    bvh = _collapse_static_root(bvh)
+    if scale is not None and (isinstance(scale, bool) or not math.isfinite(scale) or scale <= 0):
+        raise ConfigError(f"BVH scale must be a positive number, got {scale!r}")
+    s = float(scale) if scale is not None else detect_bvh_scale(bvh)
+    skeleton = _shared_skeleton(bvh, s, facing, name)
+    R_skel = bvh_frame_rotation(facing)
+    file_rotations = _file_rotations(bvh)  # [T, J, 4]
+    R_world = _world_rotation(up, facing, file_rotations[:, 0])
+    rotations = _to_morphkit_rotations(file_rotations, R_skel, R_world)
+    translations = _joint_translations(bvh)  # [T, J, 3]
+    _warn_moving_translations(bvh, translations)
+
+    q = np.zeros((bvh.frame_count, skeleton.coordinate_count))
+    q[:, 0:3] = (translations[:, 0] @ R_world.T) * s
+    q[:, 3:7] = rotations[:, 0]
+    for j, joint in enumerate(skeleton.joints):
+        if joint.type != JointType.SPHERICAL:
+            continue
+        b = bvh.joint_names.index(joint.child)
+        start = skeleton.joint_q_start[j]
+        q[:, start : start + 4] = rotations[:, b]
+    motion = Motion(skeleton, _snap_fps(bvh.fps), q, name)
+    if ground:
+        motion = ground_motion(motion)
+    if fps is not None:
+        motion = motion.resample(fps)
+    return motion
+
+
+def ground_motion(motion: Motion) -> Motion:
+    """Shift a floating-base motion vertically so its lowest foot end-effector touches z = 0.
+
+    Feet are the end-effectors with role ``foot``; without any, every link origin and
+    end-effector counts. Other base types are returned unchanged (they move on the ground).
+    """
+    from morphkit.graph import EndEffectorRole
+
+    m = motion.morphology
+    if m.base != BaseType.FLOATING:
+        return motion
+    feet = [i for i, e in enumerate(m.end_effectors) if e.role == EndEffectorRole.FOOT]
+    ee = motion.end_effector_positions()
+    if feet:
+        low = float(ee[:, feet, 2].min())
+    else:
+        low = float(min(motion.link_positions()[..., 2].min(), ee[..., 2].min(initial=np.inf)))
+    q = np.array(motion.q)
+    q[:, 2] -= low
+    return motion.replace(q=q)
+
+
+def _bvh_into_morphology(
+    bvh: BvhFile, m: Morphology, *, scale: float | None, facing: str, up: str, fps: float | None, name: str
+) -> Motion:
+    R = bvh_frame_rotation(facing)
+    s = 1.0 if scale is None else float(scale)
+    index = {n: i for i, n in enumerate(bvh.joint_names)}
+    missing = [link for link in m.link_names if link not in index]
+    if missing:
+        raise MotionFormatError(
+            f"BVH has no joint for link(s) {', '.join(missing[:5])} of {m.name!r} "
+            f"(BVH joints: {', '.join(bvh.joint_names[:10])}{', ...' if bvh.joint_count > 10 else ''})",
+            location=bvh.location(),
+        )
+    file_rotations = _file_rotations(bvh)
+    # Files written by write_bvh_motion are Y-up; "auto" means that here.
+    R_world = _world_rotation("+y" if up == "auto" else up, facing, file_rotations[:, 0])
+    rotations = _to_morphkit_rotations(file_rotations, R, R_world)
+    translations = (_joint_translations(bvh) @ R.T) * s
+    translations[:, 0] = (_joint_translations(bvh)[:, 0] @ R_world.T) * s
+    T = bvh.frame_count
+    q = np.zeros((T, m.coordinate_count))
+    root = index[m.root]
+    if m.base == BaseType.FLOATING:
+        q[:, :3] = translations[:, root]
+        q[:, 3:7] = rotations[:, root]
+    elif m.base in (BaseType.PLANAR, BaseType.WHEELED):
+        q[:, :2] = translations[:, root, :2]
+        q[:, 2] = np.unwrap(yaw_from_quat(rotations[:, root]))
+    for j, joint in enumerate(m.joints):
+        if m.is_driven(joint) or joint.type == JointType.FIXED:
+            continue
+        b = index[joint.child]
+        start = m.joint_q_start[j]
+        oq = np.broadcast_to(np.asarray(joint.origin.quat), (T, 4))
+        if joint.type == JointType.PRISMATIC:
+            d = quat_rotate(quat_conjugate(oq), translations[:, b] - np.asarray(joint.origin.xyz))
+            q[:, start] = d @ np.asarray(joint.axis)
+            continue
+        local = quat_multiply(quat_conjugate(oq), rotations[:, b])  # the joint's own motion
+        if joint.type == JointType.SPHERICAL:
+            q[:, start : start + 4] = quat_canonical(local)
+        else:
+            # rotation about the axis by θ: vector part sin(θ/2) axis, w cos(θ/2)
+            angle = 2.0 * np.arctan2(local[:, :3] @ np.asarray(joint.axis), local[:, 3])
+            q[:, start] = np.unwrap(angle) if joint.type == JointType.CONTINUOUS else _wrap(angle)
+    motion = Motion(m, _snap_fps(bvh.fps), q, name)
+    return motion.resample(fps) if fps is not None else motion
+
+
+def _wrap(angle: np.ndarray) -> np.ndarray:
+    return (angle + np.pi) % (2.0 * np.pi) - np.pi
+
+
+def read_bvh_motion(
+    path: str | os.PathLike[str],
+    *,
+    scale: float | None = None,
+    facing: str = "+z",
+    up: str = "auto",
+    fps: float | None = None,
+    ground: bool = True,
+    morphology: Morphology | None = None,
+) -> Motion:
+    """Read a BVH file as a :class:`Motion` (its skeleton becomes the morphology).
+
+    See :func:`bvh_to_motion` for the arguments.
+
+    Raises:
+        DescriptionError: a malformed hierarchy (file and line).
+        MotionFormatError: a malformed or truncated MOTION section (file and line), no frames.
+    """
+    return bvh_to_motion(
+        read_bvh(path), scale=scale, facing=facing, up=up, fps=fps, ground=ground, morphology=morphology
+    )
+
+
+# ---------------------------------------------------------------------------------------------
+# writing
+# ---------------------------------------------------------------------------------------------
+def _local_rotations_and_translations(motion: Motion, wheel_q: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """Each link's rotation [T, L, 4] and translation [T, L, 3] in its parent link (root: in the world)."""
+    m = motion.morphology
+    T, L = motion.frame_count, m.link_count
+    rot = np.zeros((T, L, 4))
+    rot[..., 3] = 1.0
+    trans = np.zeros((T, L, 3))
+    base = base_pose_from_q(m, motion.q)
+    trans[:, 0], rot[:, 0] = base[:, :3], base[:, 3:]
+    values = _joint_values(motion, wheel_q)
+    for j, joint in enumerate(m.joints):
+        oq = np.broadcast_to(np.asarray(joint.origin.quat), (T, 4))
+        ox = np.broadcast_to(np.asarray(joint.origin.xyz), (T, 3))
+        axis = np.asarray(joint.axis)
+        if joint.type in (JointType.REVOLUTE, JointType.CONTINUOUS):
+            half = 0.5 * values[j]
+            local = np.concatenate([np.sin(half)[:, None] * axis, np.cos(half)[:, None]], axis=-1)
+            rot[:, j + 1] = quat_multiply(oq, local)
+            trans[:, j + 1] = ox
+        elif joint.type == JointType.SPHERICAL:
+            start = m.joint_q_start[j]
+            rot[:, j + 1] = quat_multiply(oq, quat_normalize(motion.q[:, start : start + 4]))
+            trans[:, j + 1] = ox
+        elif joint.type == JointType.PRISMATIC:
+            rot[:, j + 1] = oq
+            trans[:, j + 1] = ox + quat_rotate(oq, values[j][:, None] * axis)
+        else:
+            rot[:, j + 1] = oq
+            trans[:, j + 1] = ox
+    return rot, trans
+
+
+def _joint_values(motion: Motion, wheel_q: np.ndarray | None) -> dict[int, np.ndarray]:
+    """Value [T] of every 1-DoF joint, driven ones included (mimic; wheels from ``wheel_q`` or 0)."""
+    m = motion.morphology
+    T = motion.frame_count
+    values: dict[int, np.ndarray] = {}
+    wheels = list(m.wheels.joints) if m.wheels is not None else []
+    for j, joint in enumerate(m.joints):
+        if joint.type not in (JointType.REVOLUTE, JointType.CONTINUOUS, JointType.PRISMATIC):
+            continue
+        if joint.name in wheels:
+            values[j] = wheel_q[:, wheels.index(joint.name)] if wheel_q is not None else np.zeros(T)
+        elif joint.mimic is None:
+            values[j] = motion.q[:, m.joint_q_start[j]]
+    for j, joint in enumerate(m.joints):
+        if joint.mimic is not None:
+            target = m.joint_index(joint.mimic.joint)
+            values[j] = joint.mimic.multiplier * values[target] + joint.mimic.offset
+    return values
+
+
+def motion_to_bvh(motion: Motion, *, wheel_q: np.ndarray | None = None, facing: str = "+z") -> BvhFile:
+    """A :class:`~morphkit.io.bvh.BvhFile` of any creature's motion (see the module docstring).
+
+    Args:
+        motion: The motion.
+        wheel_q: Wheel angles [rad], shape [T, W], for a wheeled base (default: wheels at 0).
+        facing: The BVH axis the character should face (default ``"+z"``, Blender's convention).
+    """
+    m = motion.morphology
+    R = bvh_frame_rotation(facing)  # morphkit <- BVH; its transpose goes back
+    rot, trans = _local_rotations_and_translations(motion, wheel_q)
+    rot = rot.copy()
+    rot[..., :3] = rot[..., :3] @ R  # vector part into BVH axes: (R^T v) as row vectors
+    trans = trans @ R
+    order = "".join(c[0].lower() for c in EXPORT_ROTATION_ORDER)
+    euler = np.degrees(np.unwrap(euler_from_quat(rot, order), axis=0))  # [T, L, 3]
+
+    channels: list[tuple[str, ...]] = []
+    columns: list[np.ndarray] = []
+    for link in range(m.link_count):
+        joint = m.joints[link - 1] if link > 0 else None
+        moves = joint is None or joint.type == JointType.PRISMATIC
+        if moves:
+            channels.append(("Xposition", "Yposition", "Zposition", *EXPORT_ROTATION_ORDER))
+            columns.append(np.concatenate([trans[:, link], euler[:, link]], axis=-1))
+        else:
+            channels.append(EXPORT_ROTATION_ORDER)
+            columns.append(euler[:, link])
+    offsets = np.array([np.zeros(3), *(np.asarray(j.origin.xyz) @ R for j in m.joints)])
+    # One End Site per leaf link, at its first end-effector (or at the link origin).
+    has_child = set(m.link_parent[1:])
+    end_sites = []
+    for link in range(m.link_count):
+        if link in has_child:
+            continue
+        ee = next((e for e in m.end_effectors if e.link == m.link_names[link]), None)
+        off = np.asarray(ee.offset) @ R if ee is not None else np.zeros(3)
+        end_sites.append(BvhEndSite(m.link_names[link], link, (float(off[0]), float(off[1]), float(off[2])), 0))
+    return BvhFile(
+        joint_names=m.link_names,
+        joint_parents=tuple(int(p) for p in m.link_parent),
+        joint_offsets=offsets,
+        joint_channels=tuple(channels),
+        end_sites=tuple(end_sites),
+        frame_time=1.0 / motion.fps,
+        motion=np.concatenate(columns, axis=-1),
+    )
+
+
+def write_bvh_motion(
+    motion: Motion, path: str | os.PathLike[str], *, wheel_q: np.ndarray | None = None, facing: str = "+z"
+) -> None:
+    """Write any creature's motion as a BVH file (atomically; see :func:`motion_to_bvh`)."""
+    write_bvh(motion_to_bvh(motion, wheel_q=wheel_q, facing=facing), path)

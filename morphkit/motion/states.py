@@ -1,0 +1,394 @@
+"""ACE state vectors (Li et al. 2023, §6.1–6.2) and their normalisation statistics.
+
+Both states are built from world-space arrays, so they are pure functions that tests can feed
+with analytic motions; :func:`human_state_from_motion` and :func:`character_state_from_motion`
+run the FK kernels first.
+
+**Heading frame.** Frame ``t``'s local frame has its origin at the root link, its z axis along
+world up and its x axis along the root's forward axis (+x of the root link) projected on the
+ground. "In the heading frame" below means: expressed in that frame's axes (positions also
+relative to its origin).
+
+**Velocities** are backward differences times ``fps`` (``v_t = (p_t - p_{t-1}) fps``); frame 0
+reuses frame 1's difference. Angular velocity is the rotation vector of ``q_t q_{t-1}⁻¹`` times
+``fps`` (world axes, then expressed in the heading frame). Linear velocities of points are world
+velocities expressed in the heading frame's axes.
+
+Human state x^h (§6.1), dimension ``1 + 4 + 6 + 3 (L - 1) + 6 E``:
+
+============================  =======  ==================================================
+field                         dims     meaning
+============================  =======  ==================================================
+``root_height``               1        root z above the ground [m]
+``root_orientation``          4        root orientation in the heading frame (xyzw, w >= 0)
+``root_linear_velocity``      3        [m/s], heading frame
+``root_angular_velocity``     3        [rad/s], heading frame
+``joint_positions``           3(L-1)   every non-root link origin, heading frame [m]
+``ee_positions``              3E       end-effectors, heading frame [m]
+``ee_velocities``             3E       [m/s], heading frame
+============================  =======  ==================================================
+
+The paper's human uses 17 joints (51 dims); here every non-root link of the morphology counts,
+so the dimension follows the skeleton (CMU's 22-joint skeleton gives 63).
+
+Character state x^r (§6.2), dimension ``1 + 4 + 2 + 4 + 6 + (C - B) + 6 E``:
+
+===============================  =======  ===============================================
+field                            dims     meaning
+===============================  =======  ===============================================
+``root_height``                  1        root z [m]
+``root_orientation``             4        heading frame (xyzw, w >= 0)
+``root_displacement``            2        ``p_t - p_{t-1}`` in the ground plane, heading frame [m]
+``previous_root_orientation``    4        ``q_{t-1}`` in frame t's heading frame (xyzw, w >= 0)
+``root_linear_velocity``         3        [m/s], heading frame
+``root_angular_velocity``        3        [rad/s], heading frame
+``joint_q``                      C - B    joint coordinates (spherical: xyzw, w >= 0)
+``ee_positions``                 3E       heading frame [m]
+``ee_velocities``                3E       [m/s], heading frame
+===============================  =======  ===============================================
+
+``previous_root_orientation`` carries the yaw change between frames, and ``root_displacement``
+the step, so a sequence of states can be integrated back into a world trajectory.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from morphkit._atomic import atomic_path
+from morphkit.conventions import quat_conjugate, quat_multiply, quat_rotate
+from morphkit.errors import MotionFormatError, SourceLocation
+from morphkit.graph import JointType, Morphology
+from morphkit.motion._rotations import axis_angle_from_quat, quat_canonical, quat_from_yaw, yaw_from_quat
+
+if TYPE_CHECKING:
+    from morphkit.motion.motion import Motion
+
+__all__ = [
+    "NormStats",
+    "StateLayout",
+    "character_state",
+    "character_state_from_motion",
+    "character_state_layout",
+    "heading_frame",
+    "human_state",
+    "human_state_from_motion",
+    "human_state_layout",
+    "to_heading_frame",
+]
+
+
+@dataclass(frozen=True)
+class StateLayout:
+    """Where each named field lies in a state vector.
+
+    Attributes:
+        kind: ``"human"`` or ``"character"``.
+        fields: ``(name, start, stop)`` per field, in order.
+        ee_names: End-effector names, in the order of the ``ee_*`` fields.
+    """
+
+    kind: str
+    fields: tuple[tuple[str, int, int], ...]
+    ee_names: tuple[str, ...]
+
+    @property
+    def dim(self) -> int:
+        """Length of the state vector."""
+        return self.fields[-1][2]
+
+    def slice(self, name: str) -> slice:
+        """The slice of field ``name`` in the last axis of a state."""
+        for n, a, b in self.fields:
+            if n == name:
+                return slice(a, b)
+        raise KeyError(f"no state field {name!r} (fields: {', '.join(n for n, _, _ in self.fields)})")
+
+    def names(self) -> tuple[str, ...]:
+        return tuple(n for n, _, _ in self.fields)
+
+
+def _layout(kind: str, sizes: Sequence[tuple[str, int]], ee_names: tuple[str, ...]) -> StateLayout:
+    fields = []
+    start = 0
+    for name, n in sizes:
+        fields.append((name, start, start + n))
+        start += n
+    return StateLayout(kind, tuple(fields), ee_names)
+
+
+def human_state_layout(morphology: Morphology) -> StateLayout:
+    """Layout of the human state x^h for ``morphology`` (see the module docstring)."""
+    e = len(morphology.end_effectors)
+    sizes = [
+        ("root_height", 1),
+        ("root_orientation", 4),
+        ("root_linear_velocity", 3),
+        ("root_angular_velocity", 3),
+        ("joint_positions", 3 * (morphology.link_count - 1)),
+        ("ee_positions", 3 * e),
+        ("ee_velocities", 3 * e),
+    ]
+    return _layout("human", sizes, tuple(x.name for x in morphology.end_effectors))
+
+
+def character_state_layout(morphology: Morphology) -> StateLayout:
+    """Layout of the character state x^r for ``morphology`` (see the module docstring)."""
+    e = len(morphology.end_effectors)
+    sizes = [
+        ("root_height", 1),
+        ("root_orientation", 4),
+        ("root_displacement", 2),
+        ("previous_root_orientation", 4),
+        ("root_linear_velocity", 3),
+        ("root_angular_velocity", 3),
+        ("joint_q", morphology.coordinate_count - morphology.base_coordinate_count),
+        ("ee_positions", 3 * e),
+        ("ee_velocities", 3 * e),
+    ]
+    return _layout("character", sizes, tuple(x.name for x in morphology.end_effectors))
+
+
+# ---- heading frame and differences --------------------------------------------------------
+
+
+def heading_frame(root_pose: np.ndarray) -> np.ndarray:
+    """Heading frames ``T_world_heading`` [..., 7] of root poses [..., 7] (origin at the root, yaw only)."""
+    root_pose = np.asarray(root_pose, dtype=float)
+    out = np.empty_like(root_pose)
+    out[..., :3] = root_pose[..., :3]
+    out[..., 3:] = quat_from_yaw(yaw_from_quat(root_pose[..., 3:]))
+    return out
+
+
+def to_heading_frame(heading: np.ndarray, points: np.ndarray, *, direction: bool = False) -> np.ndarray:
+    """Express world points (or, with ``direction=True``, vectors) [T, ..., 3] in heading frames [T, 7]."""
+    heading = np.asarray(heading, dtype=float)
+    points = np.asarray(points, dtype=float)
+    extra = points.ndim - heading.ndim
+    shape = heading.shape[:-1] + (1,) * extra
+    inv = quat_conjugate(heading[..., 3:]).reshape(*shape, 4)
+    v = points if direction else points - heading[..., :3].reshape(*shape, 3)
+    return quat_rotate(np.broadcast_to(inv, (*v.shape[:-1], 4)), v)
+
+
+def _backward_diff(x: np.ndarray) -> np.ndarray:
+    """``x[t] - x[t-1]`` along axis 0 with frame 0 copying frame 1 (zeros for a single frame)."""
+    d = np.zeros_like(x)
+    if x.shape[0] > 1:
+        d[1:] = x[1:] - x[:-1]
+        d[0] = d[1]
+    return d
+
+
+def _rotation_steps(q: np.ndarray) -> np.ndarray:
+    """World rotation ``q_t q_{t-1}⁻¹`` per frame [T, 4] (frame 0 copies frame 1; identity for one frame)."""
+    steps = np.zeros_like(q)
+    steps[..., 3] = 1.0
+    if q.shape[0] > 1:
+        steps[1:] = quat_multiply(q[1:], quat_conjugate(q[:-1]))
+        steps[0] = steps[1]
+    return steps
+
+
+def _root_terms(root_pose: np.ndarray, fps: float) -> dict[str, np.ndarray]:
+    root_pose = np.asarray(root_pose, dtype=float)
+    heading = heading_frame(root_pose)
+    inv_h = quat_conjugate(heading[:, 3:])
+    step = _rotation_steps(root_pose[:, 3:])
+    disp = _backward_diff(root_pose[:, :3])
+    prev_q = quat_multiply(quat_conjugate(step), root_pose[:, 3:])
+    return {
+        "heading": heading,
+        "root_height": root_pose[:, 2:3],
+        "root_orientation": quat_canonical(quat_multiply(inv_h, root_pose[:, 3:])),
+        "root_displacement": quat_rotate(inv_h, disp)[:, :2],
+        "previous_root_orientation": quat_canonical(quat_multiply(inv_h, prev_q)),
+        "root_linear_velocity": quat_rotate(inv_h, disp) * fps,
+        "root_angular_velocity": quat_rotate(inv_h, axis_angle_from_quat(step)) * fps,
+    }
+
+
+def _check_frames(what: str, arrays: dict[str, np.ndarray], frames: int) -> None:
+    for name, a in arrays.items():
+        if a.shape[0] != frames:
+            raise MotionFormatError(f"{what}: {name} has {a.shape[0]} frames, root_pose has {frames}")
+
+
+def human_state(
+    root_pose: np.ndarray, link_positions: np.ndarray, ee_positions: np.ndarray, fps: float
+) -> np.ndarray:
+    """Human state x^h per frame (§6.1; layout in :func:`human_state_layout`).
+
+    Args:
+        root_pose: World pose of the root link ``T_world_root``, shape [T, 7].
+        link_positions: World positions of all links (root first), shape [T, L, 3] [m].
+        ee_positions: World positions of the end-effectors, shape [T, E, 3] [m].
+        fps: Frame rate [1/s].
+
+    Returns:
+        [T, 11 + 3 (L - 1) + 6 E] float64.
+    """
+    root_pose = np.asarray(root_pose, dtype=float)
+    link_positions = np.asarray(link_positions, dtype=float)
+    ee_positions = np.asarray(ee_positions, dtype=float)
+    t = root_pose.shape[0]
+    _check_frames("human_state", {"link_positions": link_positions, "ee_positions": ee_positions}, t)
+    r = _root_terms(root_pose, fps)
+    h = r["heading"]
+    joints = to_heading_frame(h, link_positions[:, 1:]).reshape(t, -1)
+    ee = to_heading_frame(h, ee_positions).reshape(t, -1)
+    ee_vel = to_heading_frame(h, _backward_diff(ee_positions) * fps, direction=True).reshape(t, -1)
+    return np.concatenate(
+        [
+            r["root_height"],
+            r["root_orientation"],
+            r["root_linear_velocity"],
+            r["root_angular_velocity"],
+            joints,
+            ee,
+            ee_vel,
+        ],
+        axis=-1,
+    )
+
+
+def _canonical_joint_q(morphology: Morphology, joint_q: np.ndarray) -> np.ndarray:
+    out = np.array(joint_q, dtype=float, copy=True)
+    b = morphology.base_coordinate_count
+    for j, start in zip(morphology.joints, morphology.joint_q_start[:-1], strict=True):
+        if j.type == JointType.SPHERICAL and not morphology.is_driven(j):
+            out[:, start - b : start - b + 4] = quat_canonical(out[:, start - b : start - b + 4])
+    return out
+
+
+def character_state(
+    root_pose: np.ndarray,
+    joint_q: np.ndarray,
+    ee_positions: np.ndarray,
+    fps: float,
+    *,
+    morphology: Morphology | None = None,
+) -> np.ndarray:
+    """Character state x^r per frame (§6.2; layout in :func:`character_state_layout`).
+
+    Args:
+        root_pose: World pose of the root link, shape [T, 7].
+        joint_q: Joint coordinates (``q`` without the base), shape [T, C - B].
+        ee_positions: World end-effector positions, shape [T, E, 3] [m].
+        fps: Frame rate [1/s].
+        morphology: When given, spherical joints' quaternions are put in the ``w >= 0`` half.
+
+    Returns:
+        [T, 17 + (C - B) + 6 E] float64.
+    """
+    root_pose = np.asarray(root_pose, dtype=float)
+    joint_q = np.asarray(joint_q, dtype=float)
+    ee_positions = np.asarray(ee_positions, dtype=float)
+    t = root_pose.shape[0]
+    _check_frames("character_state", {"joint_q": joint_q, "ee_positions": ee_positions}, t)
+    if morphology is not None:
+        joint_q = _canonical_joint_q(morphology, joint_q)
+    r = _root_terms(root_pose, fps)
+    h = r["heading"]
+    ee = to_heading_frame(h, ee_positions).reshape(t, -1)
+    ee_vel = to_heading_frame(h, _backward_diff(ee_positions) * fps, direction=True).reshape(t, -1)
+    return np.concatenate(
+        [
+            r["root_height"],
+            r["root_orientation"],
+            r["root_displacement"],
+            r["previous_root_orientation"],
+            r["root_linear_velocity"],
+            r["root_angular_velocity"],
+            joint_q.reshape(t, -1),
+            ee,
+            ee_vel,
+        ],
+        axis=-1,
+    )
+
+
+def human_state_from_motion(motion: Motion) -> np.ndarray:
+    """:func:`human_state` of a motion (link and end-effector positions from the FK kernels)."""
+    return human_state(motion.root_pose(), motion.link_positions(), motion.end_effector_positions(), motion.fps)
+
+
+def character_state_from_motion(motion: Motion) -> np.ndarray:
+    """:func:`character_state` of a motion (end-effector positions from the FK kernels)."""
+    return character_state(
+        motion.root_pose(), motion.joint_q, motion.end_effector_positions(), motion.fps, morphology=motion.morphology
+    )
+
+
+# ---- normalisation ------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class NormStats:
+    """Per-dimension mean and standard deviation of a state dataset: ``x_n = (x - mean) / std``.
+
+    Dimensions that never vary in the data (e.g. a wheeled base's root height) get ``std = 1`` so
+    normalising never divides by zero.
+    """
+
+    mean: np.ndarray
+    """[D] float64."""
+    std: np.ndarray
+    """[D] float64, > 0."""
+
+    @staticmethod
+    def fit(states: np.ndarray | Sequence[np.ndarray], *, min_std: float = 1e-6) -> NormStats:
+        """Statistics over all frames of one [T, D] array or a list of them."""
+        arrays = list(states) if isinstance(states, (list, tuple)) else [states]
+        data = np.concatenate([np.asarray(s, dtype=float).reshape(-1, np.shape(s)[-1]) for s in arrays], axis=0)
+        mean = data.mean(axis=0)
+        std = data.std(axis=0)
+        std = np.where(std < min_std, 1.0, std)
+        return NormStats(mean, std)
+
+    def normalize(self, x: Any) -> Any:
+        """``(x - mean) / std`` for NumPy arrays or torch tensors (statistics moved to ``x``'s device)."""
+        mean, std = self._like(x)
+        return (x - mean) / std
+
+    def denormalize(self, x: Any) -> Any:
+        """``x * std + mean`` (inverse of :meth:`normalize`)."""
+        mean, std = self._like(x)
+        return x * std + mean
+
+    def _like(self, x: Any) -> tuple[Any, Any]:
+        if isinstance(x, np.ndarray):
+            return self.mean, self.std
+        import torch
+
+        return (
+            torch.as_tensor(self.mean, dtype=x.dtype, device=x.device),
+            torch.as_tensor(self.std, dtype=x.dtype, device=x.device),
+        )
+
+    def save(self, path: str | os.PathLike[str]) -> None:
+        """Write ``mean`` and ``std`` to an ``.npz`` file (atomically)."""
+        with atomic_path(path) as tmp, open(tmp, "wb") as f:
+            np.savez(f, mean=self.mean, std=self.std)
+
+    @staticmethod
+    def load(path: str | os.PathLike[str]) -> NormStats:
+        """Read statistics written by :meth:`save`.
+
+        Raises:
+            MotionFormatError: if the file lacks ``mean``/``std`` or they disagree in shape.
+        """
+        try:
+            with np.load(path) as data:
+                mean, std = np.asarray(data["mean"], dtype=float), np.asarray(data["std"], dtype=float)
+        except (KeyError, ValueError, OSError) as exc:
+            raise MotionFormatError(f"not a normalisation file: {exc}", location=SourceLocation(str(path))) from None
+        if mean.shape != std.shape or mean.ndim != 1 or (std <= 0).any():
+            raise MotionFormatError("mean/std must be two [D] arrays with std > 0", location=SourceLocation(str(path)))
+        return NormStats(mean, std)
