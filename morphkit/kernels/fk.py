@@ -40,6 +40,7 @@ __all__ = [
     "eval_fk_adjoint",
     "eval_link_positions",
     "eval_link_positions_adjoint",
+    "eval_wheel_angles",
     "fk_module",
     "generate_fk_source",
     "kernel_cache_dir",
@@ -163,17 +164,22 @@ def _tape_active() -> bool:
 
 
 def _launch(kernel: Any, batch: int, device: Any, inputs: list, outputs: list, *, adjoint: bool = False,
-            adj_inputs: list | None = None, adj_outputs: list | None = None) -> None:
-    """Launch ``kernel`` over ``batch`` poses (its ``offset`` input is set per chunk)."""
+            adj_inputs: list | None = None, adj_outputs: list | None = None, dim_tail: tuple[int, ...] = ()) -> None:
+    """Launch ``kernel`` over ``batch`` poses, split into chunks on the CPU.
+
+    The kernel's first ``wp.tid()`` index runs over a chunk of the batch and its last input is
+    the chunk's ``offset``; ``dim_tail`` gives the remaining launch dimensions. Under a
+    ``wp.Tape`` the launch is not split, so the tape records exactly one launch.
+    """
     chunks = _chunks(batch, device)
-    if len(chunks) == 1 or _tape_active():
+    if len(chunks) > 1 and _tape_active():
         chunks = [(0, batch)]
-    offset_index = len(inputs) - 1  # every FK-family kernel takes ``offset`` as its last input
+    last = len(inputs) - 1
 
     def run(chunk: tuple[int, int]) -> None:
         ins = list(inputs)
-        ins[offset_index] = chunk[0]
-        wp.launch(kernel, dim=chunk[1], inputs=ins, outputs=outputs, device=device, adjoint=adjoint,
+        ins[last] = chunk[0]
+        wp.launch(kernel, dim=(chunk[1], *dim_tail), inputs=ins, outputs=outputs, device=device, adjoint=adjoint,
                   adj_inputs=adj_inputs or [], adj_outputs=adj_outputs or [])
 
     if len(chunks) == 1:
@@ -358,3 +364,87 @@ def eval_link_positions_adjoint(model: KinematicModel, q: Any, adj_out: wp.array
     """Vector–Jacobian product of :func:`eval_link_positions` (``adj_out``: [..., L] vec3), added to ``adj_q``."""
     return _eval_adjoint(model, q, adj_out, "fk_positions", _vec3_type, adj_q=adj_q, wheel_q=wheel_q,
                          device=device)
+
+
+# ---------------------------------------------------------------------------------------------
+# wheels
+# ---------------------------------------------------------------------------------------------
+
+
+@wp.kernel(enable_backward=False)
+def wheel_angles(
+    q: wp.array3d[Any],
+    lateral: wp.array[Any],
+    sign: wp.array[Any],
+    inv_radius: Any,
+    offset: int,
+    out: wp.array3d[Any],
+):
+    r"""Scan over time for one motion ``b``: wheel angles that roll without slipping along the base path.
+
+    Between frames the root follows a circular arc (constant speed and yaw rate): its arc length
+    is the chord along the mid heading times $h / \sin h$, $h = \Delta\psi / 2$. Wheel ``w``
+    at lateral offset $y_w$ rolls $s - y_w \Delta\psi$.
+    """
+    i = wp.tid()
+    b = i + offset
+    zero = inv_radius - inv_radius
+    half = type(inv_radius)(0.5)
+    pi = type(inv_radius)(3.14159265358979323846)
+    for w in range(out.shape[2]):
+        out[b, 0, w] = zero
+    for t in range(1, q.shape[1]):
+        dx = q[b, t, 0] - q[b, t - 1, 0]
+        dy = q[b, t, 1] - q[b, t - 1, 1]
+        d = q[b, t, 2] - q[b, t - 1, 2]
+        dpsi = d - type(d)(2.0) * pi * wp.floor((d + pi) / (type(d)(2.0) * pi))
+        mid = q[b, t - 1, 2] + half * dpsi
+        chord = dx * wp.cos(mid) + dy * wp.sin(mid)
+        h = half * dpsi
+        factor = type(h)(1.0) + h * h / type(h)(6.0)
+        if wp.abs(h) > type(h)(1.0e-4):
+            factor = h / wp.sin(h)
+        s = chord * factor
+        for w in range(out.shape[2]):
+            out[b, t, w] = out[b, t - 1, w] + sign[w] * (s - lateral[w] * dpsi) * inv_radius
+
+
+for _s in (wp.float32, wp.float64):
+    wp.overload(wheel_angles, {"q": wp.array3d(dtype=_s), "lateral": wp.array(dtype=_s), "sign": wp.array(dtype=_s),
+                               "inv_radius": _s, "out": wp.array3d(dtype=_s)})
+
+
+def eval_wheel_angles(model: KinematicModel, q: Any, *, out: wp.array | None = None, device: Any = None) -> wp.array:
+    r"""Wheel angles [rad] of motions of a wheeled base, for :func:`eval_fk`'s ``wheel_q``.
+
+    Wheels roll without slipping along the base's path: for wheel $w$ at lateral offset $y_w$
+    (root-frame y of its joint at rest, left positive) and axis sign $\sigma_w$,
+    $\theta_w(t) = \sigma_w / r \sum_{k \le t} (s_k - y_w \Delta\psi_k)$ with $s_k$ the root's
+    arc length and $\Delta\psi_k$ its yaw change between frames $k - 1$ and $k$; angles start at 0.
+    Not differentiable (the wheel angles only turn the wheels).
+
+    Args:
+        model: A compiled morphology (wheeled base; otherwise the result has W = 0 columns).
+        q: Motions, shape [..., T, C]; the base coordinates ``q[..., 0:3]`` are ``(x, y, yaw)``.
+        out: Optional output, shape [..., T, W].
+
+    Returns:
+        Wheel angles, shape [..., T, W] (same dtype as ``q``).
+    """
+    device = _device(model, q, device)
+    q2, lead, dtype = _as_batch(model, q, device)
+    if len(lead) < 1:
+        raise GraphError(f"q: expected a motion of shape [..., T, {model.coordinate_count}], got {list(q.shape)}")
+    W = model.wheel_count
+    if out is None:
+        out = wp.zeros((*lead, W), dtype=dtype, device=device)
+    elif tuple(out.shape) != (*lead, W) or out.dtype != dtype:
+        raise GraphError(f"out: expected shape {[*lead, W]} of {wp.types.type_repr(dtype)}, got {list(out.shape)}")
+    T = lead[-1]
+    B = q2.shape[0] // T if T else 0
+    if W == 0 or B == 0:
+        return out
+    a = model.arrays(device, dtype)
+    _launch(wheel_angles, B, device, [q2.reshape((B, T, model.coordinate_count)), a.wheel_lateral, a.wheel_sign,
+                                      dtype(1.0 / model.wheel_radius), 0], [out.reshape((B, T, W))])
+    return out
