@@ -1,0 +1,157 @@
+"""Ψ (§6.3) and the KL end-effector mapping (§5.3, Eq. 11) on cases whose answer is known."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import human_like, random_q
+
+from morphkit.errors import ConfigError
+from morphkit.motion import (
+    Motion,
+    character_state_from_motion,
+    character_state_layout,
+    ee_distributions,
+    feature_dim,
+    features,
+    fit_gaussian,
+    human_state_from_motion,
+    human_state_layout,
+    kl_divergence,
+    map_end_effectors,
+    motion_features,
+    read_override,
+)
+from morphkit.motion._fk import compiled_model
+from morphkit.motion.ee_mapping import Gaussian
+
+
+def _motion(seed: int = 0) -> Motion:
+    m = human_like()
+    return Motion(m, 30.0, random_q(compiled_model(m), 10, seed=seed))
+
+
+def test_features_pick_shared_fields_and_normalise_lengths() -> None:
+    motion = _motion()
+    m = motion.morphology
+    L = m.characteristic_length
+    hl, rl = human_state_layout(m), character_state_layout(m)
+    xh, xr = human_state_from_motion(motion), character_state_from_motion(motion)
+    fh = features(xh, hl, length=L)
+    fr = features(xr, rl, length=L)
+    assert fh.shape == (10, feature_dim(len(m.end_effectors)))
+    np.testing.assert_allclose(fh, fr, atol=1e-12)  # same motion, either state kind
+    np.testing.assert_allclose(fh[:, 0], xh[:, 0] / L)
+    np.testing.assert_allclose(fh[:, 1:5], xh[:, 1:5])
+    np.testing.assert_allclose(fh[:, 5:8], xh[:, 5:8] / L)
+    np.testing.assert_allclose(fh[:, 8:11], xh[:, 8:11])
+    names = [e.name for e in m.end_effectors]
+    sel = features(xh, hl, length=L, ee_names=[names[2], names[0]])
+    ee = xh[:, hl.slice("ee_positions")].reshape(10, -1, 3) / L
+    np.testing.assert_allclose(sel[:, 11:], np.concatenate([ee[:, 2], ee[:, 0]], axis=-1))
+    np.testing.assert_allclose(motion_features(motion), fr, atol=1e-12)
+    with pytest.raises(ConfigError, match="end-effectors:"):
+        features(xh, hl, length=L, ee_names=["tail"])
+    with pytest.raises(ConfigError, match="length"):
+        features(xh, hl, length=0.0)
+
+
+def test_features_run_on_torch_and_carry_gradients() -> None:
+    import torch
+
+    motion = _motion(1)
+    layout = character_state_layout(motion.morphology)
+    x = character_state_from_motion(motion)
+    xt = torch.tensor(x, requires_grad=True)
+    ft = features(xt, layout, length=1.7)
+    np.testing.assert_allclose(ft.detach().numpy(), features(x, layout, length=1.7), atol=1e-12)
+    ft.sum().backward()
+    grad = xt.grad.numpy()
+    assert grad[:, 0] == pytest.approx(1 / 1.7)
+    assert (grad[:, layout.slice("joint_q")] == 0).all()
+
+
+def test_kl_divergence_matches_closed_form_and_monte_carlo() -> None:
+    p = Gaussian(np.array([0.0, 0.0, 0.0]), np.diag([1.0, 2.0, 0.5]))
+    q = Gaussian(np.array([1.0, -1.0, 0.5]), np.diag([2.0, 1.0, 1.0]))
+    # Diagonal covariances: a sum of 1-D KLs.
+    s0, s1, d = np.diag(p.cov), np.diag(q.cov), q.mean - p.mean
+    closed = 0.5 * np.sum(s0 / s1 + d * d / s1 - 1 + np.log(s1 / s0))
+    assert kl_divergence(p, q) == pytest.approx(closed, rel=1e-12)
+    assert kl_divergence(p, p) == pytest.approx(0.0, abs=1e-12)
+    # A full covariance against a Monte-Carlo estimate of E_p[log p - log q].
+    rng = np.random.default_rng(0)
+    a = rng.normal(size=(3, 3))
+    full = Gaussian(np.array([0.2, 0.1, -0.3]), a @ a.T + np.eye(3))
+    x = rng.multivariate_normal(full.mean, full.cov, size=200_000)
+
+    def logpdf(g: Gaussian, x: np.ndarray) -> np.ndarray:
+        inv = np.linalg.inv(g.cov)
+        d = x - g.mean
+        return -0.5 * (np.einsum("ni,ij,nj->n", d, inv, d) + np.linalg.slogdet(2 * np.pi * g.cov)[1])
+
+    mc = float(np.mean(logpdf(full, x) - logpdf(q, x)))
+    assert kl_divergence(full, q) == pytest.approx(mc, rel=0.02)
+
+
+def test_mapping_is_forced_by_construction() -> None:
+    """Six human end-effectors spread in space; each creature end-effector is sampled from a
+    narrower distribution centred on one of them, so Eq. 11 must find it."""
+    rng = np.random.default_rng(1)
+    centres = {
+        "lhand": [0.1, 0.3, 0.0],
+        "rhand": [0.1, -0.3, 0.0],
+        "lfoot": [0.0, 0.1, -0.55],
+        "rfoot": [0.0, -0.1, -0.55],
+        "head": [0.0, 0.0, 0.35],
+        "tail": [-0.5, 0.0, 0.0],
+    }
+    human = {n: fit_gaussian(rng.normal(c, 0.08, (4000, 3))) for n, c in centres.items()}
+    truth = {"fl": "lfoot", "fr": "rfoot", "hl": "lfoot", "hr": "rfoot", "gripper": "rhand", "cam": "head"}
+    creature = {}
+    for n, h in truth.items():
+        offset = rng.normal(0.0, 0.02, 3)  # a small shift, smaller than the human spread
+        creature[n] = fit_gaussian(rng.normal(np.array(centres[h]) + offset, 0.04, (3000, 3)))
+    result = map_end_effectors(creature, human)
+    assert result.mapping == truth
+    for c, row in result.kl.items():
+        assert min(row, key=row.get) == truth[c]
+    over = map_end_effectors(creature, human, override={"gripper": "lhand"})
+    assert over.mapping["gripper"] == "lhand" and over.overridden == {"gripper"}
+    assert over.mapping["fl"] == "lfoot"
+    js = over.to_json()
+    assert js["mapping"]["gripper"] == "lhand" and set(js["kl"]["fl"]) == set(centres)
+    table = over.format_table()
+    assert "gripper" in table and "* manual override" in table
+    with pytest.raises(ConfigError, match="valid: lhand"):
+        map_end_effectors(creature, human, override={"gripper": "lhnd"})
+    with pytest.raises(ConfigError, match="valid: fl"):
+        map_end_effectors(creature, human, override={"wing": "lhand"})
+
+
+def test_ee_distributions_from_motions_and_override_file(tmp_path: Path) -> None:
+    motions = [_motion(s) for s in range(3)]
+    dists = ee_distributions(motions)
+    names = [e.name for e in motions[0].morphology.end_effectors]
+    assert list(dists) == names
+    psi = np.concatenate([motion_features(m)[:, 11:] for m in motions]).reshape(-1, len(names), 3)
+    np.testing.assert_allclose(dists[names[0]].mean, psi[:, 0].mean(0), atol=1e-12)
+    sub = ee_distributions(motions, max_frames_per_clip=5)
+    assert sub[names[0]].count == 15
+    # Mapping a creature onto itself is the identity.
+    assert map_end_effectors(dists, dists).mapping == {n: n for n in names}
+
+    path = tmp_path / "map.yaml"
+    path.write_text("mapping:\n  gripper: lwrist_end\n  fl_foot: ltoe_end\n")
+    assert read_override(path) == {"gripper": "lwrist_end", "fl_foot": "ltoe_end"}
+    path.write_text("gripper: [a, b]\n")
+    with pytest.raises(ConfigError) as err:
+        read_override(path)
+    assert err.value.location.line == 1
+    path.write_text("gripper: {\n")
+    with pytest.raises(ConfigError, match="malformed YAML"):
+        read_override(path)
+    with pytest.raises(ConfigError, match="cannot read"):
+        read_override(tmp_path / "missing.yaml")
