@@ -474,6 +474,8 @@ def parse_bvh(text: str, *, source: str | os.PathLike[str] | None = None) -> Bvh
                 root_done = True
         elif word == "{":
             raise DescriptionError("unexpected '{'", location=loc(line))
+        elif word == "MOTION" and not stack:
+            raise DescriptionError("MOTION before any ROOT: the HIERARCHY is empty", location=loc(line))
         elif word == "MOTION":
             raise DescriptionError(
                 f"MOTION inside the hierarchy: the block of {stack[-1].name!r} (line {stack[-1].line}) is never closed",
@@ -526,7 +528,10 @@ def _header_value(lines: list[str], row: int, pattern: str, what: str, src: str 
     while row < len(lines) and not lines[row].strip():
         row += 1
     if row >= len(lines):
-        raise MotionFormatError(f"unexpected end of file: expected {what}", location=SourceLocation(src, len(lines)))
+        last = len(lines)
+        while last > 1 and not lines[last - 1].strip():
+            last -= 1
+        raise MotionFormatError(f"unexpected end of file: expected {what}", location=SourceLocation(src, last))
     m = re.fullmatch(rf"\s*{pattern}\s*(.*?)\s*", lines[row])
     if m is None:
         raise MotionFormatError(
@@ -546,10 +551,11 @@ def _parse_frames(
     keep = [i for i, text in enumerate(body) if text.strip()]
     frame_lines = np.asarray(keep, dtype=np.int64) + row + 1
     frames = [body[i] for i in keep]
-    last_line = len(lines)
     if len(frames) < frame_count:
+        # Point at the last line with content: where the file was cut.
+        last_line = int(frame_lines[-1]) if frames else row
         raise MotionFormatError(
-            f"truncated MOTION: Frames: says {frame_count}, the file has {len(frames)} frame lines",
+            f"truncated MOTION: Frames: says {frame_count}, the file ends after {len(frames)} frame lines",
             location=SourceLocation(src, last_line),
         )
     if len(frames) > frame_count:
@@ -854,8 +860,17 @@ def skeleton_from_bvh(
 
     Raises:
         ConfigError: ``scale`` is not a positive finite number, or ``facing`` is unknown.
-        GraphError: the skeleton cannot form a valid morphology.
+        GraphError: the skeleton cannot form a valid morphology (also for absurd offsets that
+            overflow to non-finite lengths).
     """
+    # Absurd offsets (1e308) overflow to inf here; the builder then rejects them with a GraphError.
+    with np.errstate(over="ignore", invalid="ignore"):
+        return _skeleton_from_bvh(bvh, scale, facing, name, detect_front_paws)
+
+
+def _skeleton_from_bvh(
+    bvh: BvhFile, scale: float | None, facing: str, name: str | None, detect_front_paws: bool
+) -> Morphology:
     if scale is not None:
         if isinstance(scale, bool) or not isinstance(scale, (int, float)) or not math.isfinite(scale) or scale <= 0:
             raise ConfigError(f"BVH scale must be a positive number, got {scale!r}")
