@@ -21,6 +21,7 @@ COMMANDS = [
     "info",
     "convert",
     "bench",
+    "render",
 ]
 """Subcommand modules under ``morphkit.commands``, in help order."""
 

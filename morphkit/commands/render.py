@@ -1,0 +1,173 @@
+"""``morphkit render CREATURE``: turntables, motion videos, side-by-side comparisons and contact sheets.
+
+Examples::
+
+    morphkit render spot --turntable --frames 72 --out spot.gif
+    morphkit render spot --motion walk.npz --out walk.mp4
+    morphkit render spot --motion walk.npz --compare human_walk.bvh --out compare.mp4
+    morphkit render crab --turntable --contact-sheet --out crab.png
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from morphkit.errors import ConfigError, MotionFormatError, SourceLocation
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "render",
+        help="render a creature offscreen: turntable, motion video, side by side with a human, contact sheet",
+        description=(
+            "Render a creature offscreen (EGL or OSMesa; no display needed). Without --motion, a turntable "
+            "(360° orbit) at the rest pose. The output suffix picks the format: .gif, .mp4 (needs ffmpeg), "
+            ".png (a still of a turntable's first view, or a contact sheet of a motion)."
+        ),
+    )
+    p.add_argument("creature", metavar="CREATURE", help="description file (.yaml/.urdf/.usd[a|c]/.bvh) or shipped name")
+    mode = p.add_mutually_exclusive_group()
+    mode.add_argument("--turntable", action="store_true", help="orbit the camera around the creature (default)")
+    mode.add_argument(
+        "--motion", metavar="M", help="motion to play: .npz (morphkit motion, or arrays q [T, C] and fps), .bvh, .usd"
+    )
+    p.add_argument(
+        "--compare", metavar="HUMAN_MOTION", help="with --motion: show this (human) motion on the left, in sync"
+    )
+    p.add_argument("--frames", type=int, default=72, help="turntable views over 360° (default: 72)")
+    p.add_argument(
+        "--fps", type=float, default=None, help="output frame rate (default: 24 for turntables, else the motion's)"
+    )
+    p.add_argument("--size", default=None, help="image size WxH (default: 640x480; 480x480 per panel with --compare)")
+    p.add_argument("--no-shadows", action="store_true", help="skip shadows (faster)")
+    p.add_argument("--no-ground", action="store_true", help="no ground plane")
+    p.add_argument("--elevation", type=float, default=20.0, help="camera elevation [deg] (default: 20)")
+    p.add_argument(
+        "--azimuth", type=float, default=45.0, help="camera azimuth [deg]; 0 looks at the front, 90 at the left side"
+    )
+    p.add_argument("--fixed-camera", action="store_true", help="do not follow the root; frame the whole clip")
+    p.add_argument("--contact-sheet", action="store_true", help="write a PNG grid of 12 evenly spaced frames")
+    p.add_argument(
+        "--out", metavar="PATH", default=None, help="output file (.gif, .mp4, .png); a name is made up if omitted"
+    )
+    p.set_defaults(run=run)
+
+
+def _size(text: str | None, default: tuple[int, int]) -> tuple[int, int]:
+    if text is None:
+        return default
+    parts = text.lower().replace("×", "x").split("x")
+    try:
+        w, h = (int(v) for v in parts)
+    except ValueError:
+        raise ConfigError(f"--size: expected WIDTHxHEIGHT such as 640x480, got {text!r}") from None
+    return w, h
+
+
+def _load_motion(path: str, creature: Any | None) -> Any:
+    """A motion from ``path``; a bare ``.npz`` of ``q`` and ``fps`` plays on ``creature``."""
+    from morphkit.motion import Motion, read_motion
+
+    where = SourceLocation(path)
+    if Path(path).suffix.lower() == ".npz" and Path(path).is_file():
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                files = set(data.files)
+                if "morphology_yaml" not in files:
+                    if not {"q", "fps"} <= files:
+                        raise MotionFormatError("expected arrays q [frames, coordinates] and fps", location=where)
+                    if creature is None:
+                        raise MotionFormatError("holds no morphology: pass its creature", location=where)
+                    q, fps = np.asarray(data["q"], dtype=float), float(data["fps"])
+                    try:
+                        return Motion(creature, fps, q, name=Path(path).stem)
+                    except MotionFormatError as exc:
+                        raise MotionFormatError(exc.message, location=where) from None
+        except (OSError, ValueError) as exc:
+            raise MotionFormatError(f"not a readable .npz: {exc}", location=where) from None
+    return read_motion(path)
+
+
+def _on_creature(motion: Any, creature: Any, path: str) -> Any:
+    """``motion`` played by ``creature`` (the description asked for), checking the coordinates fit."""
+    from morphkit.motion import Motion
+
+    if motion.morphology is creature:
+        return motion
+    if motion.morphology.coordinate_names != creature.coordinate_names:
+        raise MotionFormatError(
+            f"motion is for {motion.morphology.name!r} ({motion.morphology.coordinate_count} coordinates), "
+            f"not {creature.name!r} ({creature.coordinate_count} coordinates)",
+            location=SourceLocation(path),
+        )
+    return Motion(creature, motion.fps, motion.q, name=getattr(motion, "name", ""))
+
+
+def _out(args: argparse.Namespace, name: str, what: str) -> str:
+    if args.out is not None:
+        if args.contact_sheet and Path(args.out).suffix.lower() != ".png":
+            raise ConfigError(f"--contact-sheet writes a PNG; got --out {args.out}")
+        return args.out
+    return f"{name}-{what}.png" if args.contact_sheet else f"{name}-{what}.gif"
+
+
+def run(args: argparse.Namespace) -> int:
+    from morphkit.io import read_morphology
+    from morphkit.io.shipped import resolve_morphology
+    from morphkit.render import RenderStyle, render_motion, render_side_by_side, turntable
+
+    creature = read_morphology(resolve_morphology(args.creature))
+    style = RenderStyle(
+        shadows=not args.no_shadows,
+        ground=not args.no_ground,
+        elevation_deg=args.elevation,
+        azimuth_deg=args.azimuth,
+    )
+    if args.compare and not args.motion:
+        raise ConfigError("--compare needs --motion (the creature's clip to show beside the human one)")
+    if args.fps is not None and not args.fps > 0:
+        raise ConfigError(f"--fps must be positive, got {args.fps}")
+
+    if args.motion is None:
+        if args.frames < 1:
+            raise ConfigError(f"--frames must be at least 1, got {args.frames}")
+        out = _out(args, creature.name, "turntable")
+        still = Path(out).suffix.lower() == ".png" and not args.contact_sheet
+        frames = 1 if still else (min(args.frames, 12) if args.contact_sheet else args.frames)
+        path = turntable(
+            creature, out, frames=frames, fps=args.fps or 24.0, size=_size(args.size, (640, 480)), style=style
+        )
+        print(f"wrote {path} ({creature.name}: {'still' if frames == 1 else f'{frames} views'})")
+        return 0
+
+    motion = _on_creature(_load_motion(args.motion, creature), creature, args.motion)
+    follow = not args.fixed_camera
+    if args.compare:
+        human = _load_motion(args.compare, None)
+        out = _out(args, creature.name, "compare")
+        path = render_side_by_side(
+            human,
+            motion,
+            out=out,
+            labels=(human.morphology.name, creature.name),
+            size=_size(args.size, (480, 480)),
+            style=style,
+            fps=args.fps,
+            follow=follow,
+        )
+        print(f"wrote {path} ({human.morphology.name} | {creature.name})")
+        return 0
+
+    out = _out(args, creature.name, Path(args.motion).stem)
+    q, fps = motion.q, motion.fps
+    if args.fps is not None and args.fps != fps:
+        from morphkit.render.compare import sync_indices
+
+        q, fps = q[sync_indices([len(q)], [fps], args.fps)[:, 0]], args.fps
+    path = render_motion(creature, q, fps, out=out, size=_size(args.size, (640, 480)), style=style, follow=follow)
+    print(f"wrote {path} ({creature.name}: {len(q)} frames at {fps:g} fps)")
+    return 0

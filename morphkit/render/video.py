@@ -1,0 +1,297 @@
+"""Motion videos (camera follows the root smoothly) and frame writers (GIF, MP4, PNG)."""
+
+from __future__ import annotations
+
+import os
+import sys
+from collections.abc import Iterable, Iterator, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from morphkit._atomic import atomic_path
+from morphkit.errors import ConfigError, MotionFormatError
+from morphkit.graph import Morphology
+from morphkit.render._gl import offscreen_renderer
+from morphkit.render._pose import as_q, link_poses
+from morphkit.render.scene import CreatureScene, RenderStyle, check_size, fit_distance
+from morphkit.render.sheet import contact_sheet, sample_indices, write_image
+
+__all__ = [
+    "VIDEO_SUFFIXES",
+    "MotionFraming",
+    "ffmpeg_available",
+    "iter_motion_frames",
+    "motion_frames",
+    "progress_bar",
+    "render_motion",
+    "unpack_motion",
+    "write_frames",
+]
+
+VIDEO_SUFFIXES = (".gif", ".mp4", ".mov", ".mkv", ".webm", ".avi")
+"""Suffixes :func:`write_frames` writes as animations (``.png`` writes a still or a contact sheet)."""
+
+SHEET_FRAMES = 12
+"""Frames on a contact sheet written for a ``.png`` output of a many-frame render."""
+
+
+def progress_bar(iterable: Iterable[Any], *, total: int, desc: str, enabled: bool | None) -> Iterable[Any]:
+    """Wrap ``iterable`` in a tqdm bar on stderr; ``enabled=None`` shows it for ≥ 24 frames on a terminal."""
+    from tqdm.auto import tqdm
+
+    if enabled is None:
+        enabled = total >= 24 and sys.stderr.isatty()
+    return tqdm(iterable, total=total, desc=desc, unit="frame", leave=False, disable=not enabled)
+
+
+# ---- writers --------------------------------------------------------------------------------
+def ffmpeg_available() -> bool:
+    """Whether imageio can find an ffmpeg executable (the ``imageio-ffmpeg`` package ships one)."""
+    try:
+        import imageio_ffmpeg
+
+        imageio_ffmpeg.get_ffmpeg_exe()
+    except (ImportError, RuntimeError):
+        return False
+    return True
+
+
+def _even(frame: np.ndarray) -> np.ndarray:
+    # H.264 with yuv420p needs even sides: pad odd ones with a copied edge row/column.
+    h, w = frame.shape[:2]
+    if h % 2 or w % 2:
+        frame = np.pad(frame, ((0, h % 2), (0, w % 2), (0, 0)), mode="edge")
+    return frame
+
+
+def write_frames(
+    frames: Iterable[np.ndarray],
+    out: str | os.PathLike[str],
+    *,
+    fps: float,
+    labels: Sequence[str] | None = None,
+) -> Path:
+    """Write RGB uint8 frames [H, W, 3] to ``out`` atomically; the suffix picks the format.
+
+    ``.gif`` always works (Pillow); ``.mp4``/``.mov``/``.mkv``/``.webm``/``.avi`` need ffmpeg
+    (``pip install imageio-ffmpeg``) and stream frames to it; ``.png`` writes a still for one
+    frame and a contact sheet of up to 12 evenly spaced frames (captioned with ``labels``, one per
+    frame, when given) for several.
+
+    Args:
+        frames: The frames, consumed once (a generator is fine).
+        out: Target path.
+        fps: Playback rate [frames/s].
+        labels: Captions for contact-sheet tiles.
+
+    Raises:
+        ConfigError: Unknown suffix, no ffmpeg for a video suffix, or no frames.
+    """
+    path = Path(out)
+    suffix = path.suffix.lower()
+    if not fps > 0:
+        raise ConfigError(f"fps must be positive, got {fps}")
+    if suffix not in (*VIDEO_SUFFIXES, ".png"):
+        raise ConfigError(f"cannot write {path}: unknown output type {suffix!r}; use .gif, .mp4 or .png")
+    if suffix not in (".gif", ".png") and not ffmpeg_available():
+        raise ConfigError(
+            f"cannot write {path}: {suffix} needs ffmpeg (pip install imageio-ffmpeg, or install "
+            "morphkit[render]); write a .gif instead"
+        )
+
+    if suffix == ".png":
+        kept = list(frames)
+        if not kept:
+            raise ConfigError(f"cannot write {path}: no frames")
+        if len(kept) == 1:
+            return write_image(kept[0], path)
+        idx = sample_indices(len(kept), SHEET_FRAMES)
+        sheet_labels = [labels[i] for i in idx] if labels is not None else None
+        return write_image(contact_sheet([kept[i] for i in idx], labels=sheet_labels), path)
+
+    import imageio.v2 as imageio
+
+    count = 0
+    with atomic_path(path) as tmp:
+        if suffix == ".gif":
+            # Pillow's GIF writer takes a whole clip; GIF clips are short by nature.
+            kept = [np.asarray(f) for f in frames]
+            if not kept:
+                raise ConfigError(f"cannot write {path}: no frames")
+            import imageio.v3 as iio
+
+            iio.imwrite(tmp, np.stack(kept), extension=".gif", duration=1000.0 / fps, loop=0)
+            count = len(kept)
+        else:
+            writer = imageio.get_writer(
+                tmp,
+                format="FFMPEG",
+                mode="I",
+                fps=fps,
+                codec="libx264",
+                pixelformat="yuv420p",
+                macro_block_size=1,
+                quality=8,
+            )
+            try:
+                for f in frames:
+                    writer.append_data(_even(np.asarray(f)))
+                    count += 1
+            finally:
+                writer.close()
+            if count == 0:
+                raise ConfigError(f"cannot write {path}: no frames")
+    return path
+
+
+# ---- motions --------------------------------------------------------------------------------
+def unpack_motion(motion: Any, q: Any = None, fps: float | None = None) -> tuple[Morphology, np.ndarray, float]:
+    """``(morphology, q [T, coordinate_count], fps)`` from a Morphology plus ``q`` and ``fps``, or
+    from a motion object with ``.morphology``, ``.q`` and ``.fps`` (explicit ``q``/``fps`` win).
+
+    Raises:
+        MotionFormatError: Missing or malformed ``q``/``fps``.
+    """
+    if isinstance(motion, Morphology):
+        m = motion
+    elif hasattr(motion, "morphology") and hasattr(motion, "q"):
+        m = motion.morphology
+        q = motion.q if q is None else q
+        fps = getattr(motion, "fps", None) if fps is None else fps
+    else:
+        raise MotionFormatError(
+            "expected a Morphology (with q and fps) or a motion with .morphology, .q, .fps; "
+            f"got {type(motion).__name__}"
+        )
+    if q is None:
+        raise MotionFormatError(f"no coordinates given for {m.name!r}: pass q [frames, {m.coordinate_count}]")
+    if fps is None or not np.isfinite(fps) or float(fps) <= 0:
+        raise MotionFormatError(f"fps must be a positive number, got {fps!r}")
+    return m, as_q(m, q), float(fps)
+
+
+def _smooth(x: np.ndarray, sigma: float) -> np.ndarray:
+    """Zero-phase Gaussian smoothing along axis 0 (edges reflected); ``sigma`` in samples."""
+    if sigma <= 0 or len(x) < 2:
+        return x.copy()
+    radius = int(np.ceil(3 * sigma))
+    k = np.exp(-0.5 * (np.arange(-radius, radius + 1) / sigma) ** 2)
+    k /= k.sum()
+    padded = np.pad(x, [(radius, radius)] + [(0, 0)] * (x.ndim - 1), mode="reflect" if len(x) > radius else "edge")
+    return np.stack([np.convolve(padded[:, i], k, mode="valid") for i in range(x.shape[1])], axis=1)
+
+
+class MotionFraming:
+    """Camera targets, distance and ground for a clip: a fixed view direction, target following the root.
+
+    Args:
+        scene: The creature's scene (gives the framing points).
+        poses: Link poses of every frame, shape [T, link_count, 7].
+        fps: Frame rate [frames/s] (sets the smoothing window).
+        aspect: Image width / height.
+        follow: Follow the root (smoothed, σ = 0.5 s); otherwise one fixed view of the whole clip.
+    """
+
+    def __init__(self, scene: CreatureScene, poses: np.ndarray, fps: float, aspect: float, *, follow: bool = True):
+        style = scene.style
+        stride = max(1, len(poses) // 240)  # framing from ≤ ~240 frames is plenty and keeps long clips cheap
+        points = scene.world_points(poses)  # [T, N, 3]
+        lo, hi = points.min(axis=1), points.max(axis=1)
+        centers = (lo + hi) / 2
+        root = np.asarray(poses[:, 0, :3], dtype=float)
+        if follow:
+            # The box centre sits at a steady offset from the root; the root's path is smoothed so
+            # the camera glides instead of shaking with every step.
+            offset = np.median(centers - root, axis=0)
+            self.targets = _smooth(root, 0.5 * fps) + offset
+            self.targets[:, 2] = float(np.median(centers[:, 2]))
+        else:
+            c = (lo.min(axis=0) + hi.max(axis=0)) / 2
+            self.targets = np.repeat(c[None], len(poses), axis=0)
+        rel = (points - self.targets[:, None])[::stride].reshape(-1, 3)
+        self.distance = fit_distance(
+            rel, style.azimuth_deg, style.elevation_deg, yfov_deg=style.yfov_deg, aspect=aspect, margin=style.margin
+        )
+        self.ground_z = float(lo[:, 2].min())
+        reach = float(np.linalg.norm(rel[:, :2], axis=1).max())
+        self.ground_radius = scene.ground_radius(reach, float((hi[:, 2] - lo[:, 2]).max()))
+        """Radius of the ground disc [m]."""
+
+
+def iter_motion_frames(
+    motion: Any,
+    q: Any = None,
+    fps: float | None = None,
+    *,
+    size: tuple[int, int] = (640, 480),
+    style: RenderStyle | None = None,
+    follow: bool = True,
+    frame_indices: Sequence[int] | None = None,
+    progress: bool | None = None,
+) -> Iterator[np.ndarray]:
+    """Yield the frames of a motion, each RGB uint8 [H, W, 3].
+
+    The camera keeps ``style``'s azimuth and elevation and follows the root smoothly; the ground
+    lies under the clip's lowest point.
+
+    Args:
+        motion: A Morphology (then ``q`` and ``fps`` are needed) or an object with ``.morphology``,
+            ``.q`` [T, coordinate_count] and ``.fps``.
+        q: Coordinates per frame [T, coordinate_count].
+        fps: Frame rate [frames/s].
+        size: Image ``(width, height)`` [px].
+        style: Drawing options.
+        follow: Follow the root; otherwise one fixed view framing the whole clip.
+        frame_indices: Render only these frames (framing still uses the whole clip).
+        progress: Progress bar on stderr; by default only for long renders on a terminal.
+    """
+    m, q_arr, fps_f = unpack_motion(motion, q, fps)
+    width, height = check_size(size)
+    style = style or RenderStyle()
+    poses = link_poses(m, q_arr)
+    scene = CreatureScene(m, style=style)
+    framing = MotionFraming(scene, poses, fps_f, width / height, follow=follow)
+    idx = np.arange(len(poses)) if frame_indices is None else np.asarray(frame_indices, dtype=int)
+    if idx.size and (idx.min() < 0 or idx.max() >= len(poses)):
+        raise ConfigError(f"frame indices must lie in [0, {len(poses)}), got {idx.min()}..{idx.max()}")
+    with offscreen_renderer(width, height) as renderer:
+        for t in progress_bar(idx, total=len(idx), desc=f"render {m.name}", enabled=progress):
+            scene.set_link_poses(poses[t])
+            scene.place_ground(framing.targets[t, :2], framing.ground_z, framing.ground_radius)
+            scene.set_camera(framing.targets[t], framing.distance, style.azimuth_deg, width / height)
+            yield scene.render(renderer)
+
+
+def motion_frames(motion: Any, q: Any = None, fps: float | None = None, **kwargs: Any) -> np.ndarray:
+    """All frames of :func:`iter_motion_frames` (same arguments), shape [T, H, W, 3] uint8."""
+    return np.stack(list(iter_motion_frames(motion, q, fps, **kwargs)))
+
+
+def render_motion(
+    motion: Any,
+    q: Any = None,
+    fps: float | None = None,
+    *,
+    out: str | os.PathLike[str],
+    size: tuple[int, int] = (640, 480),
+    style: RenderStyle | None = None,
+    follow: bool = True,
+    progress: bool | None = None,
+) -> Path:
+    """Render a motion to ``out`` (``.gif``, ``.mp4``, or ``.png`` contact sheet) and return the path.
+
+    Arguments as :func:`iter_motion_frames`; videos play at the motion's ``fps``. For a ``.png``
+    only the contact sheet's frames are rendered.
+    """
+    m, q_arr, fps_f = unpack_motion(motion, q, fps)
+    if Path(out).suffix.lower() == ".png" and len(q_arr) > 1:
+        idx = sample_indices(len(q_arr), SHEET_FRAMES)
+        it = iter_motion_frames(
+            m, q_arr, fps_f, size=size, style=style, follow=follow, frame_indices=idx, progress=progress
+        )
+        frames = list(it)
+        return write_image(contact_sheet(frames, labels=[f"t = {i / fps_f:.2f} s" for i in idx]), out)
+    it = iter_motion_frames(m, q_arr, fps_f, size=size, style=style, follow=follow, progress=progress)
+    return write_frames(it, out, fps=fps_f)
