@@ -22,6 +22,7 @@ This module imports torch, Warp and the peers inside functions only, so ``morphk
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import platform
@@ -141,6 +142,8 @@ class BenchResult:
     compile: dict[str, dict[str, float]] = field(default_factory=dict)
     """Creature → first-call timings [s] (``cold``, ``warm_cache``, ``torch_cold``...)."""
     notes: list[str] = field(default_factory=list)
+    load: list[float] = field(default_factory=list)
+    """1-minute load average at the start and end of the run (above the core count: other work competed)."""
     config: BenchConfig = field(default_factory=BenchConfig)
 
     def rate(self, creature: str, impl: str, mode: str, batch: int) -> float | None:
@@ -270,7 +273,12 @@ class MorphkitFK:
 
 
 class MorphkitTorchFK:
-    """morphkit through its torch autograd bridge (:class:`morphkit.torch.ForwardKinematics`, float32)."""
+    """morphkit through its torch autograd bridge (:class:`morphkit.torch.ForwardKinematics`, float32).
+
+    ``fwd`` calls the module (every link transform) under ``torch.no_grad``; ``fwd_bwd`` calls its
+    positions fast path :meth:`~morphkit.torch.ForwardKinematics.link_positions` and backpropagates
+    the sum through the Warp adjoint.
+    """
 
     name = "morphkit_torch"
 
@@ -281,7 +289,7 @@ class MorphkitTorchFK:
         self.module = ForwardKinematics(m, device=device)
 
     def _positions(self, q: Any) -> Any:
-        return self.module(q)[..., :3]
+        return self.module.link_positions(q)
 
     def link_positions(self, q: np.ndarray) -> np.ndarray:
         import torch
@@ -376,9 +384,16 @@ def make_impl(name: str, m: Morphology, *, device: str = "cpu", loop_poses: int 
 # ---------------------------------------------------------------------------------------------
 # measurement
 # ---------------------------------------------------------------------------------------------
+SLOW_CALL = 0.5
+"""A warm-up call slower than this [s] is timed once more instead of ``repeats`` times (keeps runs short)."""
+
+
 def time_call(fn: Callable[[], Any], poses: int, *, repeats: int, min_time: float) -> float:
     """Poses per second of ``fn`` (which evaluates ``poses`` poses): one warm-up, best of ``repeats``."""
+    t0 = time.perf_counter()
     fn()
+    if time.perf_counter() - t0 > SLOW_CALL:
+        repeats = 1
     best = float("inf")
     for _ in range(max(1, repeats)):
         calls = 0
@@ -477,6 +492,13 @@ def _agreement(impls: dict[str, Any], reference: Any, m: Morphology, rng: np.ran
     return {name: float(np.abs(impl.link_positions(q) - ref).max()) for name, impl in impls.items()}
 
 
+def _load_average() -> float:
+    try:
+        return os.getloadavg()[0]
+    except OSError:  # pragma: no cover - not available on every platform
+        return float("nan")
+
+
 def run_fk_benchmark(config: BenchConfig, *, log: Callable[[str], None] | None = None) -> BenchResult:
     """Run every measurement of ``config``; peers that are not installed are skipped (and listed).
 
@@ -486,6 +508,7 @@ def run_fk_benchmark(config: BenchConfig, *, log: Callable[[str], None] | None =
     """
     log = log or (lambda _line: None)
     result = BenchResult(config=config)
+    result.load.append(_load_average())
     _set_threads(config.threads)
     rng = np.random.default_rng(config.seed)
     for key in config.creatures:
@@ -520,6 +543,7 @@ def run_fk_benchmark(config: BenchConfig, *, log: Callable[[str], None] | None =
                         {"creature": key, "impl": name, "mode": mode, "batch": batch, "poses_per_s": round(rate, 1)}
                     )
                     log(f"{key:6s} {mode:7s} B={batch:<7d} {name:19s} {rate:14,.0f} poses/s")
+    result.load.append(_load_average())
     if any(n in LOOP_PEERS for n in config.impls):
         result.notes.append(
             f"pinocchio and mujoco run one pose per call in a Python loop: each timed call covers "
@@ -585,7 +609,8 @@ def markdown_report(result: BenchResult) -> str:
         "`(×N)` = morphkit is N× faster than that implementation.",
         "",
         f"Machine: {platform.platform()}, {platform.processor() or platform.machine()}, {os.cpu_count()} CPUs; "
-        f"date {time.strftime('%Y-%m-%d')}.",
+        f"date {time.strftime('%Y-%m-%d')}"
+        + (f"; load average {result.load[0]:.1f} at start, {result.load[-1]:.1f} at end." if result.load else "."),
         "",
     ]
     for key, note in result.creatures.items():
@@ -715,7 +740,15 @@ def run(args: argparse.Namespace) -> int:
         sys.stderr.write(line + "\n")
         sys.stderr.flush()
 
-    result = run_fk_benchmark(config, log=log)
+    import warp as wp
+
+    # The command owns stdout: Warp's initialisation banner and module-load lines would break --json.
+    quiet, wp.config.quiet = wp.config.quiet, True
+    try:
+        with contextlib.redirect_stdout(sys.stderr):
+            result = run_fk_benchmark(config, log=log)
+    finally:
+        wp.config.quiet = quiet
     report = markdown_report(result)
     if args.json:
         sys.stderr.write(report)
