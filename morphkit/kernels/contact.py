@@ -9,9 +9,10 @@ and a horizontal ground plane ``z = ground_height``:
 - **sliding speed** over a motion: the horizontal speed $\\lVert (v_x, v_y) \\rVert$ [m/s] where
   $h < h_\\text{thr}$, else 0 (differentiable w.r.t. the positions; the gate is not).
 
-Velocities of a motion ``[..., T, E]`` are finite differences along time times ``fps``: the
-forward difference $v_t = (p_{t+1} - p_t)\\,\\text{fps}$, and the backward one for the last
-frame (a single frame has zero velocity). The sliding gate uses the height only, so a foot
+Velocities of a motion ``[..., T, E]`` are finite differences along time times ``fps``, as
+:func:`~morphkit.kernels.end_effectors.eval_finite_difference`: the central difference
+$v_t = (p_{t+1} - p_{t-1})\\,\\text{fps} / 2$ inside, one-sided at both ends (a single frame has
+zero velocity). The sliding gate uses the height only, so a foot
 that skates fast on the ground still counts (a speed threshold would hide exactly that).
 
 Self-collision measures the link shapes (:mod:`morphkit.kernels.geometry`) pairwise over a list
@@ -76,16 +77,13 @@ def foot_height_kernel(
 
 @wp.func
 def _frame_velocity(points: Any, n: int, t: int, e: int, fps: Any):
-    # Forward difference, backward at the last frame, zero for a single frame.
+    # Central difference, one-sided at both ends (as eval_finite_difference), zero for a single frame.
     T = points.shape[1]
-    t0 = t
-    t1 = t + 1
-    if t == T - 1:
-        t0 = t - 1
-        t1 = t
+    t0 = wp.max(t - 1, 0)
+    t1 = wp.min(t + 1, T - 1)
     v = points[n, t, e] * (fps * type(fps)(0.0))
-    if T > 1:
-        v = (points[n, t1, e] - points[n, t0, e]) * fps
+    if t1 > t0:
+        v = (points[n, t1, e] - points[n, t0, e]) * (fps / type(fps)(float(t1 - t0)))
     return v
 
 
@@ -368,7 +366,7 @@ def eval_sliding_speed(points: Any, fps: float, *, feet: Any = None, height_thre
     """Horizontal foot speed while in contact, per frame.
 
     $s_t = \\lVert (v_{t,x}, v_{t,y}) \\rVert$ where $p_{t,z} - z_g <$ ``height_threshold``, else 0,
-    with $v_t$ the forward difference times ``fps`` (backward at the last frame). A foot moving
+    with $v_t$ the central difference times ``fps`` (one-sided at the ends). A foot moving
     1 cm per frame on the ground at 30 fps slides at 0.3 m/s.
 
     Args:
@@ -430,7 +428,7 @@ def eval_contact_flags(points: Any, fps: float, *, feet: Any = None, height_thre
                        device: Any = None) -> wp.array:
     """Foot contact flags of a motion: below ``height_threshold`` [m] and slower than ``speed_threshold`` [m/s].
 
-    The speed is the full 3-D finite-difference speed (forward, backward at the last frame).
+    The speed is the full 3-D finite-difference speed (central, one-sided at the ends).
     Same array arguments as :func:`eval_sliding_speed`; returns ``wp.bool`` flags, shape [..., T, F].
     """
     _check_fps(fps)
