@@ -34,8 +34,8 @@ class ModelArrays:
     def __init__(self, model: KinematicModel, device: wp.context.Device, dtype: Any) -> None:
         import warp as wp
 
-        vec3 = wp.types.vector(3, dtype)
-        transform = wp.types.transformation(dtype=dtype)
+        vec3 = wp.vec3d if dtype == wp.float64 else wp.vec3
+        transform = wp.transformd if dtype == wp.float64 else wp.transform
         np_float = np.float64 if dtype == wp.float64 else np.float32
 
         def ints(a: np.ndarray) -> wp.array:
