@@ -1,0 +1,131 @@
+"""The CLI: summaries of shipped creatures, conversions, and bad input as one line with exit code 2."""
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from morphkit.cli import main
+
+ROOT = Path(__file__).resolve().parents[1]
+
+GOOD_YAML = """\
+name: stick
+base: floating
+links:
+  hip: {shapes: [{type: sphere, radius: 0.1}]}
+  shin: {shapes: [{type: capsule, radius: 0.05, length: 0.4, origin: {xyz: [0, 0, -0.2]}}]}
+joints:
+  knee:
+    type: revolute
+    parent: hip
+    child: shin
+    origin: {xyz: [0, 0, -0.1]}
+    axis: [0, 1, 0]
+    limit: {lower: -1.0, upper: 1.0}
+end_effectors:
+  foot: {link: shin, offset: [0, 0, -0.45], role: foot}
+"""
+
+
+def run_cli(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", "morphkit.cli", *args], capture_output=True, text=True, cwd=ROOT, check=False
+    )
+
+
+@pytest.mark.parametrize(
+    ("name", "base", "dof", "roles"),
+    [
+        ("spot", "floating", 19, {"foot": 4, "hand": 1, "head": 1}),
+        ("crab", "floating", 24, {"foot": 6, "hand": 2, "head": 1}),
+        ("stretch", "wheeled", None, {"hand": 1, "head": 1}),
+        ("human", "floating", None, {"foot": 2, "hand": 2, "head": 1}),
+    ],
+)
+def test_info_json_on_shipped_creatures(name, base, dof, roles, capsys):
+    assert main(["info", name, "--json"]) == 0
+    s = json.loads(capsys.readouterr().out)
+    for key in (
+        "name",
+        "base",
+        "link_count",
+        "joint_counts",
+        "dof",
+        "coordinate_count",
+        "base_dof",
+        "end_effectors",
+        "characteristic_length",
+    ):
+        assert key in s
+    assert s["base"] == base
+    if dof is not None:
+        assert s["dof"] == dof
+    got = {}
+    for e in s["end_effectors"]:
+        got[e["role"]] = got.get(e["role"], 0) + 1
+    assert got == roles
+    assert s["link_count"] == sum(s["joint_counts"].values()) + 1
+    assert s["characteristic_length"] > 0
+
+
+def test_info_text_and_convert_round_trip(tmp_path):
+    src = tmp_path / "stick.yaml"
+    src.write_text(GOOD_YAML)
+    out = run_cli("info", str(src))
+    assert out.returncode == 0, out.stderr
+    assert "DoF                   1" in out.stdout and "stick" in out.stdout
+    for suffix in (".urdf", ".usda", ".yaml"):
+        dst = tmp_path / f"copy{suffix}"
+        res = run_cli("convert", str(src), str(dst))
+        assert res.returncode == 0, res.stderr
+        again = run_cli("info", str(dst), "--json")
+        assert json.loads(again.stdout)["dof"] == 1
+
+
+@pytest.mark.parametrize(
+    ("text", "line", "fragment"),
+    [
+        (GOOD_YAML.replace("type: revolute", "type: hinge"), 8, "unknown joint type 'hinge'"),
+        (GOOD_YAML.replace("lower: -1.0", "lower: 2.0"), 13, "lower 2.0 > upper 1.0"),
+        (GOOD_YAML.replace("child: shin", "child: calf"), 7, "calf"),
+        (GOOD_YAML.replace("radius: 0.1}", "radius: .nan}"), 4, "non-finite"),
+        (GOOD_YAML + "  oops: [\n", None, ""),
+    ],
+)
+def test_bad_input_is_one_line_exit_2(tmp_path, text, line, fragment):
+    src = tmp_path / "bad.yaml"
+    src.write_text(text)
+    res = run_cli("info", str(src))
+    assert res.returncode == 2
+    assert "Traceback" not in res.stderr
+    err = res.stderr.strip().splitlines()[-1]
+    assert err.startswith(f"error: {src}")
+    if line is not None:
+        assert err.startswith(f"error: {src}:{line}: "), err
+    assert fragment in err
+
+
+def test_missing_file_and_unknown_suffix_exit_2(tmp_path):
+    res = run_cli("info", str(tmp_path / "nope.yaml"))
+    assert res.returncode == 2 and "Traceback" not in res.stderr
+    weird = tmp_path / "creature.txt"
+    weird.write_text("hello")
+    res = run_cli("info", str(weird))
+    assert res.returncode == 2 and ".yaml" in res.stderr
+    res = run_cli("info")
+    assert res.returncode == 2
+
+
+def test_convert_never_clobbers_output_on_failure(tmp_path):
+    src = tmp_path / "bad.yaml"
+    src.write_text(GOOD_YAML.replace("type: revolute", "type: hinge"))
+    dst = tmp_path / "keep.urdf"
+    dst.write_text("precious")
+    res = run_cli("convert", str(src), str(dst))
+    assert res.returncode == 2
+    assert dst.read_text() == "precious"
+    assert sorted(os.listdir(tmp_path)) == ["bad.yaml", "keep.urdf"]
