@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import torch
 
 from morphkit.errors import GraphError
@@ -91,6 +92,19 @@ def _normalize(q: torch.Tensor) -> torch.Tensor:
     return q / torch.linalg.vector_norm(q, dim=-1, keepdim=True)
 
 
+def _constants(model: KinematicModel, dtype: torch.dtype, device: torch.device) -> tuple[torch.Tensor, torch.Tensor]:
+    """Joint origins [J, 7] and axes [J, 3] as tensors, cached per dtype and device."""
+    cache = model.kernel_cache()
+    key = ("reference", dtype, device)
+    hit = cache.get(key)
+    if hit is None:
+        hit = cache[key] = (
+            torch.tensor(np.array(model.joint_X_parent), dtype=dtype, device=device),
+            torch.tensor(np.array(model.joint_axis), dtype=dtype, device=device),
+        )
+    return hit
+
+
 # ---- FK -------------------------------------------------------------------------------------
 def fk_reference(
     model: KinematicModel,
@@ -123,8 +137,7 @@ def fk_reference(
         raise GraphError(f"q: expected shape [..., {C}] for {model.name!r}, got {list(q.shape)}")
     lead = q.shape[:-1]
     dt, dev = q.dtype, q.device
-    X = torch.as_tensor(model.joint_X_parent, dtype=dt, device=dev)
-    axis = torch.as_tensor(model.joint_axis, dtype=dt, device=dev)
+    X, axis = _constants(model, dt, dev)
     J = model.joint_count
     if joint_offsets is not None and joint_offsets.shape[-2:] != (J, 3):
         raise GraphError(f"joint_offsets: expected shape [..., {J}, 3], got {list(joint_offsets.shape)}")
@@ -202,8 +215,8 @@ def end_effectors_reference(model: KinematicModel, Ts_world_link: torch.Tensor, 
     The position is the end-effector point (its offset in the link frame); the orientation is
     its link's. ``frame="heading"`` expresses both in the root's heading frame.
     """
-    idx = torch.as_tensor(model.ee_link, dtype=torch.long, device=Ts_world_link.device)
-    off = torch.as_tensor(model.ee_offset, dtype=Ts_world_link.dtype, device=Ts_world_link.device)
+    idx = torch.tensor(np.array(model.ee_link), dtype=torch.long, device=Ts_world_link.device)
+    off = torch.tensor(np.array(model.ee_offset), dtype=Ts_world_link.dtype, device=Ts_world_link.device)
     T_link = Ts_world_link[..., idx, :]
     ident = torch.tensor([0, 0, 0, 1.0], dtype=off.dtype, device=off.device).expand(*off.shape[:-1], 4)
     T_ee = transform_multiply(T_link, torch.cat((off, ident), dim=-1))
@@ -237,8 +250,8 @@ def wheel_angles_reference(model: KinematicModel, q: torch.Tensor) -> torch.Tens
     h_safe = torch.where(small, torch.ones_like(h), h)
     arc_factor = torch.where(small, 1.0 + h * h / 6.0, h_safe / torch.sin(h_safe))
     s = chord * arc_factor
-    lateral = torch.as_tensor(model.wheel_lateral, dtype=base_q.dtype, device=base_q.device)
-    sign = torch.as_tensor(model.wheel_sign, dtype=base_q.dtype, device=base_q.device)
+    lateral = torch.tensor(np.array(model.wheel_lateral), dtype=base_q.dtype, device=base_q.device)
+    sign = torch.tensor(np.array(model.wheel_sign), dtype=base_q.dtype, device=base_q.device)
     dtheta = sign * (s[..., None] - lateral * dpsi[..., None]) / model.wheel_radius
     zero = torch.zeros_like(dtheta[..., :1, :])
     return torch.cat((zero, torch.cumsum(dtheta, dim=-2)), dim=-2)
