@@ -281,8 +281,9 @@ def _nice_step(x: float) -> float:
 
 def _grid_texture(size: int = 64, line: int = 2) -> np.ndarray:
     """One grid cell as an RGB tile (repeated over the ground): light fill, darker border lines."""
-    tile = np.full((size, size, 3), 236, dtype=np.uint8)
-    tile[:line] = tile[-line:] = tile[:, :line] = tile[:, -line:] = 196
+    # Dim enough that the key light does not wash the floor out to the white background.
+    tile = np.full((size, size, 3), 200, dtype=np.uint8)
+    tile[:line] = tile[-line:] = tile[:, :line] = tile[:, -line:] = 160
     return tile
 
 

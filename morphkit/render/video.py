@@ -75,8 +75,10 @@ def write_frames(
 ) -> Path:
     """Write RGB uint8 frames [H, W, 3] to ``out`` atomically; the suffix picks the format.
 
-    ``.gif`` always works (Pillow); ``.mp4``/``.mov``/``.mkv``/``.webm``/``.avi`` need ffmpeg
-    (``pip install imageio-ffmpeg``) and stream frames to it; ``.png`` writes a still for one
+    ``.gif`` always works (Pillow; identical consecutive frames are merged into one, their
+    durations added, so a still clip plays as long but holds fewer frames);
+    ``.mp4``/``.mov``/``.mkv``/``.webm``/``.avi`` need ffmpeg (``pip install imageio-ffmpeg``)
+    and stream frames to it; ``.png`` writes a still for one
     frame and a contact sheet of up to 12 evenly spaced frames (captioned with ``labels``, one per
     frame, when given) for several.
 
