@@ -842,7 +842,9 @@ def skeleton_from_bvh(
        each Daz finger). A limb with one candidate keeps it, named ``<parent joint>_end``; a
        limb with several (fingers, eyes) becomes one end-effector at the limb's topmost joint,
        zero offset, named after that joint. (A joint already named ``*_end`` lends its name
-       unchanged; clashing names get a numeric suffix.)
+       unchanged; clashing names get a numeric suffix.) A limb with a strong keyword but no End
+       Site at all (some exporters omit them) gets an end-effector at its tip joint (followed
+       down while the limb does not branch), zero offset, named after that joint.
     3. With ``detect_front_paws``, a "hand" that moves at the feet's height is a front foot
        (quadruped rigs call their front paws hands) and becomes a foot: its median height above
        the feet over the clip is below 35% of the hips' (the joint where the feet's chains
@@ -962,6 +964,23 @@ def _choose_end_effectors(
         chosen.append(
             (_end_name(site.joint), site.parent, _tuple3(end_offsets[e]), EndEffectorRole.TOOL, site.line, J + e)
         )
+    # Limbs that end without any End Site (some exporters omit them): the limb's joint itself.
+    ends_below = set()
+    for site in bvh.end_sites:
+        j = site.parent
+        while j >= 0 and j not in ends_below:
+            ends_below.add(j)
+            j = parents[j]
+    children = [[c for c in range(J) if parents[c] == j] for j in range(J)]
+    for j in range(J):
+        role = strong[j]
+        if role is None or j in ends_below or (parents[j] >= 0 and strong[parents[j]] == role):
+            continue
+        # Follow the limb down while it does not branch (ankle -> toe), so the point is its tip.
+        tip = j
+        while len(children[tip]) == 1 and strong[children[tip][0]] == role:
+            tip = children[tip][0]
+        chosen.append((bvh.joint_names[tip], tip, (0.0, 0.0, 0.0), role, joint_line(tip), tip))
 
     # Quadruped rigs name their front paws "hands": a hand that moves at the feet's height is a foot.
     hands = [i for i, c in enumerate(chosen) if c[3] == EndEffectorRole.HAND]

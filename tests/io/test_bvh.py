@@ -305,7 +305,8 @@ def test_skeleton_scale_override_and_bad_scale() -> None:
 
 
 def test_end_effector_grouping_and_fallbacks() -> None:
-    """Fingers merge into one hand at the hand joint; weak keywords (neck) and unnamed tips (tool)."""
+    """Fingers merge into one hand at the hand joint; weak keywords (neck), unnamed tips (tool), and a
+    foot without an End Site."""
     text = (
         """HIERARCHY
 ROOT pelvis
@@ -362,6 +363,16 @@ ROOT pelvis
       OFFSET 0 0 0.1
     }
   }
+  JOINT r_ankle
+  {
+    OFFSET -0.1 -0.9 0
+    CHANNELS 0
+    JOINT r_toe
+    {
+      OFFSET 0 0 0.1
+      CHANNELS 0
+    }
+  }
 }
 MOTION
 Frames: 1
@@ -377,6 +388,7 @@ Frame Time: 0.1
         "rHand": ("rHand", EndEffectorRole.HAND),
         "tail_end": ("tail_end", EndEffectorRole.TOOL),
         "l_ankle_end": ("l_ankle", EndEffectorRole.FOOT),
+        "r_toe": ("r_toe", EndEffectorRole.FOOT),  # no End Site: the limb's tip joint
     }
     assert m.end_effector("rHand").offset == (0.0, 0.0, 0.0)
 
