@@ -28,9 +28,14 @@ Skeletons (:func:`read_bvh_skeleton`, :func:`skeleton_from_bvh`) become a
   face another direction (the dog clips face +X).
 - Units: file units times a scale to metres; by default :func:`detect_bvh_scale` (1 when the
   rest skeleton's largest extent is at most 10 file units, else centimetres, 0.01). The real
-  files behind this rule: CMU (AMASS) 1.6-1.9 (metres), CMU Daz 170 and Bandai Namco 450+
-  (centimetres), dog 100+ (cm), crab 0.6 and elephants 2.7 (metres). Inches cannot be told
-  from centimetres by size alone: pass ``scale=0.0254``.
+  files behind this rule (largest rest extent in file units): CMU (AMASS) 1.58 (metres), CMU
+  Daz 152.7 and Bandai Namco 184-457 (centimetres), dog 87 (cm), crab 1.1 and elephants 2.84
+  (metres). Inches cannot be told from centimetres by size alone: pass ``scale=0.0254``.
+- Rest poses: the skeleton's rest pose is the BVH's (all channels zero). CMU and Daz rest in a
+  standing T-pose; the Bandai Namco and dog rigs put every bone along its local x, so their
+  rest pose is not upright (their motion rotations make it so), and a rest-pose height is
+  meaningless for them. Note also that the CMU (AMASS) clips are Z-up in their motion (the root
+  rotation stands the Y-up skeleton up along Z), whereas Daz, Bandai Namco and the dog are Y-up.
 - Links and joints: one link per BVH joint, named after it, in BVH order (``links[i]`` is BVH
   joint ``i``); the root joint is the root link of a floating base (its ``OFFSET`` is ignored:
   the motion places the root). Every other joint is a joint of the same name: spherical when
