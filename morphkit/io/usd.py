@@ -797,7 +797,10 @@ def _add_joint(
     jtype = parse_enum(JointType, declared, what="joint type", location=where) if declared else None
     pose0 = r.local_pose(jp, 0)
     pose1 = r.local_pose(jp, 1)
-    parent_T = body_to_morph[b0.GetPath()] if b0 is not None else _IDENTITY7
+    if b0 is not None:
+        parent_T = body_to_morph[b0.GetPath()]
+    else:  # the world link: the stage's frame, turned Z-up like the roots
+        parent_T = _pose([0.0, 0.0, 0.0], _Y_UP_TO_Z_UP) if r.y_up else _IDENTITY7
     # origin = T_parent_body0 · local0 · rot1⁻¹ (the child link frame at the pivot, oriented as body1).
     origin = transform_multiply(transform_multiply(parent_T, pose0), _pose([0, 0, 0], quat_conjugate(pose1[3:])))
     axis = (1.0, 0.0, 0.0)
