@@ -48,6 +48,38 @@ def bench(m, *, shadows: bool, frames: int, size: tuple[int, int]) -> float:
         return frames / (time.perf_counter() - t0)
 
 
+def bench_reference(*, shadows: bool, frames: int, size: tuple[int, int]) -> float:
+    """Frames/s of issue 5's yardstick: 30 capsules over a 10 m ground box, one directional light.
+
+    Printed beside Spot's figures so a run on a busy or different machine can be read relatively.
+    """
+    import trimesh
+
+    from morphkit.render._gl import import_pyrender
+    from morphkit.render.scene import look_at
+
+    pyrender = import_pyrender()
+    scene = pyrender.Scene(bg_color=[1, 1, 1, 1], ambient_light=[0.3, 0.3, 0.3])
+    material = pyrender.MetallicRoughnessMaterial(baseColorFactor=[0.8, 0.3, 0.2, 1.0])
+    for i in range(30):
+        T = np.eye(4)
+        T[:3, 3] = [np.cos(i) * 0.5, np.sin(i) * 0.5, 0.3]
+        capsule = trimesh.creation.capsule(height=0.3, radius=0.04, count=[16, 16])
+        scene.add(pyrender.Mesh.from_trimesh(capsule, material=material), pose=T)
+    scene.add(pyrender.Mesh.from_trimesh(trimesh.creation.box([10, 10, 0.01])))
+    camera = scene.add(pyrender.PerspectiveCamera(yfov=0.8, aspectRatio=size[0] / size[1]))
+    scene.add(pyrender.DirectionalLight(intensity=3.0), pose=look_at(np.array([1.0, 1.0, 3.0]), np.zeros(3)))
+    flags = pyrender.RenderFlags.SHADOWS_DIRECTIONAL if shadows else pyrender.RenderFlags.NONE
+    with offscreen_renderer(*size) as renderer:
+        for k in range(frames + 2):
+            if k == 2:  # after two warm-up frames
+                t0 = time.perf_counter()
+            a = 2 * np.pi * k / frames
+            scene.set_pose(camera, look_at(np.array([2.8 * np.cos(a), 2.8 * np.sin(a), 1.5]), np.zeros(3)))
+            renderer.render(scene, flags=flags)
+        return frames / (time.perf_counter() - t0)
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--creature", default="spot")
@@ -64,8 +96,12 @@ def main() -> None:
     print(f"{m.name}: {m.link_count} links, {args.size}, platform {platform} ({gl}), {os.cpu_count()} CPUs")
     for shadows in (True, False):
         fps = bench(m, shadows=shadows, frames=args.frames, size=size)  # type: ignore[arg-type]
+        ref = bench_reference(shadows=shadows, frames=args.frames, size=size)  # type: ignore[arg-type]
         target = 10 if shadows else 15
-        print(f"  shadows {'on ' if shadows else 'off'}: {fps:6.1f} frames/s (target ≥ {target})")
+        print(
+            f"  shadows {'on ' if shadows else 'off'}: {fps:6.1f} frames/s (target ≥ {target}); "
+            f"reference scene of 30 capsules here: {ref:.1f} frames/s"
+        )
 
 
 if __name__ == "__main__":

@@ -449,7 +449,7 @@ class CreatureScene:
     def ground_radius(self, reach: float, height: float) -> float:
         """Ground disc radius [m] for a creature reaching ``reach`` [m] sideways from the camera
         target and ``height`` [m] tall: room for its shadow (key light 60° up) before the fade."""
-        return max((reach + 0.6 * height) / 0.75 + 0.5 * self._grid_step, 3.0 * self._grid_step)
+        return max(1.15 * reach + 0.6 * height, 2.0 * self._grid_step)
 
     @property
     def grid_step(self) -> float:
