@@ -12,10 +12,9 @@ from typing import Any
 
 import numpy as np
 
-from morphkit.conventions import quat_rotate
 from morphkit.graph import Morphology
 
-__all__ = ["compiled_model", "link_poses_and_end_effectors"]
+__all__ = ["compiled_model", "link_poses_and_end_effectors", "wheel_angles"]
 
 _models: dict[int, tuple[weakref.ref, Any]] = {}
 _lock = threading.Lock()
@@ -36,6 +35,17 @@ def compiled_model(morphology: Morphology) -> Any:
     return model
 
 
+def wheel_angles(morphology: Morphology, q: np.ndarray) -> np.ndarray:
+    """Wheel angles [T, W] [rad] rolling without slip along the base path of ``q`` [T, C] (W = 0 unless wheeled)."""
+    from morphkit.kernels import eval_wheel_angles
+
+    model = compiled_model(morphology)
+    q = np.ascontiguousarray(q, dtype=np.float64)
+    if model.wheel_count == 0 or q.shape[0] == 0:
+        return np.zeros((q.shape[0], model.wheel_count))
+    return eval_wheel_angles(model, q, device="cpu").numpy().reshape(q.shape[0], model.wheel_count)
+
+
 def link_poses_and_end_effectors(
     morphology: Morphology, q: np.ndarray, wheel_q: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -46,15 +56,16 @@ def link_poses_and_end_effectors(
         q: Coordinates in its q layout, shape [T, C].
         wheel_q: Wheel angles [rad], shape [T, W] (``None``: wheels at 0).
     """
-    from morphkit.kernels import eval_fk
+    from morphkit.kernels import eval_end_effectors, eval_fk
 
     model = compiled_model(morphology)
     q = np.ascontiguousarray(q, dtype=np.float64)
-    if q.shape[0] == 0:
-        return np.zeros((0, model.link_count, 7)), np.zeros((0, model.ee_count, 3))
-    poses = eval_fk(model, q, wheel_q=wheel_q, device="cpu").numpy().reshape(q.shape[0], model.link_count, 7)
-    if model.ee_count == 0:
-        return poses, np.zeros((q.shape[0], 0, 3))
-    T = poses[:, model.ee_link]  # [T, E, 7]
-    ee = T[..., :3] + quat_rotate(T[..., 3:], np.broadcast_to(model.ee_offset, T[..., :3].shape))
-    return poses, ee
+    T, L, E = q.shape[0], model.link_count, model.ee_count
+    if T == 0:
+        return np.zeros((0, L, 7)), np.zeros((0, E, 3))
+    links = eval_fk(model, q, wheel_q=wheel_q, device="cpu")
+    poses = links.numpy().reshape(T, L, 7)
+    if E == 0:
+        return poses, np.zeros((T, 0, 3))
+    ee, _ = eval_end_effectors(model, q, Ts_world_link=links, wheel_q=wheel_q, device="cpu")
+    return poses, ee.numpy().reshape(T, E, 3)

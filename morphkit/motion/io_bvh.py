@@ -16,9 +16,9 @@ Reading (:func:`read_bvh_motion`):
   does). A non-root joint's translation channels that stay at its ``OFFSET`` (Bandai Namco
   writes them for every joint) are dropped silently; ones that move cannot be expressed by a
   rigid skeleton and are dropped with a :class:`UserWarning` naming the joints and how far they
-  move. A *static* root (all channels constant, no rotation) with one child that carries the
-  translation — Bandai Namco's ``joint_Root`` above ``Hips`` — is removed first, so the moving
-  joint becomes the root (the pelvis, as ACE's states want).
+  move. A root that never rotates, with one child that has translation channels — Bandai
+  Namco's ``joint_Root`` above ``Hips`` — is removed first (the two translations add up), so
+  the pelvis becomes the root, as ACE's states want.
 - **Frame rate**: ``1 / Frame Time``, snapped to the nearest integer when within 0.01 fps
   (``Frame Time: 0.033333`` is 30 fps); ``fps=`` resamples (slerp for rotations).
 - **Ground**: with ``ground=True`` the root is shifted vertically so that the lowest foot
@@ -42,11 +42,12 @@ import numpy as np
 
 from morphkit.conventions import quat_conjugate, quat_from_matrix, quat_multiply, quat_rotate
 from morphkit.errors import ConfigError, MotionFormatError
-from morphkit.graph import BaseType, JointType, Morphology
+from morphkit.graph import BaseType, EndEffectorRole, JointType, Morphology
 from morphkit.io.bvh import (
     BvhEndSite,
     BvhFile,
     bvh_frame_rotation,
+    bvh_joint_positions,
     detect_bvh_scale,
     read_bvh,
     skeleton_from_bvh,
@@ -101,34 +102,36 @@ def _position_columns(bvh: BvhFile, j: int) -> dict[int, int]:
     return {"XYZ".index(ch[0]): start + k for k, ch in enumerate(bvh.joint_channels[j]) if ch.endswith("position")}
 
 
-def _collapse_static_root(bvh: BvhFile) -> BvhFile:
-    """Drop a static root whose single child carries the translation (see the module docstring)."""
+def _collapse_translating_root(bvh: BvhFile) -> BvhFile:
+    """Drop a root that only translates when its single child carries translation channels too.
+
+    Bandai Namco's ``joint_Root`` never rotates and either stays put or carries the clip's travel,
+    while ``Hips`` below it carries the body's own translation: with an identity root rotation
+    the two translations simply add, so the child becomes the root with their sum.
+    """
     if bvh.joint_count < 2 or bvh.frame_count == 0:
         return bvh
     children = bvh.children(0)
     if len(children) != 1 or any(s.parent == 0 for s in bvh.end_sites):
         return bvh
     child = children[0]
-    if not _position_columns(bvh, child):
+    child_pos = _position_columns(bvh, child)
+    if not child_pos:
         return bvh
-    root_cols = list(range(bvh.joint_channel_start[0], bvh.joint_channel_start[1]))
-    values = bvh.motion[:, root_cols]
-    tol = _STATIC_TOL * _skeleton_size(bvh)
     rot_cols, _ = _rotation_columns(bvh, 0)
-    if np.ptp(values, axis=0).max(initial=0.0) > tol or np.abs(bvh.motion[:, rot_cols]).max(initial=0.0) > 1e-6:
+    if np.abs(bvh.motion[:, rot_cols]).max(initial=0.0) > 1e-6:
         return bvh
-    # The root is the identity rotation at a fixed place: fold that place into the child's translation.
-    root_pos = np.array(bvh.joint_offsets[0], dtype=float)
+    root_pos = np.broadcast_to(np.asarray(bvh.joint_offsets[0], dtype=float), (bvh.frame_count, 3)).copy()
     for axis, col in _position_columns(bvh, 0).items():
-        root_pos[axis] = bvh.motion[0, col]
-    keep = list(range(1, bvh.joint_count))
+        root_pos[:, axis] = bvh.motion[:, col]
+    keep = range(1, bvh.joint_count)
     cols = [c for j in keep for c in range(bvh.joint_channel_start[j], bvh.joint_channel_start[j + 1])]
     motion = bvh.motion[:, cols].copy()
-    start = 0
-    for axis, col in _position_columns(bvh, child).items():
-        motion[:, col - bvh.joint_channel_start[1] + start] += root_pos[axis]
+    shift = bvh.joint_channel_start[1]  # the child's columns start at 0 in the new array
+    for axis, col in child_pos.items():
+        motion[:, col - shift] += root_pos[:, axis]
     offsets = bvh.joint_offsets[1:].copy()
-    offsets[0] += root_pos
+    offsets[0] += root_pos[0]
     return BvhFile(
         joint_names=bvh.joint_names[1:],
         joint_parents=tuple(p - 1 for p in bvh.joint_parents[1:]),
@@ -163,18 +166,33 @@ def _file_rotations(bvh: BvhFile) -> np.ndarray:
     return quats
 
 
-def _detect_up(root_rotations: np.ndarray) -> str:
-    """``"+y"`` or ``"+z"``: the file axis the skeleton's rest up (+Y) points along on average."""
+def _detect_up(bvh: BvhFile, skeleton: Morphology | None, root_rotations: np.ndarray) -> str:
+    """``"+y"`` or ``"+z"``: the file axis along which the body stands.
+
+    With feet in the skeleton, each axis scores how far the root stays above its *highest* foot
+    along it (mean over up to 64 frames): along the vertical every foot is below the root, while
+    along a horizontal axis feet lie on both sides of it (strides, front and hind legs). Without
+    feet, the direction the root's rest up (+Y) points to on average decides.
+    """
+    feet = [] if skeleton is None else [e.link for e in skeleton.end_effectors if e.role == EndEffectorRole.FOOT]
+    if feet:
+        low = [bvh.joint_names.index(n) for n in feet]
+        step = max(1, bvh.frame_count // 64)
+        pos = bvh_joint_positions(bvh, slice(None, None, step))[:, : bvh.joint_count]
+        score = (pos[:, 0] - pos[:, low].max(axis=1)).mean(axis=0)  # [3]
+        return "+z" if score[2] > score[1] else "+y"
     up = quat_rotate(root_rotations, np.broadcast_to([0.0, 1.0, 0.0], (*root_rotations.shape[:-1], 3)))
-    mean = up.mean(axis=0)
-    return "+z" if mean[2] > mean[1] else "+y"
+    up = up.mean(axis=0)
+    return "+z" if up[2] > up[1] else "+y"
 
 
-def _world_rotation(up: str, facing: str, root_rotations: np.ndarray) -> np.ndarray:
+def _world_rotation(
+    up: str, facing: str, bvh: BvhFile, skeleton: Morphology | None, root_rotations: np.ndarray
+) -> np.ndarray:
     """``R_w`` with ``p_morphkit = R_w @ p_file`` for world positions."""
     key = up.strip().lower() if isinstance(up, str) else up
     if key == "auto":
-        key = _detect_up(root_rotations)
+        key = _detect_up(bvh, skeleton, root_rotations)
     if key == "+y":
         return bvh_frame_rotation(facing)
     if key == "+z":
@@ -226,10 +244,11 @@ _skeletons: dict[tuple, Morphology] = {}
 
 
 def _shared_skeleton(bvh: BvhFile, scale: float, facing: str, name: str) -> Morphology:
+    # The root's OFFSET does not enter the skeleton (the motion places the root).
     key = (
         bvh.joint_names,
         bvh.joint_parents,
-        bvh.joint_offsets.tobytes(),
+        bvh.joint_offsets[1:].tobytes(),
         bvh.joint_channels,
         tuple((e.parent, e.offset) for e in bvh.end_sites),
         scale,
@@ -262,8 +281,8 @@ def bvh_to_motion(
         scale: File units to metres (``None``: detected from the skeleton's size).
         facing: The BVH axis the skeleton faces at rest (``"+z"`` for CMU, Daz, Bandai Namco;
             ``"+x"`` for the dog clips).
-        up: The world's up axis in the file's motion: ``"+y"``, ``"+z"`` or ``"auto"`` (the axis the
-            root's rest up, file +Y, points along on average). The skeleton's rest pose is always
+        up: The world's up axis in the file's motion: ``"+y"``, ``"+z"`` or ``"auto"`` (the axis
+            along which the root stays above every foot). The skeleton's rest pose is always
             taken as Y-up; the CMU (AMASS) clips have a Y-up skeleton moving in a Z-up world.
         fps: Resample to this frame rate (``None``: keep the file's).
         ground: Shift the root so the lowest foot touches z = 0 (ignored with ``morphology=``).
@@ -283,14 +302,14 @@ def bvh_to_motion(
         name = os.path.splitext(os.path.basename(bvh.source))[0] if bvh.source else "bvh"
     if morphology is not None:
         return _bvh_into_morphology(bvh, morphology, scale=scale, facing=facing, up=up, fps=fps, name=name)
-    bvh = _collapse_static_root(bvh)
+    bvh = _collapse_translating_root(bvh)
     if scale is not None and (isinstance(scale, bool) or not math.isfinite(scale) or scale <= 0):
         raise ConfigError(f"BVH scale must be a positive number, got {scale!r}")
     s = float(scale) if scale is not None else detect_bvh_scale(bvh)
     skeleton = _shared_skeleton(bvh, s, facing, name)
     R_skel = bvh_frame_rotation(facing)
     file_rotations = _file_rotations(bvh)  # [T, J, 4]
-    R_world = _world_rotation(up, facing, file_rotations[:, 0])
+    R_world = _world_rotation(up, facing, bvh, skeleton, file_rotations[:, 0])
     rotations = _to_morphkit_rotations(file_rotations, R_skel, R_world)
     translations = _joint_translations(bvh)  # [T, J, 3]
     _warn_moving_translations(bvh, translations)
@@ -318,8 +337,6 @@ def ground_motion(motion: Motion) -> Motion:
     Feet are the end-effectors with role ``foot``; without any, every link origin and
     end-effector counts. Other base types are returned unchanged (they move on the ground).
     """
-    from morphkit.graph import EndEffectorRole
-
     m = motion.morphology
     if m.base != BaseType.FLOATING:
         return motion
@@ -349,7 +366,7 @@ def _bvh_into_morphology(
         )
     file_rotations = _file_rotations(bvh)
     # Files written by write_bvh_motion are Y-up; "auto" means that here.
-    R_world = _world_rotation("+y" if up == "auto" else up, facing, file_rotations[:, 0])
+    R_world = _world_rotation("+y" if up == "auto" else up, facing, bvh, None, file_rotations[:, 0])
     rotations = _to_morphkit_rotations(file_rotations, R, R_world)
     translations = (_joint_translations(bvh) @ R.T) * s
     translations[:, 0] = (_joint_translations(bvh)[:, 0] @ R_world.T) * s
@@ -446,11 +463,13 @@ def _local_rotations_and_translations(motion: Motion, wheel_q: np.ndarray | None
 
 
 def _joint_values(motion: Motion, wheel_q: np.ndarray | None) -> dict[int, np.ndarray]:
-    """Value [T] of every 1-DoF joint, driven ones included (mimic; wheels from ``wheel_q`` or 0)."""
+    """Value [T] of every 1-DoF joint, driven ones included (mimic; wheels from ``wheel_q`` or rolling)."""
     m = motion.morphology
     T = motion.frame_count
     values: dict[int, np.ndarray] = {}
     wheels = list(m.wheels.joints) if m.wheels is not None else []
+    if wheels and wheel_q is None:
+        wheel_q = motion.wheel_angles()
     for j, joint in enumerate(m.joints):
         if joint.type not in (JointType.REVOLUTE, JointType.CONTINUOUS, JointType.PRISMATIC):
             continue
@@ -470,7 +489,8 @@ def motion_to_bvh(motion: Motion, *, wheel_q: np.ndarray | None = None, facing: 
 
     Args:
         motion: The motion.
-        wheel_q: Wheel angles [rad], shape [T, W], for a wheeled base (default: wheels at 0).
+        wheel_q: Wheel angles [rad], shape [T, W], for a wheeled base (default:
+            :meth:`Motion.wheel_angles`, rolling without slip).
         facing: The BVH axis the character should face (default ``"+z"``, Blender's convention).
     """
     m = motion.morphology

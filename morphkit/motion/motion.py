@@ -206,13 +206,26 @@ class Motion:
 
     # ---- kinematics ------------------------------------------------------------------------
     @cached_property
+    def _wheel_q(self) -> np.ndarray:
+        from morphkit.motion._fk import wheel_angles
+
+        return wheel_angles(self.morphology, self.q)
+
+    def wheel_angles(self) -> np.ndarray:
+        """Angles [rad] of the drive wheels, rolling without slip along the base path, shape [T, W]
+        (W = 0 unless the base is wheeled with named wheels); 0 at the first frame."""
+        return self._wheel_q
+
+    @cached_property
     def _fk(self) -> tuple[np.ndarray, np.ndarray]:
         from morphkit.motion._fk import link_poses_and_end_effectors
 
-        return link_poses_and_end_effectors(self.morphology, self.q)
+        wheel_q = self._wheel_q if self._wheel_q.shape[1] else None
+        return link_poses_and_end_effectors(self.morphology, self.q, wheel_q)
 
     def link_poses(self) -> np.ndarray:
-        """World poses of every link ``T_world_link`` per frame, shape [T, L, 7] (through the FK kernels)."""
+        """World poses of every link ``T_world_link`` per frame, shape [T, L, 7] (through the FK kernels;
+        wheels turn with :meth:`wheel_angles`)."""
         return self._fk[0]
 
     def link_positions(self) -> np.ndarray:

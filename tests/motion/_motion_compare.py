@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from morphkit.graph import BaseType, JointType, Morphology
+from morphkit.motion import Motion
 
 
 def assert_q_close(m: Morphology, a: np.ndarray, b: np.ndarray, atol: float) -> None:
@@ -33,3 +34,25 @@ def assert_q_close(m: Morphology, a: np.ndarray, b: np.ndarray, atol: float) -> 
         np.testing.assert_allclose(d, 0.0, atol=atol)
         done[s] = True
     np.testing.assert_allclose(a[:, ~done], b[:, ~done], atol=atol, rtol=0)
+
+
+def reference_link_positions(motion: Motion) -> np.ndarray:
+    """Link positions [T, L, 3] through the pure-torch reference FK (float64).
+
+    Tests compare motions read back from files (whose morphologies differ from the original by
+    float round-off) with this oracle, so no FK kernel is generated for each re-read skeleton.
+    """
+    import torch
+
+    from morphkit.model import compile_model
+    from morphkit.torch.reference import fk_reference
+
+    model = compile_model(motion.morphology)
+    wheel = motion.wheel_angles() if motion.morphology.wheels is not None else None
+    with torch.no_grad():
+        T = fk_reference(
+            model,
+            torch.as_tensor(motion.q, dtype=torch.float64),
+            wheel_q=None if wheel is None else torch.as_tensor(wheel, dtype=torch.float64),
+        )
+    return T[..., :3].numpy()

@@ -1,0 +1,178 @@
+"""Every clip in ``$MORPHKIT_DATA`` loads; CMU humans stand on the ground at human height; Spot vs
+CMU end-effector mapping (skipped when ``MORPHKIT_DATA`` is unset).
+
+All clips are read (cheap once the FK kernel of each skeleton is compiled); the heavier checks
+(round trips, the mapping) run on subsets.
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+from _motion_compare import reference_link_positions
+
+from morphkit.graph import EndEffectorRole
+from morphkit.motion import (
+    Motion,
+    ee_distributions,
+    map_end_effectors,
+    read_bvh_motion,
+    read_motion,
+    write_motion,
+)
+from morphkit.motion._rotations import quat_from_yaw
+
+DATA = Path(os.environ["MORPHKIT_DATA"]) if os.environ.get("MORPHKIT_DATA") else None
+FOLDERS = {"cmu": "human/cmu", "cmu_daz": "human/cmu_daz", "second_skeleton": "human/second_skeleton",
+           "dog": "creatures/dog"}
+FACING = {"dog": "+x"}
+
+pytestmark = pytest.mark.skipif(
+    DATA is None or not (DATA / "human" / "cmu").is_dir(), reason="MORPHKIT_DATA is not set (or has no human/cmu)"
+)
+
+_cache: dict[str, list[Motion]] = {}
+
+
+def _load(key: str) -> list[Motion]:
+    if key not in _cache:
+        assert DATA is not None
+        files = sorted((DATA / FOLDERS[key]).glob("*.bvh"))
+        if not files:
+            pytest.skip(f"no BVH files in {DATA / FOLDERS[key]}")
+        _cache[key] = [read_bvh_motion(f, facing=FACING.get(key, "+z")) for f in files]
+    return _cache[key]
+
+
+def _manifest(key: str) -> dict[str, dict[str, str]]:
+    assert DATA is not None
+    path = DATA / FOLDERS[key] / "MANIFEST.csv"
+    if not path.is_file():
+        return {}
+    with path.open(newline="") as f:
+        return {row["file"]: row for row in csv.DictReader(f)}
+
+
+def _ee(m: Motion, role: EndEffectorRole) -> list[int]:
+    return [i for i, e in enumerate(m.morphology.end_effectors) if e.role == role]
+
+
+@pytest.mark.parametrize("key", list(FOLDERS))
+def test_every_clip_loads(key: str) -> None:
+    motions = _load(key)
+    manifest = _manifest(key)
+    for m in motions:
+        assert np.isfinite(m.q).all(), m.name
+        row = manifest.get(f"{m.name}.bvh")
+        if row is not None:
+            assert m.frame_count == int(row["frames"]), m.name
+            assert m.fps == pytest.approx(float(row["fps"]), rel=1e-3), m.name
+        assert len(_ee(m, EndEffectorRole.FOOT)) >= 2, m.name
+        # Grounded: the lowest foot touches z = 0.
+        assert m.end_effector_positions()[:, _ee(m, EndEffectorRole.FOOT), 2].min() == pytest.approx(0.0, abs=1e-9)
+    # Clips of one convention share their skeleton object (one compiled FK kernel).
+    assert len({id(m.morphology) for m in motions}) <= 3
+
+
+def test_cmu_clips_stand_on_the_ground_at_human_height() -> None:
+    motions = _load("cmu")
+    assert len(motions) >= 200
+    stance_heights = []
+    for m in motions:
+        length = m.morphology.characteristic_length
+        assert 1.5 <= length <= 1.9, m.name
+        ee = m.end_effector_positions()
+        feet, head = _ee(m, EndEffectorRole.FOOT), _ee(m, EndEffectorRole.HEAD)
+        foot_z = ee[:, feet, 2]
+        # Upright: at its tallest (95th percentile) the head is near the rest height above the feet.
+        head_above = ee[:, head[0], 2] - foot_z.min(axis=1)
+        assert 0.8 * length <= np.percentile(head_above, 95) <= 1.05 * length, m.name
+        # Feet in stance (slower than 0.2 m/s) are on the ground.
+        speed = np.linalg.norm(np.diff(ee[:, feet], axis=0), axis=-1) * m.fps
+        stance = foot_z[1:][speed < 0.2]
+        assert stance.size > 0, m.name
+        assert np.median(stance) < 0.1, m.name
+        stance_heights.append(np.median(stance))
+    assert np.median(stance_heights) < 0.04
+
+
+def test_other_humans_and_dogs_stand_upright() -> None:
+    for m in _load("second_skeleton"):
+        top = np.percentile(m.link_positions()[..., 2].max(axis=1), 95)
+        assert 1.2 <= top <= 2.0, m.name
+        assert m.morphology.root == "Hips"  # the translating joint_Root was folded away
+    for m in _load("dog"):
+        # Some dog clips lie down for half their length: judge the standing part.
+        standing = m.q[:, 2] >= np.percentile(m.q[:, 2], 90)
+        assert 0.35 <= np.median(m.q[standing, 2]) <= 0.8, m.name
+        feet = _ee(m, EndEffectorRole.FOOT)
+        assert len(feet) == 4
+        if "stepup" not in m.name:  # those end on a raised step
+            lowest = m.end_effector_positions()[standing][:, feet, 2].min(axis=1)
+            assert np.median(lowest) < 0.1, m.name
+
+
+def test_real_clip_round_trips(tmp_path: Path) -> None:
+    for key in ("cmu", "second_skeleton"):
+        m = _load(key)[0][:60]
+        for suffix in (".bvh", ".npz"):
+            path = tmp_path / f"{key}{suffix}"
+            write_motion(m, path)
+            back = read_motion(path, ground=False) if suffix == ".bvh" else read_motion(path)
+            np.testing.assert_allclose(reference_link_positions(back), m.link_positions(), atol=1e-5)
+
+
+# ---- Spot vs CMU ---------------------------------------------------------------------------------
+def _spot_trot(m, seconds: float = 6.0, fps: float = 30.0, seed: int = 0) -> Motion:
+    """A deliberately simple synthetic Spot motion (the synthesis issue provides real ones): the
+    base walks forward at standing height along a slowly turning heading, diagonal leg pairs swing
+    in antiphase (hip pitch oscillating, knee flexing during swing) with small noise, and the arm
+    wanders slowly around a carrying pose in front of the body."""
+    from morphkit.motion import ground_motion
+
+    rng = np.random.default_rng(seed)
+    T = int(seconds * fps)
+    t = np.arange(T) / fps
+    q = np.tile(m.rest_q(), (T, 1))
+    col = {n: i for i, n in enumerate(m.coordinate_names)}
+    speed, freq = rng.uniform(0.3, 0.8), rng.uniform(1.5, 2.2)
+    yaw = rng.uniform(-np.pi, np.pi) + np.cumsum(rng.normal(0.0, 0.01, T))
+    q[:, 0] = np.cumsum(speed * np.cos(yaw)) / fps
+    q[:, 1] = np.cumsum(speed * np.sin(yaw)) / fps
+    q[:, 2] = 0.5
+    q[:, 3:7] = quat_from_yaw(yaw)
+    for leg, phase in (("fl", 0.0), ("hr", 0.0), ("fr", np.pi), ("hl", np.pi)):
+        swing = 2 * np.pi * freq * t + phase
+        q[:, col[f"{leg}_hx"]] = rng.normal(0.0, 0.05, T)
+        q[:, col[f"{leg}_hy"]] = 0.8 + 0.25 * np.sin(swing) + rng.normal(0.0, 0.03, T)
+        q[:, col[f"{leg}_kn"]] = -1.6 - 0.35 * np.maximum(0.0, np.cos(swing)) + rng.normal(0.0, 0.03, T)
+    carry = {"arm_sh0": 0.0, "arm_sh1": -0.6, "arm_el0": 1.2, "arm_el1": 0.0, "arm_wr0": 0.2, "arm_wr1": 0.0,
+             "arm_f1x": -0.5}
+    for name, mean in carry.items():
+        walk = np.cumsum(rng.normal(0.0, 1.0, T))
+        q[:, col[name]] = mean + 0.3 * (walk - walk.mean()) / (walk.std() + 1e-9)
+    lower, upper = m.coordinate_limits
+    return ground_motion(Motion(m, fps, np.clip(q, lower, upper), f"spot_trot_{seed}"))
+
+
+def test_spot_feet_map_to_human_feet_and_gripper_to_a_hand() -> None:
+    spot_path = Path(__file__).resolve().parents[2] / "morphologies" / "spot" / "spot.urdf"
+    if not spot_path.is_file():
+        pytest.skip("morphologies/spot/spot.urdf is not there")
+    from morphkit.io import read_morphology
+
+    spot = read_morphology(spot_path)
+    creature = ee_distributions([_spot_trot(spot, seed=s) for s in range(4)])
+    human_motions = _load("cmu")[::4]
+    human = ee_distributions(human_motions, max_frames_per_clip=300)
+    result = map_end_effectors(creature, human)
+    roles = {e.name: e.role for e in human_motions[0].morphology.end_effectors}
+    for foot in ("fl_foot", "fr_foot", "hl_foot", "hr_foot"):
+        assert roles[result.mapping[foot]] == EndEffectorRole.FOOT, result.format_table()
+    # Left legs to the left foot, right legs to the right one (morphkit's +y is left for both).
+    assert result.mapping["fl_foot"] == result.mapping["hl_foot"] != result.mapping["fr_foot"]
+    assert roles[result.mapping["gripper"]] == EndEffectorRole.HAND, result.format_table()
