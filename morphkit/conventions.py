@@ -164,15 +164,21 @@ def quat_from_matrix(m: np.ndarray) -> np.ndarray:
 
 
 def rpy_from_quat(q: np.ndarray) -> np.ndarray:
-    """Fixed-axis roll, pitch, yaw [..., 3] of unit xyzw quaternions (inverse of :func:`quat_from_rpy`)."""
+    """Fixed-axis roll, pitch, yaw [..., 3] of unit xyzw quaternions (inverse of :func:`quat_from_rpy`).
+
+    Stable to ~1e-15 everywhere, gimbal lock included: pitch comes from atan2 (arcsin loses half
+    the digits near ±90°), and roll is read from the matrix with yaw removed,
+    ``Rz(-yaw) R = Ry(pitch) Rx(roll)``, so any rounding in yaw is absorbed by roll.
+    """
     m = matrix_from_quat(q)
-    pitch = np.arcsin(np.clip(-m[..., 2, 0], -1.0, 1.0))
-    roll = np.arctan2(m[..., 2, 1], m[..., 2, 2])
-    yaw = np.arctan2(m[..., 1, 0], m[..., 0, 0])
-    # At gimbal lock (|pitch| = 90 deg) roll and yaw are coupled: put it all in yaw.
-    lock = np.abs(m[..., 2, 0]) > 1.0 - 1e-9
-    roll = np.where(lock, 0.0, roll)
-    yaw = np.where(lock, np.arctan2(-m[..., 0, 1], m[..., 1, 1]), yaw)
+    cos_pitch = np.hypot(m[..., 0, 0], m[..., 1, 0])
+    pitch = np.arctan2(-m[..., 2, 0], cos_pitch)
+    # At gimbal lock (|pitch| = 90 deg) roll and yaw are coupled: put it all in yaw (roll = 0).
+    lock = cos_pitch < 1e-12
+    yaw = np.where(lock, np.arctan2(-m[..., 0, 1], m[..., 1, 1]), np.arctan2(m[..., 1, 0], m[..., 0, 0]))
+    cy, sy = np.cos(yaw), np.sin(yaw)
+    # Row 1 of Rz(-yaw) R is (0, cos roll, -sin roll).
+    roll = np.arctan2(-(cy * m[..., 1, 2] - sy * m[..., 0, 2]), cy * m[..., 1, 1] - sy * m[..., 0, 1])
     return np.stack([roll, pitch, yaw], axis=-1)
 
 
