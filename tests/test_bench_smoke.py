@@ -132,6 +132,7 @@ def test_report_checks_targets():
     ]
     result = bench.BenchResult(records=records, config=bench.BenchConfig(batches=(16384,), modes=("fwd",)))
     result.creatures = {"spot": "test", "human": "test"}
+    result.bridge = {"spot": {"raw": 30.0, "torch": 50.0, "overhead": 20.0}}
     checks = {c.name: c for c in bench.check_targets(result)}
     assert checks["spot fwd, morphkit"].passed and checks["spot fwd, morphkit"].margin == pytest.approx(1.25)
     assert not checks["spot fwd, morphkit / pinocchio"].passed  # 2.5× < 3×
@@ -140,3 +141,5 @@ def test_report_checks_targets():
     assert "- PASS spot fwd, morphkit: 5 M poses/s" in report
     assert "- MISS human fwd, morphkit" in report
     assert "| 16384 | 5 M | 2 M (×2.5) |" in report
+    assert "- PASS spot torch bridge overhead at B=1: 20 µs (target ≤ 40 µs; margin 2.00×)" in report
+    assert "| spot | 30.0 µs | 50.0 µs | 20.0 µs |" in report
