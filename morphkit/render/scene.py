@@ -307,7 +307,9 @@ class CreatureScene:
         length = m.characteristic_length
         colors = link_colors(m)
 
-        # Links: one node per link with geometry; local AABB corners kept for framing.
+        # Links: one node and one primitive per link (its shapes merged, split at sharp edges so
+        # boxes and cylinder rims shade flat while capsules stay smooth); per-frame cost in pyrender
+        # grows with the primitive count. Local AABB corners are kept for framing.
         self._link_nodes: list[tuple[int, Any]] = []
         corners: list[tuple[int, np.ndarray]] = []
         for i, link in enumerate(m.links):
@@ -316,19 +318,16 @@ class CreatureScene:
                     meshes = [shape_trimesh(s, source=m.source) for s in link.shapes]
                 except DescriptionError as exc:
                     raise DescriptionError(f"link {link.name!r}: {exc.message}", location=link.location) from None
-                smooth = [s.type in (ShapeType.SPHERE, ShapeType.CAPSULE) for s in link.shapes]
             else:
                 meshes = _bone_trimeshes(m, i, 0.025 * length)
-                smooth = [True] * len(meshes)
+            merged = trimesh.util.concatenate([mesh.smooth_shaded for mesh in meshes])
             material = pyrender.MetallicRoughnessMaterial(
                 baseColorFactor=[*colors[i], 1.0], metallicFactor=0.0, roughnessFactor=0.65
             )
-            primitives = []
-            for mesh, sm in zip(meshes, smooth, strict=True):
-                primitives += pyrender.Mesh.from_trimesh(mesh, material=material, smooth=sm).primitives
-            node = self.scene.add(pyrender.Mesh(primitives=primitives, name=link.name), name=f"link:{link.name}")
+            mesh = pyrender.Mesh.from_trimesh(merged, material=material, smooth=True)
+            node = self.scene.add(mesh, name=f"link:{link.name}")
             self._link_nodes.append((i, node))
-            corners.append((i, trimesh.bounds.corners(trimesh.util.concatenate(meshes).bounds)))
+            corners.append((i, trimesh.bounds.corners(merged.bounds)))
 
         # End-effector markers: small spheres (a cube for tools) coloured by role, drawn on top of
         # the geometry so a foot inside its foot sphere or a head point inside the skull still shows.
