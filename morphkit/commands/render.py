@@ -98,10 +98,16 @@ def _on_creature(motion: Any, creature: Any, path: str) -> Any:
 
     if motion.morphology is creature:
         return motion
-    if motion.morphology.coordinate_names != creature.coordinate_names:
+    ours, theirs = creature.coordinate_names, motion.morphology.coordinate_names
+    if ours != theirs:
+        if len(ours) != len(theirs):
+            why = f"{len(theirs)} coordinates, {creature.name!r} has {len(ours)}"
+        else:
+            k = next(k for k, (a, b) in enumerate(zip(theirs, ours, strict=True)) if a != b)
+            why = f"coordinate {k} is {theirs[k]!r} in the motion but {ours[k]!r} on {creature.name!r}"
         raise MotionFormatError(
-            f"motion is for {motion.morphology.name!r} ({motion.morphology.coordinate_count} coordinates), "
-            f"not {creature.name!r} ({creature.coordinate_count} coordinates)",
+            f"motion is for {motion.morphology.name!r}, not {creature.name!r} ({why}); render it with its own "
+            "description (a BVH clip: pass the .bvh as CREATURE too)",
             location=SourceLocation(path),
         )
     return Motion(creature, motion.fps, motion.q, name=getattr(motion, "name", ""))
