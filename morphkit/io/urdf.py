@@ -67,6 +67,8 @@ __all__ = ["dump_urdf", "parse_urdf", "read_urdf", "write_urdf"]
 _URDF_JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
 _WORLD = "world"
 _ENTITY_DECL = re.compile(r"<!ENTITY", re.IGNORECASE)
+_NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
+"""A URDF number (what urdfdom accepts; Python's float() also takes '1_000', 'infinity', 'nan')."""
 _XML_DECL = re.compile(r"^(\ufeff?\s*<\?xml[^>]*?)\s+encoding\s*=\s*(['\"])[^'\"]*\2")
 
 
@@ -119,10 +121,10 @@ class _Reader:
             raise self.error(f"{what}: {attr}={text!r} must be {n} number{'s' if n > 1 else ''}", el)
         out = []
         for p in parts:
-            try:
-                v = float(p)
-            except ValueError:
-                raise self.error(f"{what}: {attr}={text!r}: {p!r} is not a number", el) from None
+            special = p.lower().lstrip("+-") in ("inf", "infinity", "nan")
+            if not special and not _NUMBER.fullmatch(p):
+                raise self.error(f"{what}: {attr}={text!r}: {p!r} is not a number", el)
+            v = float(p)
             if not math.isfinite(v):
                 raise self.error(f"{what}: {attr}={text!r}: non-finite number {p!r}", el)
             out.append(v)

@@ -35,7 +35,7 @@ line of the offending element; unknown keys and duplicate keys are errors.
 
 from __future__ import annotations
 
-import json
+import functools
 import math
 import os
 import re
@@ -100,7 +100,13 @@ class _Seq(list):
     item_lines: list[int]
 
 
-class _Loader(yaml.SafeLoader):
+# libyaml's parser is ~8x faster than PyYAML's pure-Python one; both give the same nodes and marks.
+_SafeLoader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+_MAX_DEPTH = 100
+"""Deepest nesting of mappings and lists accepted (libyaml's recursive composer crashes on very deep input)."""
+
+
+class _Loader(_SafeLoader):  # type: ignore[misc, valid-type]
     """SafeLoader that records source lines, refuses duplicate keys, and reads ``1e-3`` as a float.
 
     PyYAML implements YAML 1.1, where ``1e-3`` (no dot) is a string and ``2001-01-01`` a date;
@@ -160,9 +166,25 @@ _Loader.add_constructor("tag:yaml.org,2002:map", _construct_map)
 _Loader.add_constructor("tag:yaml.org,2002:seq", _construct_seq)
 
 
+def _check_depth(text: str, source: str | None) -> None:
+    """Refuse absurdly deep nesting before composing (the event stream is parsed iteratively)."""
+    depth = 0
+    for event in yaml.parse(text, Loader=_Loader):
+        if isinstance(event, (yaml.MappingStartEvent, yaml.SequenceStartEvent)):
+            depth += 1
+            if depth > _MAX_DEPTH:
+                line = event.start_mark.line + 1 if event.start_mark is not None else None
+                raise DescriptionError(
+                    f"malformed YAML: nested more than {_MAX_DEPTH} levels deep", location=SourceLocation(source, line)
+                )
+        elif isinstance(event, (yaml.MappingEndEvent, yaml.SequenceEndEvent)):
+            depth -= 1
+
+
 def _load(text: str, source: str | None) -> Any:
     """Parse YAML text into _Map/_Seq/scalars, turning every parser failure into a DescriptionError."""
     try:
+        _check_depth(text, source)
         return yaml.load(text, Loader=_Loader)  # _Loader is a SafeLoader
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
@@ -170,9 +192,11 @@ def _load(text: str, source: str | None) -> Any:
         problem = exc.problem or exc.context or "malformed YAML"
         raise DescriptionError(f"malformed YAML: {problem}", location=SourceLocation(source, line)) from exc
     except yaml.reader.ReaderError as exc:
-        line = text.count("\n", 0, exc.position) + 1 if isinstance(exc.position, int) else None
+        position = getattr(exc, "position", None)
+        line = text.count("\n", 0, position) + 1 if isinstance(position, int) else None
+        character = getattr(exc, "character", None)
         raise DescriptionError(
-            f"malformed YAML: unacceptable character {exc.character!r}", location=SourceLocation(source, line)
+            f"malformed YAML: unacceptable character {character!r}", location=SourceLocation(source, line)
         ) from exc
     except yaml.YAMLError as exc:
         raise DescriptionError(f"malformed YAML: {exc}", location=SourceLocation(source)) from exc
@@ -423,15 +447,32 @@ def read_yaml(path: str | os.PathLike[str]) -> Morphology:
 _PLAIN = re.compile(r"[A-Za-z_][A-Za-z0-9_.\-/]*")
 
 
+@functools.lru_cache(maxsize=4096)
 def _str(s: str) -> str:
     """A YAML scalar for ``s``: plain where it reads back as the same string, else double-quoted."""
     if _PLAIN.fullmatch(s):
-        try:
-            if yaml.load(s, Loader=_Loader) == s:  # _Loader is a SafeLoader
-                return s
-        except yaml.YAMLError:
-            pass
-    return json.dumps(s, ensure_ascii=False)
+        # Plain only if no implicit resolver (bool, null, int, float) claims it.
+        resolvers = _Loader.yaml_implicit_resolvers
+        if not any(rx.match(s) for _, rx in (*resolvers.get(s[0], ()), *resolvers.get(None, ()))):
+            return s
+    return _quote(s)
+
+
+_PRINTABLE = re.compile("[\x20-\x7e\xa0-\u2027\u202a-\ud7ff\ue000-\ufefe\uff00-\ufffd\U00010000-\U0010ffff]")
+
+
+def _quote(s: str) -> str:
+    """Double-quoted YAML scalar; escapes everything YAML would refuse, fold or strip (line breaks, BOM)."""
+    out = []
+    for ch in s:
+        if ch in '"\\':
+            out.append("\\" + ch)
+        elif _PRINTABLE.fullmatch(ch):
+            out.append(ch)
+        else:
+            o = ord(ch)
+            out.append(f"\\x{o:02x}" if o <= 0xFF else f"\\u{o:04x}" if o <= 0xFFFF else f"\\U{o:08x}")
+    return '"' + "".join(out) + '"'
 
 
 def _num(x: float) -> str:

@@ -180,11 +180,12 @@ def test_round_trip_shipped_spot(tmp_path):
     assert_morphology_equal(m, read_morphology(tmp_path / "spot.urdf"), 1e-6)
 
 
-def test_round_trip_near_gimbal_lock():
+@pytest.mark.parametrize("pitch", [math.pi / 2, -math.pi / 2, 1.5707963, math.pi / 2 - 1e-5, -math.pi / 2 + 1e-11])
+def test_round_trip_near_gimbal_lock(pitch):
     text = _robot('<joint name="j" type="fixed"><parent link="a"/><child link="b"/>'
-                  '<origin rpy="0.3 1.5707963 -0.4"/></joint>')
+                  f'<origin rpy="0.3 {pitch!r} -0.4"/></joint>')
     m = parse_urdf(text)
-    assert_morphology_equal(m, parse_urdf(dump_urdf(m)), 1e-6)
+    assert_morphology_equal(m, parse_urdf(dump_urdf(m)), 1e-12)
 
 
 def test_spherical_joints_cannot_be_written(tmp_path):
@@ -315,6 +316,7 @@ BAD = [
     ('<box size="1 1 1"/>', '<box size="1 nan 1"/>', DescriptionError, "non-finite number 'nan'", 3),
     ('<box size="1 1 1"/>', '<box size="1 -inf 1"/>', DescriptionError, "non-finite number '-inf'", 3),
     ('<box size="1 1 1"/>', '<box size="1 one 1"/>', DescriptionError, "'one' is not a number", 3),
+    ('<box size="1 1 1"/>', '<box size="1 1_0 1"/>', DescriptionError, "'1_0' is not a number", 3),
     ('<box size="1 1 1"/>', '<box size="1 0 1"/>', GraphError, "size must be 3 positive extents", 3),
     ('<box size="1 1 1"/>', "<sphere/>", DescriptionError, "<sphere> needs attribute 'radius'", 3),
     ('<axis xyz="0 1 0"/>', '<axis xyz="0 0 0"/>', GraphError, "zero axis", 7),
