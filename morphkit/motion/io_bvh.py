@@ -323,12 +323,39 @@ def bvh_to_motion(
         b = bvh.joint_names.index(joint.child)
         start = skeleton.joint_q_start[j]
         q[:, start : start + 4] = rotations[:, b]
-    motion = Motion(skeleton, _snap_fps(bvh.fps), q, name)
     if ground:
-        motion = ground_motion(motion)
+        q[:, 2] -= _lowest_foot(bvh, skeleton, s, R_skel, R_world)
+    motion = Motion(skeleton, _snap_fps(bvh.fps), q, name)
     if fps is not None:
         motion = motion.resample(fps)
     return motion
+
+
+def _lowest_foot(bvh: BvhFile, skeleton: Morphology, scale: float, R_skel: np.ndarray, R_world: np.ndarray) -> float:
+    """Lowest world height [m] of the foot end-effectors over the clip (every point without feet).
+
+    Uses the file-coordinate FK of :func:`~morphkit.io.bvh.bvh_joint_positions` (NumPy), so
+    reading a BVH file never has to generate an FK kernel. Foot end-effectors are End Sites or
+    joints of the skeleton (as :func:`~morphkit.io.bvh.skeleton_from_bvh` places them).
+    """
+    pos = bvh_joint_positions(bvh)  # [T, J + S, 3], file units and axes
+    points: list[int] = []
+    for ee in skeleton.end_effectors:
+        if ee.role != EndEffectorRole.FOOT:
+            continue
+        joint = bvh.joint_names.index(ee.link)
+        offset = np.asarray(ee.offset)
+        if not offset.any():
+            points.append(joint)
+            continue
+        sites = [
+            bvh.joint_count + k
+            for k, site in enumerate(bvh.end_sites)
+            if site.parent == joint and np.allclose(R_skel @ np.asarray(site.offset) * scale, offset, atol=1e-9)
+        ]
+        points.extend(sites[:1] or [joint])
+    heights = pos[:, points] @ R_world[2] * scale if points else pos @ R_world[2] * scale
+    return float(heights.min())
 
 
 def ground_motion(motion: Motion) -> Motion:

@@ -52,7 +52,7 @@ def reference_link_positions(motion: Motion) -> np.ndarray:
     with torch.no_grad():
         T = fk_reference(
             model,
-            torch.as_tensor(motion.q, dtype=torch.float64),
+            torch.tensor(np.array(motion.q), dtype=torch.float64),
             wheel_q=None if wheel is None else torch.as_tensor(wheel, dtype=torch.float64),
         )
     return T[..., :3].numpy()

@@ -1,8 +1,9 @@
 """Every clip in ``$MORPHKIT_DATA`` loads; CMU humans stand on the ground at human height; Spot vs
 CMU end-effector mapping (skipped when ``MORPHKIT_DATA`` is unset).
 
-All clips are read (cheap once the FK kernel of each skeleton is compiled); the heavier checks
-(round trips, the mapping) run on subsets.
+All clips are read; reading a BVH file needs no FK kernel. Checks through the FK kernels run on
+every CMU clip (one skeleton, one kernel); the other sets are checked on subsets through the
+pure-torch reference FK, so the suite generates no kernel for their skeletons.
 """
 
 from __future__ import annotations
@@ -72,8 +73,11 @@ def test_every_clip_loads(key: str) -> None:
             assert m.frame_count == int(row["frames"]), m.name
             assert m.fps == pytest.approx(float(row["fps"]), rel=1e-3), m.name
         assert len(_ee(m, EndEffectorRole.FOOT)) >= 2, m.name
-        # Grounded: the lowest foot touches z = 0.
-        assert m.end_effector_positions()[:, _ee(m, EndEffectorRole.FOOT), 2].min() == pytest.approx(0.0, abs=1e-9)
+    # Grounded: the lowest foot touches z = 0 (every clip through the FK kernels for CMU; for the
+    # other sets a subset through the reference FK, so no kernel is generated for their skeletons).
+    for m in motions if key == "cmu" else motions[::8]:
+        ee = m.end_effector_positions() if key == "cmu" else _reference_ee(m)
+        assert ee[:, _ee(m, EndEffectorRole.FOOT), 2].min() == pytest.approx(0.0, abs=1e-6), m.name
     # Clips of one convention share their skeleton object (one compiled FK kernel).
     assert len({id(m.morphology) for m in motions}) <= 3
 
@@ -100,9 +104,22 @@ def test_cmu_clips_stand_on_the_ground_at_human_height() -> None:
     assert np.median(stance_heights) < 0.04
 
 
+def _reference_ee(m: Motion) -> np.ndarray:
+    """End-effector positions [T, E, 3] through the reference FK (world frame)."""
+    import torch
+
+    from morphkit.model import compile_model
+    from morphkit.torch.reference import end_effectors_reference, fk_reference
+
+    model = compile_model(m.morphology)
+    with torch.no_grad():
+        links = fk_reference(model, torch.tensor(np.array(m.q)))
+        return end_effectors_reference(model, links)[..., :3].numpy()
+
+
 def test_other_humans_and_dogs_stand_upright() -> None:
-    for m in _load("second_skeleton"):
-        top = np.percentile(m.link_positions()[..., 2].max(axis=1), 95)
+    for m in _load("second_skeleton")[::4]:
+        top = np.percentile(reference_link_positions(m)[..., 2].max(axis=1), 95)
         assert 1.2 <= top <= 2.0, m.name
         assert m.morphology.root == "Hips"  # the translating joint_Root was folded away
     for m in _load("dog"):
@@ -112,12 +129,12 @@ def test_other_humans_and_dogs_stand_upright() -> None:
         feet = _ee(m, EndEffectorRole.FOOT)
         assert len(feet) == 4
         if "stepup" not in m.name:  # those end on a raised step
-            lowest = m.end_effector_positions()[standing][:, feet, 2].min(axis=1)
+            lowest = _reference_ee(m)[standing][:, feet, 2].min(axis=1)
             assert np.median(lowest) < 0.1, m.name
 
 
 def test_real_clip_round_trips(tmp_path: Path) -> None:
-    for key in ("cmu", "second_skeleton"):
+    for key in ("cmu",):
         m = _load(key)[0][:60]
         for suffix in (".bvh", ".npz"):
             path = tmp_path / f"{key}{suffix}"
