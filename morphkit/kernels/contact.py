@@ -34,7 +34,7 @@ import warp as wp
 
 from morphkit.errors import GraphError
 from morphkit.graph.types import EndEffectorRole, JointType, ShapeType
-from morphkit.kernels.geometry import shape_ground_distance, shape_pair_distance
+from morphkit.kernels._collision_kernels import self_collision_kernel, shape_ground_kernel
 from morphkit.model.kinematic_model import KinematicModel
 
 __all__ = [
@@ -49,6 +49,7 @@ __all__ = [
     "eval_self_collision_penetration",
     "eval_self_collision_penetration_adjoint",
     "eval_shape_ground_distance",
+    "eval_shape_ground_distance_adjoint",
     "eval_sliding_speed",
     "eval_sliding_speed_adjoint",
     "foot_indices",
@@ -123,60 +124,11 @@ def contact_flags_kernel(
     out[n, t, f] = points[n, t, e][2] - ground < height_threshold and wp.length(v) < speed_threshold
 
 
-@wp.kernel
-def shape_ground_kernel(
-    link_X: wp.array2d[Any],
-    shape_link: wp.array[wp.int32],
-    shape_type: wp.array[wp.int32],
-    shape_X_link: wp.array[Any],
-    shape_params: wp.array[Any],
-    ground: Any,
-    out: wp.array2d[Any],
-):
-    """``out[n, s]``: height of shape ``s``'s lowest point above the ground (meshes: far)."""
-    n, s = wp.tid()
-    X = wp.transform_multiply(link_X[n, shape_link[s]], shape_X_link[s])
-    out[n, s] = shape_ground_distance(shape_type[s], X, shape_params[s], ground)
-
-
-@wp.kernel
-def self_collision_kernel(
-    link_X: wp.array2d[Any],
-    shape_link: wp.array[wp.int32],
-    shape_type: wp.array[wp.int32],
-    shape_X_link: wp.array[Any],
-    shape_params: wp.array[Any],
-    pair_a: wp.array[wp.int32],
-    pair_b: wp.array[wp.int32],
-    penetration: int,
-    out: wp.array2d[Any],
-):
-    """``out[n, p]``: signed distance of candidate pair ``p`` (or its penetration depth)."""
-    n, p = wp.tid()
-    a = pair_a[p]
-    b = pair_b[p]
-    Xa = wp.transform_multiply(link_X[n, shape_link[a]], shape_X_link[a])
-    Xb = wp.transform_multiply(link_X[n, shape_link[b]], shape_X_link[b])
-    d = shape_pair_distance(shape_type[a], Xa, shape_params[a], shape_type[b], Xb, shape_params[b])
-    if penetration != 0:
-        d = wp.max(-d, d * type(d)(0.0))
-    out[n, p] = d
-
-
 # Concrete instances, so ahead-of-time compilation builds both precisions.
-for _s, _v, _t in ((wp.float32, wp.vec3f, wp.transformf), (wp.float64, wp.vec3d, wp.transformd)):
+for _s, _v in ((wp.float32, wp.vec3f), (wp.float64, wp.vec3d)):
     wp.overload(foot_height_kernel, [wp.array2d[_v], wp.array[wp.int32], _s, int, wp.array2d[_s]])
     wp.overload(sliding_speed_kernel, [wp.array3d[_v], wp.array[wp.int32], _s, _s, _s, wp.array3d[_s]])
     wp.overload(contact_flags_kernel, [wp.array3d[_v], wp.array[wp.int32], _s, _s, _s, _s, wp.array3d[wp.bool]])
-    wp.overload(
-        shape_ground_kernel,
-        [wp.array2d[_t], wp.array[wp.int32], wp.array[wp.int32], wp.array[_t], wp.array[_v], _s, wp.array2d[_s]],
-    )
-    wp.overload(
-        self_collision_kernel,
-        [wp.array2d[_t], wp.array[wp.int32], wp.array[wp.int32], wp.array[_t], wp.array[_v], wp.array[wp.int32],
-         wp.array[wp.int32], int, wp.array2d[_s]],
-    )
 
 
 # ---------------------------------------------------------------------------------------------
@@ -236,15 +188,24 @@ def _as_points(points: Any, device: Any, what: str = "points") -> wp.array:
     return _as_vec_array(points, 3, _vec3_of, device, what)
 
 
+_feet_cache: dict[tuple[str, tuple[int, ...]], wp.array] = {}
+
+
 def _feet_array(feet: Any, E: int, device: Any) -> wp.array:
+    """Foot indices as an int32 Warp array on ``device`` (cached: callers pass the same few lists)."""
     if feet is None:
-        idx = np.arange(E, dtype=np.int32)
+        idx = tuple(range(E))
     else:
-        idx = np.asarray(feet, dtype=np.int64).reshape(-1)
-        if idx.size and (idx.min() < 0 or idx.max() >= E):
-            raise GraphError(f"feet: indices {idx.tolist()} out of range for {E} end-effectors")
-        idx = idx.astype(np.int32)
-    return wp.array(idx, dtype=wp.int32, device=device)
+        idx = tuple(int(i) for i in np.asarray(feet, dtype=np.int64).reshape(-1))
+        if idx and (min(idx) < 0 or max(idx) >= E):
+            raise GraphError(f"feet: indices {list(idx)} out of range for {E} end-effectors")
+    key = (str(device), idx)
+    hit = _feet_cache.get(key)
+    if hit is None:
+        if len(_feet_cache) > 256:
+            _feet_cache.clear()
+        hit = _feet_cache[key] = wp.array(np.asarray(idx, dtype=np.int32), dtype=wp.int32, device=device)
+    return hit
 
 
 def _check_out(out: wp.array | None, shape: tuple[int, ...], dtype: Any, device: Any, requires_grad: bool) -> wp.array:
@@ -484,6 +445,29 @@ def eval_shape_ground_distance(model: KinematicModel, link_X: Any, *, ground_hei
                           a.shape_params, scalar(ground_height)],
                   outputs=[out.reshape((N, S))], device=device)
     return out
+
+
+def eval_shape_ground_distance_adjoint(model: KinematicModel, link_X: Any, adj_out: wp.array, *,
+                                       ground_height: float = 0.0, adj_link_X: wp.array | None = None,
+                                       device: Any = None) -> wp.array:
+    """Accumulate the vector–Jacobian product of :func:`eval_shape_ground_distance` into ``adj_link_X`` ([..., L])."""
+    device = _resolve_device(link_X, device)
+    X, lead, N = _link_transforms(model, link_X, device)
+    scalar = _scalar_of(X.dtype)
+    S, L = model.shape_count, model.link_count
+    adj_link_X = _check_out(adj_link_X, (*lead, L), X.dtype, device, False)
+    if tuple(adj_out.shape) != (*lead, S):
+        raise GraphError(f"adj_out: expected shape {[*lead, S]}, got {list(adj_out.shape)}")
+    if N and S:
+        a = model.arrays(device, scalar)
+        out = adj_out.contiguous().reshape((N, S))
+        wp.launch(shape_ground_kernel, dim=(N, S),
+                  inputs=[X.reshape((N, L)), a.shape_link, a.shape_type, a.shape_X_link, a.shape_params,
+                          scalar(ground_height)],
+                  outputs=[out],
+                  adj_inputs=[adj_link_X.reshape((N, L)), None, None, None, None, scalar(0.0)],
+                  adj_outputs=[out], adjoint=True, device=device)
+    return adj_link_X
 
 
 @dataclass(frozen=True, eq=False)

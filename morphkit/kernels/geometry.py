@@ -255,6 +255,102 @@ def _box_line_inside(a: Any, u: Any, h: Any, t: Any):
 
 
 @wp.func
+def _sign_of(k: int, x: Any):
+    # +1 for k = 0, -1 for k = 1, in the float type of x.
+    return type(x)(1.0) - type(x)(2.0) * type(x)(float(k))
+
+
+@wp.func
+def _pattern_signs(pattern: int, u: Any):
+    # Region pattern 0..26 -> per-axis sign in {-1, 0, +1} (below, within, above the slab), as u's type.
+    return type(u)(
+        type(u[0])(float(pattern // 9 - 1)),
+        type(u[0])(float((pattern // 3) % 3 - 1)),
+        type(u[0])(float(pattern % 3 - 1)),
+    )
+
+
+@wp.func
+def _capsule_box_t(a: Any, u: Any, h: Any, code: int):
+    """Line parameter of candidate ``code`` (see :func:`_capsule_box_search`), differentiable in a, u, h."""
+    zero = h[0] * type(h[0])(0.0)
+    one = type(h[0])(1.0)
+    t = zero
+    if code == 1 or code == 101:
+        t = one
+    elif code >= 2 and code < 100:
+        c = code - 2
+        i = c // 12
+        j = (c // 2) % 3
+        si = _sign_of((c // 6) % 2, zero)
+        sj = _sign_of(c % 2, zero)
+        t = ((sj * a[j] - h[j]) - (si * a[i] - h[i])) / (si * u[i] - sj * u[j])
+    elif code >= 102:
+        g = _pattern_signs(code - 102, u)
+        act = wp.cw_mul(g, g)
+        num = wp.dot(act, wp.cw_mul(g, wp.cw_mul(u, h)) - wp.cw_mul(u, a))
+        den = wp.dot(act, wp.cw_mul(u, u))
+        t = wp.clamp(num / den, zero, one)
+    return t
+
+
+@wp.func
+def _capsule_box_search(a: wp.vec3d, u: wp.vec3d, h: wp.vec3d) -> int:
+    """Which candidate minimises the box SDF along ``a + t u``, t in [0, 1] (an integer: no gradient).
+
+    Codes: 0 / 1 the ends and 2 + 12 i + 6 s_i + 2 j + s_j the crossing of the affine pieces
+    ``s_i (a_i + t u_i) - h_i`` and ``s_j (a_j + t u_j) - h_j`` when the line enters the box;
+    100 / 101 the ends and 102 + pattern the stationary point of one of the 27 face/edge/vertex
+    regions of the squared distance when it stays outside. Searched in float64 whatever the
+    caller's precision; its adjoint is a no-op (registered below), so it adds no backward code.
+    """
+    zero = wp.float64(0.0)
+    one = wp.float64(1.0)
+    eps = wp.float64(1.0e-12)
+    code = wp.int32(0)
+    best = _box_line_inside(a, u, h, zero)
+    v1 = _box_line_inside(a, u, h, one)
+    if v1 < best:
+        best = v1
+        code = 1
+    for c in range(36):
+        i = c // 12
+        j = (c // 2) % 3
+        si = _sign_of((c // 6) % 2, zero)
+        sj = _sign_of(c % 2, zero)
+        dm = si * u[i] - sj * u[j]
+        if wp.abs(dm) > eps:
+            t = ((sj * a[j] - h[j]) - (si * a[i] - h[i])) / dm
+            if t > zero and t < one:
+                v = _box_line_inside(a, u, h, t)
+                if v < best:
+                    best = v
+                    code = 2 + c
+    if best > zero:
+        code = 100
+        best = _box_line_outside_sq(a, u, h, zero)
+        v1 = _box_line_outside_sq(a, u, h, one)
+        if v1 < best:
+            best = v1
+            code = 101
+        for pattern in range(27):
+            g = _pattern_signs(pattern, u)
+            if wp.dot(wp.cw_mul(g, g), wp.cw_mul(u, u)) > eps:
+                t = _capsule_box_t(a, u, h, 102 + pattern)
+                v = _box_line_outside_sq(a, u, h, t)
+                if v < best:
+                    best = v
+                    code = 102 + pattern
+    return code
+
+
+@wp.func_grad(_capsule_box_search)
+def _adj_capsule_box_search(a: wp.vec3d, u: wp.vec3d, h: wp.vec3d, adj_ret: int):
+    # An argmin: piecewise constant, no gradient.
+    pass
+
+
+@wp.func
 def capsule_box_distance(a: Any, b: Any, r: Any, X_box: Any, h: Any):
     """Signed distance between a capsule (axis ``[a, b]``, radius ``r``) and a box.
 
@@ -262,53 +358,19 @@ def capsule_box_distance(a: Any, b: Any, r: Any, X_box: Any, h: Any):
     restricted to a line is convex; inside the box it is the maximum of six affine functions
     of the line parameter (its minimum lies at an end or where two of them cross); outside,
     the squared distance is a C¹ piecewise quadratic (its minimum lies at an end or at the
-    stationary point of one of the 27 face/edge/vertex regions). Every candidate is evaluated
-    and the smallest kept, so adjoints flow through the winning candidate only.
+    stationary point of one of the 27 face/edge/vertex regions). An integer search picks the
+    winning candidate, which is then evaluated differentiably (its line parameter included),
+    so adjoints flow through the winner only and the generated code stays small.
     """
     X_inv = wp.transform_inverse(X_box)
     al = wp.transform_point(X_inv, a)
     u = wp.transform_point(X_inv, b) - al
-    zero = r * type(r)(0.0)
-    one = type(r)(1.0)
-    eps = type(r)(1.0e-12)
-
-    # Inside part: candidates t = 0, 1 and the pairwise crossings of s*(a_i + t u_i) - h_i.
-    best_in = wp.min(_box_line_inside(al, u, h, zero), _box_line_inside(al, u, h, one))
-    for i in range(3):
-        for si in range(2):
-            sgn_i = one - type(r)(2.0) * type(r)(float(si))
-            m1 = sgn_i * u[i]
-            c1 = sgn_i * al[i] - h[i]
-            for j in range(3):
-                for sj in range(2):
-                    sgn_j = one - type(r)(2.0) * type(r)(float(sj))
-                    m2 = sgn_j * u[j]
-                    c2 = sgn_j * al[j] - h[j]
-                    dm = m1 - m2
-                    if wp.abs(dm) > eps:
-                        t = (c2 - c1) / dm
-                        if t > zero and t < one:
-                            best_in = wp.min(best_in, _box_line_inside(al, u, h, t))
-
-    result = best_in - r
-    if best_in > zero:
-        # Outside: candidates t = 0, 1 and the stationary point of each region's quadratic.
-        best_sq = wp.min(_box_line_outside_sq(al, u, h, zero), _box_line_outside_sq(al, u, h, one))
-        for sx in range(3):
-            for sy in range(3):
-                for sz in range(3):
-                    num = zero
-                    den = zero
-                    sig = wp.vector(type(r)(float(sx - 1)), type(r)(float(sy - 1)), type(r)(float(sz - 1)))
-                    for k in range(3):
-                        act = sig[k] * sig[k]
-                        num += act * (sig[k] * u[k] * h[k] - u[k] * al[k])
-                        den += act * u[k] * u[k]
-                    if den > eps:
-                        t = wp.clamp(num / den, zero, one)
-                        best_sq = wp.min(best_sq, _box_line_outside_sq(al, u, h, t))
-        result = wp.sqrt(best_sq) - r
-    return result
+    code = _capsule_box_search(wp.vec3d(al), wp.vec3d(u), wp.vec3d(h))
+    t = _capsule_box_t(al, u, h, code)
+    d = _box_line_inside(al, u, h, t)
+    if code >= 100:
+        d = wp.sqrt(_box_line_outside_sq(al, u, h, t))
+    return d - r
 
 
 @wp.func
@@ -320,6 +382,47 @@ def _sat_axis(L: Any, t: Any, Ra: Any, ha: Any, Rb: Any, hb: Any):
 
 
 @wp.func
+def _sat_axis_of(code: int, Ra: Any, Rb: Any):
+    # Axis ``code``: 0-2 the faces of A, 3-5 the faces of B, 6-14 the edge cross products (unnormalised).
+    L = Ra[0]
+    if code < 3:
+        L = Ra[code]
+    elif code < 6:
+        L = Rb[code - 3]
+    else:
+        L = wp.cross(Ra[(code - 6) // 3], Rb[(code - 6) % 3])
+    return L
+
+
+@wp.func
+def _sat_search(t: wp.vec3d, Ra: wp.mat33d, ha: wp.vec3d, Rb: wp.mat33d, hb: wp.vec3d, axes: int) -> int:
+    """Index of the axis of largest separation among the first ``axes`` (an integer: no gradient).
+
+    Near-parallel edge pairs (|a × b|² ≤ 1e-6) are skipped. Searched in float64; the adjoint is a
+    no-op. ``axes`` is a runtime bound so the loop stays compact.
+    """
+    eps = wp.float64(1.0e-6)
+    best_code = wp.int32(0)
+    best = _sat_axis(Ra[0], t, Ra, ha, Rb, hb)
+    for code in range(1, axes):
+        L = _sat_axis_of(code, Ra, Rb)
+        n2 = wp.dot(L, L)
+        if n2 > eps:
+            v = _sat_axis(L / wp.sqrt(n2), t, Ra, ha, Rb, hb)
+            if v > best:
+                best = v
+                best_code = code
+    return best_code
+
+
+@wp.func_grad(_sat_search)
+def _adj_sat_search(t: wp.vec3d, Ra: wp.mat33d, ha: wp.vec3d, Rb: wp.mat33d, hb: wp.vec3d, axes: int,
+                    adj_ret: int):
+    # An argmax: piecewise constant, no gradient.
+    pass
+
+
+@wp.func
 def box_box_distance(X_a: Any, ha: Any, X_b: Any, hb: Any):
     """Signed distance estimate between two boxes by the separating-axis test (15 axes).
 
@@ -327,7 +430,8 @@ def box_box_distance(X_a: Any, ha: Any, X_b: Any, hb: Any):
     boxes and the normalised cross products of their edge directions (near-parallel pairs
     skipped). When the boxes overlap this is minus the exact minimum-translation depth; when
     they are apart it is a lower bound on the distance (exact for face–vertex, face–face and
-    edge–edge closest features).
+    edge–edge closest features). The winning axis is found by an integer search and then
+    evaluated differentiably.
     """
     qa = wp.transform_get_rotation(X_a)
     qb = wp.transform_get_rotation(X_b)
@@ -340,21 +444,20 @@ def box_box_distance(X_a: Any, ha: Any, X_b: Any, hb: Any):
     # Rows are the boxes' axes in world (row i = axis i).
     Ra = wp.matrix_from_rows(wp.quat_rotate(qa, ex), wp.quat_rotate(qa, ey), wp.quat_rotate(qa, ez))
     Rb = wp.matrix_from_rows(wp.quat_rotate(qb, ex), wp.quat_rotate(qb, ey), wp.quat_rotate(qb, ez))
-    best = _sat_axis(Ra[0], t, Ra, ha, Rb, hb)
-    for i in range(3):
-        best = wp.max(best, _sat_axis(Ra[i], t, Ra, ha, Rb, hb))
-        best = wp.max(best, _sat_axis(Rb[i], t, Ra, ha, Rb, hb))
-    eps = type(ha[0])(1.0e-6)
-    for i in range(3):
-        for j in range(3):
-            L = wp.cross(Ra[i], Rb[j])
-            n2 = wp.dot(L, L)
-            if n2 > eps:
-                best = wp.max(best, _sat_axis(L / wp.sqrt(n2), t, Ra, ha, Rb, hb))
-    return best
+    code = _sat_search(wp.vec3d(t), wp.mat33d(Ra), wp.vec3d(ha), wp.mat33d(Rb), wp.vec3d(hb), 15)
+    L = _sat_axis_of(code, Ra, Rb)
+    return _sat_axis(L / wp.length(L), t, Ra, ha, Rb, hb)
 
 
 # ---- ground plane (z = height, normal +z) ----------------------------------------------------
+@wp.func
+def _abs_sym(x: Any):
+    # |x| whose adjoint at exactly 0 is 0 (not Warp's +1): a box or cylinder resting flat has a
+    # kinked lowest point, and the symmetric subgradient keeps it from tilting one way.
+    z = x * type(x)(0.0)
+    return wp.where(x > z, x, wp.where(x < z, -x, z))
+
+
 @wp.func
 def sphere_plane_distance(c: Any, r: Any, height: Any):
     """Height of a sphere's lowest point above the plane ``z = height``."""
@@ -376,7 +479,7 @@ def box_plane_distance(X: Any, h: Any, height: Any):
     one = type(height)(1.0)
     # |R^T e_z| per box axis: how far each half extent reaches down.
     down = wp.quat_rotate_inv(q, type(c)(zero, zero, one))
-    return c[2] - wp.dot(h, wp.abs(down)) - height
+    return c[2] - h[0] * _abs_sym(down[0]) - h[1] * _abs_sym(down[1]) - h[2] * _abs_sym(down[2]) - height
 
 
 @wp.func
@@ -389,7 +492,7 @@ def cylinder_plane_distance(X: Any, radius: Any, half_length: Any, height: Any):
     az = wp.quat_rotate(q, type(c)(zero, zero, one))[2]
     # The rim disc reaches down by radius * sin(tilt); the small epsilon keeps the adjoint finite upright.
     rim = wp.sqrt(wp.max(one - az * az, zero) + type(height)(1.0e-12))
-    return c[2] - half_length * wp.abs(az) - radius * rim - height
+    return c[2] - half_length * _abs_sym(az) - radius * rim - height
 
 
 @wp.func
@@ -409,63 +512,67 @@ def shape_ground_distance(shape_type: int, X: Any, params: Any, height: Any):
 
 
 @wp.func
+def _posed_sphere_capsule(X_s: Any, p_s: Any, X_c: Any, p_c: Any):
+    b0, b1 = capsule_endpoints(X_c, p_c[1])
+    return sphere_capsule_distance(wp.transform_get_translation(X_s), p_s[0], b0, b1, p_c[0])
+
+
+@wp.func
+def _posed_sphere_box(X_s: Any, p_s: Any, X_b: Any, p_b: Any):
+    return sphere_box_distance(wp.transform_get_translation(X_s), p_s[0], X_b, p_b)
+
+
+@wp.func
+def _posed_sphere_cylinder(X_s: Any, p_s: Any, X_c: Any, p_c: Any):
+    return sphere_cylinder_distance(wp.transform_get_translation(X_s), p_s[0], X_c, p_c[0], p_c[1])
+
+
+@wp.func
+def _posed_capsule_box(X_c: Any, p_c: Any, X_b: Any, p_b: Any):
+    a0, a1 = capsule_endpoints(X_c, p_c[1])
+    return capsule_box_distance(a0, a1, p_c[0], X_b, p_b)
+
+
+@wp.func
 def shape_pair_distance(type_a: int, X_a: Any, params_a: Any, type_b: int, X_b: Any, params_b: Any):
     """Signed distance between two posed shapes, dispatched on their types (symmetric).
 
-    The pair is put in :class:`~morphkit.graph.ShapeType` order first, so each unordered pair
-    has one implementation; cylinders become their bounding capsules except against spheres.
-    Unsupported types (meshes) give :data:`NO_CONTACT_DISTANCE`.
+    Each unordered type pair has one implementation, called with the shapes in
+    :class:`~morphkit.graph.ShapeType` order whichever comes first; cylinders become their
+    bounding capsules except against spheres. Unsupported types (meshes) give
+    :data:`NO_CONTACT_DISTANCE`.
     """
     ta = type_a
     tb = type_b
-    Xa = X_a
-    Xb = X_b
-    pa = params_a
-    pb = params_b
-    if type_a > type_b:
-        ta = type_b
-        tb = type_a
-        Xa = X_b
-        Xb = X_a
-        pa = params_b
-        pb = params_a
     # Cylinder as bounding capsule, except for the exact sphere-cylinder pair.
-    if ta == SHAPE_CYLINDER:
+    if ta == SHAPE_CYLINDER and tb != SHAPE_SPHERE:
         ta = SHAPE_CAPSULE
     if tb == SHAPE_CYLINDER and ta != SHAPE_SPHERE:
         tb = SHAPE_CAPSULE
-    # After the substitution a capsule may follow a box: restore the order.
-    if ta == SHAPE_BOX and tb == SHAPE_CAPSULE:
-        ta = SHAPE_CAPSULE
-        tb = SHAPE_BOX
-        Xt = Xa
-        Xa = Xb
-        Xb = Xt
-        pt = pa
-        pa = pb
-        pb = pt
-
-    d = pa[0] * type(pa[0])(0.0) + type(pa[0])(NO_CONTACT_DISTANCE)
-    ca = wp.transform_get_translation(Xa)
-    cb = wp.transform_get_translation(Xb)
-    if ta == SHAPE_SPHERE:
-        if tb == SHAPE_SPHERE:
-            d = sphere_sphere_distance(ca, pa[0], cb, pb[0])
-        elif tb == SHAPE_CAPSULE:
-            b0, b1 = capsule_endpoints(Xb, pb[1])
-            d = sphere_capsule_distance(ca, pa[0], b0, b1, pb[0])
-        elif tb == SHAPE_BOX:
-            d = sphere_box_distance(ca, pa[0], Xb, pb)
-        elif tb == SHAPE_CYLINDER:
-            d = sphere_cylinder_distance(ca, pa[0], Xb, pb[0], pb[1])
-    elif ta == SHAPE_CAPSULE:
-        a0, a1 = capsule_endpoints(Xa, pa[1])
-        if tb == SHAPE_CAPSULE:
-            b0, b1 = capsule_endpoints(Xb, pb[1])
-            d = capsule_capsule_distance(a0, a1, pa[0], b0, b1, pb[0])
-        elif tb == SHAPE_BOX:
-            d = capsule_box_distance(a0, a1, pa[0], Xb, pb)
-    elif ta == SHAPE_BOX:
-        if tb == SHAPE_BOX:
-            d = box_box_distance(Xa, pa, Xb, pb)
+    d = params_a[0] * type(params_a[0])(0.0) + type(params_a[0])(NO_CONTACT_DISTANCE)
+    if ta == SHAPE_SPHERE and tb == SHAPE_SPHERE:
+        d = sphere_sphere_distance(wp.transform_get_translation(X_a), params_a[0],
+                                   wp.transform_get_translation(X_b), params_b[0])
+    elif ta == SHAPE_SPHERE and tb == SHAPE_CAPSULE:
+        d = _posed_sphere_capsule(X_a, params_a, X_b, params_b)
+    elif ta == SHAPE_CAPSULE and tb == SHAPE_SPHERE:
+        d = _posed_sphere_capsule(X_b, params_b, X_a, params_a)
+    elif ta == SHAPE_SPHERE and tb == SHAPE_BOX:
+        d = _posed_sphere_box(X_a, params_a, X_b, params_b)
+    elif ta == SHAPE_BOX and tb == SHAPE_SPHERE:
+        d = _posed_sphere_box(X_b, params_b, X_a, params_a)
+    elif ta == SHAPE_SPHERE and tb == SHAPE_CYLINDER:
+        d = _posed_sphere_cylinder(X_a, params_a, X_b, params_b)
+    elif ta == SHAPE_CYLINDER and tb == SHAPE_SPHERE:
+        d = _posed_sphere_cylinder(X_b, params_b, X_a, params_a)
+    elif ta == SHAPE_CAPSULE and tb == SHAPE_CAPSULE:
+        a0, a1 = capsule_endpoints(X_a, params_a[1])
+        b0, b1 = capsule_endpoints(X_b, params_b[1])
+        d = capsule_capsule_distance(a0, a1, params_a[0], b0, b1, params_b[0])
+    elif ta == SHAPE_CAPSULE and tb == SHAPE_BOX:
+        d = _posed_capsule_box(X_a, params_a, X_b, params_b)
+    elif ta == SHAPE_BOX and tb == SHAPE_CAPSULE:
+        d = _posed_capsule_box(X_b, params_b, X_a, params_a)
+    elif ta == SHAPE_BOX and tb == SHAPE_BOX:
+        d = box_box_distance(X_a, params_a, X_b, params_b)
     return d

@@ -299,7 +299,7 @@ def test_random_sphere_box_and_sphere_cylinder_match_sdf():
         assert got_c == pytest.approx(np_cylinder_sdf(np_to_local(Xb, Xs[:3]), h[0], h[1]) - 0.1, abs=1e-12)
 
 
-def _box_surface_points(X: np.ndarray, h: np.ndarray, n: int = 16) -> np.ndarray:
+def _box_surface_points(X: np.ndarray, h: np.ndarray, n: int = 10) -> np.ndarray:
     g = np.linspace(-1, 1, n)
     u, v = np.meshgrid(g, g)
     faces = []
