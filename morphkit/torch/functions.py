@@ -55,6 +55,14 @@ def _array(t: torch.Tensor, dtype: Any) -> wp.array:
     return wp.from_torch(t, dtype=dtype, requires_grad=False)
 
 
+def _zeros(shape: tuple[int, ...] | torch.Size, like: torch.Tensor) -> torch.Tensor:
+    """A zeroed tensor, cleared by Warp's memset (torch's multi-threaded fill stalls on a busy CPU)."""
+    t = torch.empty(tuple(shape), dtype=like.dtype, device=like.device)
+    if t.numel():
+        wp.from_torch(t.reshape(-1), requires_grad=False).zero_()
+    return t
+
+
 def _check(model: KinematicModel, q: torch.Tensor) -> None:
     if not isinstance(model, KinematicModel):
         raise GraphError(f"expected a KinematicModel (morphkit.model.compile_model(...)), got {type(model).__name__}")
@@ -171,7 +179,7 @@ class FKFunction(torch.autograd.Function):
             return None, None, None, None
         c = _ctx(model, q)
         B = q.shape[0]
-        grad_q = torch.zeros_like(q)  # [B, C]
+        grad_q = _zeros(q.shape, q)  # [B, C]
         if B:
             grad_out = grad_out.contiguous()  # [B, L, 7 | 3]
             transforms = ctx.kind == "transforms"
@@ -242,7 +250,7 @@ class EndEffectorFunction(torch.autograd.Function):
             return None, None, None, None
         c = _ctx(model, q)
         B, L, E = q.shape[0], model.link_count, model.ee_count
-        grad_q = torch.zeros_like(q)  # [B, C]
+        grad_q = _zeros(q.shape, q)  # [B, C]
         if B and E:
             grad_pos = (
                 torch.zeros((B, E, 3), dtype=q.dtype, device=q.device) if grad_pos is None else grad_pos.contiguous()
@@ -250,7 +258,7 @@ class EndEffectorFunction(torch.autograd.Function):
             grad_rot = (
                 torch.zeros((B, E, 4), dtype=q.dtype, device=q.device) if grad_rot is None else grad_rot.contiguous()
             )  # [B, E, 4]
-            adj_Ts = torch.zeros((B, L, 7), dtype=q.dtype, device=q.device)  # [B, L, 7]
+            adj_Ts = _zeros((B, L, 7), q)  # [B, L, 7]
             wheel, batched = _wheels(c, model, wheel_q, B)
             adj_pos = _array(grad_pos, c.vec3)
             adj_rot = _array(grad_rot, c.quat)
