@@ -5,6 +5,13 @@ The only layer importing both torch and Warp. ``morphkit.torch.reference`` is th
 ``docs/design/fk-kernels.md``.
 """
 
+from morphkit.torch.contact import contact_flags as contact_flags
+from morphkit.torch.contact import foot_heights as foot_heights
+from morphkit.torch.contact import penetration_depth as penetration_depth
+from morphkit.torch.contact import self_collision_distance as self_collision_distance
+from morphkit.torch.contact import self_collision_penetration as self_collision_penetration
+from morphkit.torch.contact import shape_ground_distance as shape_ground_distance
+from morphkit.torch.contact import sliding_speed as sliding_speed
 from morphkit.torch.functions import EndEffectorFunction as EndEffectorFunction
 from morphkit.torch.functions import FKFunction as FKFunction
 from morphkit.torch.functions import end_effector_positions as end_effector_positions
@@ -19,10 +26,17 @@ __all__ = [
     "EndEffectorFunction",
     "FKFunction",
     "ForwardKinematics",
+    "contact_flags",
     "end_effector_positions",
     "end_effector_velocities",
     "end_effectors",
     "fk",
+    "foot_heights",
     "link_positions",
+    "penetration_depth",
+    "self_collision_distance",
+    "self_collision_penetration",
+    "shape_ground_distance",
+    "sliding_speed",
     "wheel_angles",
 ]
