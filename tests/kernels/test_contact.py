@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 import warp as wp
-from conftest import spot_like
+from conftest import random_q, shipped_morphology, spot_like
 
 from morphkit.errors import GraphError
 from morphkit.graph import Limit, MorphologyBuilder, Shape, ShapeType, Transform
@@ -317,3 +317,20 @@ def test_shape_ground_distance_on_creature():
     thigh = next(i for i in range(model.shape_count) if model.link_names[model.shape_link[i]] == "l_thigh")
     assert h[thigh] == pytest.approx(0.3 - 0.05 - 0.2 - 0.03)
     assert h[-1] > 1e3
+
+
+@pytest.mark.parametrize("name", ["spot", "crab", "stretch", "human"])
+def test_shipped_creatures_self_collision(name):
+    """Shipped creatures: pairs build, nothing penetrates at rest, float32 agrees with float64 at random poses."""
+    model = compile_model(shipped_morphology(name))
+    pairs = ck.self_collision_pairs(model)
+    assert pairs.pair_count > 0 and sum(pairs.skipped.values()) + pairs.pair_count == math.comb(model.shape_count, 2)
+    rest = eval_fk(model, np.asarray(model.rest_q)[None], device="cpu")
+    np.testing.assert_allclose(ck.eval_self_collision_distance(model, pairs, rest).numpy()[0], pairs.rest_distance,
+                               atol=1e-12)
+    assert (ck.eval_self_collision_penetration(model, pairs, rest).numpy() == 0).all()
+    q = random_q(model, 64, seed=1)
+    d64 = ck.eval_self_collision_distance(model, pairs, eval_fk(model, q, device="cpu")).numpy()
+    d32 = ck.eval_self_collision_distance(model, pairs, eval_fk(model, q.astype(np.float32), device="cpu")).numpy()
+    assert np.isfinite(d64).all()
+    np.testing.assert_allclose(d32, d64, atol=5e-5)
