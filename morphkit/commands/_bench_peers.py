@@ -143,7 +143,8 @@ class PytorchKinematicsFK:
         self.m = m
         self.dtype = dtype or torch.float32
         self.chain = pk.build_chain_from_urdf(urdf_text_for_peers(m)).to(dtype=self.dtype)
-        self.frame_index = torch.tensor([self.chain.frame_to_idx[link.name] for link in m.links], dtype=torch.long)
+        frame_to_idx = getattr(self.chain, "frame_to_idx", {})
+        self.frame_index = torch.tensor([frame_to_idx.get(link.name, -1) for link in m.links], dtype=torch.long)
         names = self.chain.get_joint_parameter_names()
         # Column of each chain parameter in our q (spherical: one column of the converted angles).
         index = {n: i for i, n in enumerate(names)}
@@ -169,8 +170,14 @@ class PytorchKinematicsFK:
 
     def positions(self, th: Any, base: Any) -> Any:
         """World link positions [B, link_count, 3] (torch)."""
-        T = self.chain.forward_kinematics_tensor(th)  # [frames, B, 4, 4]
-        p = T[self.frame_index, :, :3, 3].transpose(0, 1)  # [B, L, 3]
+        if hasattr(self.chain, "forward_kinematics_tensor"):  # pytorch-kinematics >= 0.10: one stacked tensor
+            T = self.chain.forward_kinematics_tensor(th)  # [frames, B, 4, 4]
+            p = T[self.frame_index, :, :3, 3].transpose(0, 1)  # [B, L, 3]
+        else:
+            import torch
+
+            Ts = self.chain.forward_kinematics(th)  # {link name: Transform3d [B]}
+            p = torch.stack([Ts[link.name].get_matrix()[:, :3, 3] for link in self.m.links], dim=1)
         if base is None:
             return p
         R = _torch_matrix_from_quat(base[:, 3:7])  # [B, 3, 3]
