@@ -22,6 +22,7 @@ COMMANDS = [
     "convert",
     "bench",
     "render",
+    "map",
 ]
 """Subcommand modules under ``morphkit.commands``, in help order."""
 

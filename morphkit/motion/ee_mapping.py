@@ -87,6 +87,7 @@ def ee_distributions(
     *,
     max_frames_per_clip: int | None = None,
     regularization: float = DEFAULT_REGULARIZATION,
+    length: float | None = None,
 ) -> dict[str, Gaussian]:
     """Fit a :class:`Gaussian` to each end-effector's positions over a dataset.
 
@@ -97,6 +98,9 @@ def ee_distributions(
         motions: Clips of one creature.
         max_frames_per_clip: Use at most this many evenly spaced frames of each clip (speed).
         regularization: Diagonal added to each covariance (normalised units²).
+        length: Body length [m] to normalise by (default: each morphology's
+            :attr:`~morphkit.graph.Morphology.characteristic_length`, its rest height; pass one for
+            skeletons whose rest pose is not upright).
 
     Returns:
         ``{ee_name: Gaussian}`` in the morphology's end-effector order.
@@ -118,9 +122,9 @@ def ee_distributions(
         if max_frames_per_clip is not None and m.frame_count > max_frames_per_clip:
             step = int(np.ceil(m.frame_count / max_frames_per_clip))
             # Keep the original fps for velocities: slice after computing features.
-            psi = motion_features(m)[::step]
+            psi = motion_features(m, length=length)[::step]
         else:
-            psi = motion_features(m)
+            psi = motion_features(m, length=length)
         chunks.append(psi[:, ROOT_FEATURE_DIM:].reshape(psi.shape[0], len(ee), 3))
     if names is None:
         raise ConfigError("no motions to fit end-effector distributions to")

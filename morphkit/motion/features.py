@@ -98,8 +98,18 @@ def features(state: Any, layout: StateLayout, *, length: float, ee_names: Sequen
     return _cat(parts)
 
 
-def motion_features(motion: Motion, *, ee_names: Sequence[str] | None = None) -> np.ndarray:
-    """Ψ of every frame of a motion, shape [T, 11 + 3 k], normalised by the morphology's body length."""
+def motion_features(
+    motion: Motion, *, ee_names: Sequence[str] | None = None, length: float | None = None
+) -> np.ndarray:
+    """Ψ of every frame of a motion, shape [T, 11 + 3 k].
+
+    Args:
+        motion: The motion.
+        ee_names: End-effectors to include, in this order (default: all).
+        length: Body length [m] (default: the morphology's
+            :attr:`~morphkit.graph.Morphology.characteristic_length`).
+    """
     layout = character_state_layout(motion.morphology)
     state = character_state_from_motion(motion)
-    return features(state, layout, length=motion.morphology.characteristic_length, ee_names=ee_names)
+    body = motion.morphology.characteristic_length if length is None else length
+    return features(state, layout, length=body, ee_names=ee_names)

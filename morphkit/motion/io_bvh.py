@@ -280,7 +280,7 @@ def bvh_to_motion(
         bvh: From :func:`~morphkit.io.bvh.parse_bvh` / :func:`~morphkit.io.bvh.read_bvh`.
         scale: File units to metres (``None``: detected from the skeleton's size).
         facing: The BVH axis the skeleton faces at rest (``"+z"`` for CMU, Daz, Bandai Namco;
-            ``"+x"`` for the dog clips).
+            ``"-x"`` for the MANN dog clips, whose root frame's -X points to the head).
         up: The world's up axis in the file's motion: ``"+y"``, ``"+z"`` or ``"auto"`` (the axis
             along which the root stays above every foot). The skeleton's rest pose is always
             taken as Y-up; the CMU (AMASS) clips have a Y-up skeleton moving in a Z-up world.

@@ -30,7 +30,7 @@ from morphkit.motion._rotations import quat_from_yaw
 DATA = Path(os.environ["MORPHKIT_DATA"]) if os.environ.get("MORPHKIT_DATA") else None
 FOLDERS = {"cmu": "human/cmu", "cmu_daz": "human/cmu_daz", "second_skeleton": "human/second_skeleton",
            "dog": "creatures/dog"}
-FACING = {"dog": "+x"}
+FACING = {"dog": "-x"}  # the dog root frame's -X points to the head
 
 pytestmark = pytest.mark.skipif(
     DATA is None or not (DATA / "human" / "cmu").is_dir(), reason="MORPHKIT_DATA is not set (or has no human/cmu)"

@@ -1,0 +1,80 @@
+"""Small vectorised helpers shared by the synthesis modules (NumPy only)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from morphkit.conventions import quat_conjugate, quat_multiply
+
+__all__ = [
+    "nlerp",
+    "quat_from_rpy_zyx",
+    "quat_from_yaw",
+    "rotate2",
+    "smoothstep",
+    "smoothstep_derivative",
+    "wrap_angle",
+]
+
+
+def smoothstep(x: np.ndarray | float) -> np.ndarray:
+    """$3x^2 - 2x^3$ on ``x`` clipped to [0, 1]: 0 to 1 with zero slope at both ends."""
+    x = np.clip(x, 0.0, 1.0)
+    return x * x * (3.0 - 2.0 * x)
+
+
+def smoothstep_derivative(x: np.ndarray | float) -> np.ndarray:
+    """d smoothstep / dx (0 outside [0, 1])."""
+    x = np.asarray(x, dtype=float)
+    inside = (x > 0.0) & (x < 1.0)
+    return np.where(inside, 6.0 * x * (1.0 - x), 0.0)
+
+
+def wrap_angle(a: np.ndarray | float) -> np.ndarray:
+    """Angles [rad] wrapped into [-pi, pi)."""
+    return (np.asarray(a) + np.pi) % (2.0 * np.pi) - np.pi
+
+
+def rotate2(c: np.ndarray, s: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Rotate 2-vectors ``v`` [..., 2] by the angle whose cosine and sine are ``c``, ``s`` [...]."""
+    x, y = v[..., 0], v[..., 1]
+    return np.stack([c * x - s * y, s * x + c * y], axis=-1)
+
+
+def quat_from_yaw(yaw: np.ndarray) -> np.ndarray:
+    """xyzw quaternions of rotations about +z by ``yaw`` [...] [rad], shape [..., 4]."""
+    yaw = np.asarray(yaw, dtype=float)
+    out = np.zeros((*yaw.shape, 4))
+    out[..., 2] = np.sin(0.5 * yaw)
+    out[..., 3] = np.cos(0.5 * yaw)
+    return out
+
+
+def quat_from_rpy_zyx(roll: np.ndarray, pitch: np.ndarray, yaw: np.ndarray) -> np.ndarray:
+    """xyzw quaternions of ``Rz(yaw) Ry(pitch) Rx(roll)`` (the conventions' rpy), shape [..., 4]."""
+    cr, sr = np.cos(0.5 * roll), np.sin(0.5 * roll)
+    cp, sp = np.cos(0.5 * pitch), np.sin(0.5 * pitch)
+    cy, sy = np.cos(0.5 * yaw), np.sin(0.5 * yaw)
+    return np.stack(
+        [
+            sr * cp * cy - cr * sp * sy,
+            cr * sp * cy + sr * cp * sy,
+            cr * cp * sy - sr * sp * cy,
+            cr * cp * cy + sr * sp * sy,
+        ],
+        axis=-1,
+    )
+
+
+def nlerp(q0: np.ndarray, q1: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """Normalised linear interpolation of xyzw quaternions [..., 4] (shortest arc), weights [...]."""
+    sign = np.where(np.sum(q0 * q1, axis=-1, keepdims=True) < 0.0, -1.0, 1.0)
+    q = q0 + np.asarray(w)[..., None] * (sign * q1 - q0)
+    return q / np.linalg.norm(q, axis=-1, keepdims=True)
+
+
+def quat_delta_extrapolate(q_prev: np.ndarray, q_prev2: np.ndarray) -> np.ndarray:
+    """Constant-angular-velocity prediction ``q_prev (q_prev2^-1 q_prev)`` of unit quaternions [..., 4]."""
+    d = quat_multiply(quat_conjugate(q_prev2), q_prev)
+    q = quat_multiply(q_prev, d)
+    return q / np.linalg.norm(q, axis=-1, keepdims=True)
