@@ -35,6 +35,7 @@ import warp as wp
 from morphkit.errors import GraphError
 from morphkit.graph.types import EndEffectorRole, JointType, ShapeType
 from morphkit.kernels._collision_kernels import self_collision_kernel, shape_ground_kernel
+from morphkit.kernels.fk import _launch
 from morphkit.model.kinematic_model import KinematicModel
 
 __all__ = [
@@ -440,10 +441,10 @@ def eval_shape_ground_distance(model: KinematicModel, link_X: Any, *, ground_hei
     out = _check_out(out, (*lead, S), scalar, device, X.requires_grad)
     if N and S:
         a = model.arrays(device, scalar)
-        wp.launch(shape_ground_kernel, dim=(N, S),
-                  inputs=[X.reshape((N, model.link_count)), a.shape_link, a.shape_type, a.shape_X_link,
-                          a.shape_params, scalar(ground_height)],
-                  outputs=[out.reshape((N, S))], device=device)
+        _launch(shape_ground_kernel, N, device,
+                [X.reshape((N, model.link_count)), a.shape_link, a.shape_type, a.shape_X_link, a.shape_params,
+                 scalar(ground_height), 0],
+                [out.reshape((N, S))], dim_tail=(S,))
     return out
 
 
@@ -461,12 +462,12 @@ def eval_shape_ground_distance_adjoint(model: KinematicModel, link_X: Any, adj_o
     if N and S:
         a = model.arrays(device, scalar)
         out = adj_out.contiguous().reshape((N, S))
-        wp.launch(shape_ground_kernel, dim=(N, S),
-                  inputs=[X.reshape((N, L)), a.shape_link, a.shape_type, a.shape_X_link, a.shape_params,
-                          scalar(ground_height)],
-                  outputs=[out],
-                  adj_inputs=[adj_link_X.reshape((N, L)), None, None, None, None, scalar(0.0)],
-                  adj_outputs=[out], adjoint=True, device=device)
+        _launch(shape_ground_kernel, N, device,
+                [X.reshape((N, L)), a.shape_link, a.shape_type, a.shape_X_link, a.shape_params,
+                 scalar(ground_height), 0],
+                [out], adjoint=True,
+                adj_inputs=[adj_link_X.reshape((N, L)), None, None, None, None, scalar(0.0), 0],
+                adj_outputs=[out], dim_tail=(S,))
     return adj_link_X
 
 
@@ -581,7 +582,7 @@ def self_collision_pairs(model: KinematicModel, *, rest_margin: float = 0.0, ski
         out = wp.zeros((1, len(cand_a)), dtype=wp.float64, device="cpu")
         a = model.arrays("cpu", wp.float64)
         wp.launch(self_collision_kernel, dim=(1, len(cand_a)),
-                  inputs=[X, a.shape_link, a.shape_type, a.shape_X_link, a.shape_params, pa, pb, 0],
+                  inputs=[X, a.shape_link, a.shape_type, a.shape_X_link, a.shape_params, pa, pb, 0, 0],
                   outputs=[out], device="cpu")
         rest = out.numpy()[0]
     keep = rest > rest_margin
@@ -627,10 +628,10 @@ def _self_collision(model: KinematicModel, pairs: SelfCollisionPairs, link_X: An
     if N and P:
         a = model.arrays(device, scalar)
         pa, pb = pairs.arrays(device)
-        wp.launch(self_collision_kernel, dim=(N, P),
-                  inputs=[X.reshape((N, model.link_count)), a.shape_link, a.shape_type, a.shape_X_link,
-                          a.shape_params, pa, pb, penetration],
-                  outputs=[out.reshape((N, P))], device=device)
+        _launch(self_collision_kernel, N, device,
+                [X.reshape((N, model.link_count)), a.shape_link, a.shape_type, a.shape_X_link, a.shape_params,
+                 pa, pb, penetration, 0],
+                [out.reshape((N, P))], dim_tail=(P,))
     return out
 
 
@@ -673,12 +674,12 @@ def _self_collision_adjoint(model: KinematicModel, pairs: SelfCollisionPairs, li
         a = model.arrays(device, scalar)
         pa, pb = pairs.arrays(device)
         out = adj_out.contiguous().reshape((N, P))
-        wp.launch(self_collision_kernel, dim=(N, P),
-                  inputs=[X.reshape((N, L)), a.shape_link, a.shape_type, a.shape_X_link, a.shape_params, pa, pb,
-                          penetration],
-                  outputs=[out],
-                  adj_inputs=[adj_link_X.reshape((N, L)), None, None, None, None, None, None, 0],
-                  adj_outputs=[out], adjoint=True, device=device)
+        _launch(self_collision_kernel, N, device,
+                [X.reshape((N, L)), a.shape_link, a.shape_type, a.shape_X_link, a.shape_params, pa, pb,
+                 penetration, 0],
+                [out], adjoint=True,
+                adj_inputs=[adj_link_X.reshape((N, L)), None, None, None, None, None, None, 0, 0],
+                adj_outputs=[out], dim_tail=(P,))
     return adj_link_X
 
 
