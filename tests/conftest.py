@@ -185,17 +185,15 @@ TEST_CREATURES: dict[str, Callable[[], Morphology]] = {
 
 
 def shipped_morphology(name: str) -> Morphology:
-    """Read a shipped creature, skipping the test when it (or its reader) is not there yet."""
+    """Read a shipped creature from ``morphologies/<name>/`` (a missing one fails the test)."""
     from pathlib import Path
+
+    from morphkit.io import read_morphology
 
     root = Path(__file__).resolve().parents[1] / "morphologies" / name
     paths = sorted(p for p in root.glob(f"{name}.*") if p.suffix in (".yaml", ".yml", ".urdf", ".usda", ".usd"))
     if not paths:
-        pytest.skip(f"shipped creature {name!r} is not in morphologies/ yet")
-    try:
-        from morphkit.io import read_morphology
-    except ImportError:
-        pytest.skip("morphkit.io is not available yet")
+        pytest.fail(f"shipped creature {name!r} is missing from morphologies/{name}/")
     return read_morphology(paths[0])
 
 

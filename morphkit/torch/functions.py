@@ -63,6 +63,20 @@ def _zeros(shape: tuple[int, ...] | torch.Size, like: torch.Tensor) -> torch.Ten
     return t
 
 
+def _cotangent(g: torch.Tensor) -> torch.Tensor:
+    """An incoming gradient [..., k] in a layout Warp can read without copying where possible.
+
+    Warp reads any outer strides but needs the trailing component dimension contiguous. The
+    common ``loss.sum()`` gradient is one value broadcast everywhere (all strides 0): only its
+    last row is materialised and broadcast again, instead of copying the whole tensor.
+    """
+    if g.stride(-1) == 1:
+        return g
+    if all(st == 0 for st in g.stride()[:-1]):
+        return g[(0,) * (g.dim() - 1)].contiguous().expand_as(g)
+    return g.contiguous()
+
+
 def _check(model: KinematicModel, q: torch.Tensor) -> None:
     if not isinstance(model, KinematicModel):
         raise GraphError(f"expected a KinematicModel (morphkit.model.compile_model(...)), got {type(model).__name__}")
@@ -91,6 +105,7 @@ class _Ctx:
     """Per (model, device, dtype) state: the generated kernels, Warp device and wrapped constants."""
 
     def __init__(self, model: KinematicModel, device: torch.device, dtype: torch.dtype) -> None:
+        wp.init()
         self.wp_device = wp.device_from_torch(device)
         self.scalar = _WP_SCALAR[dtype]
         self.module = _fk.fk_module(model, self.scalar)
@@ -181,7 +196,7 @@ class FKFunction(torch.autograd.Function):
         B = q.shape[0]
         grad_q = _zeros(q.shape, q)  # [B, C]
         if B:
-            grad_out = grad_out.contiguous()  # [B, L, 7 | 3]
+            grad_out = _cotangent(grad_out)  # [B, L, 7 | 3]
             transforms = ctx.kind == "transforms"
             kernel = c.module.fk_transforms if transforms else c.module.fk_positions
             wheel, batched = _wheels(c, model, wheel_q, B)
@@ -253,10 +268,10 @@ class EndEffectorFunction(torch.autograd.Function):
         grad_q = _zeros(q.shape, q)  # [B, C]
         if B and E:
             grad_pos = (
-                torch.zeros((B, E, 3), dtype=q.dtype, device=q.device) if grad_pos is None else grad_pos.contiguous()
+                _zeros((B, E, 3), q) if grad_pos is None else _cotangent(grad_pos)
             )  # [B, E, 3]
             grad_rot = (
-                torch.zeros((B, E, 4), dtype=q.dtype, device=q.device) if grad_rot is None else grad_rot.contiguous()
+                _zeros((B, E, 4), q) if grad_rot is None else _cotangent(grad_rot)
             )  # [B, E, 4]
             adj_Ts = _zeros((B, L, 7), q)  # [B, L, 7]
             wheel, batched = _wheels(c, model, wheel_q, B)

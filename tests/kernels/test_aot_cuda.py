@@ -9,7 +9,7 @@ import pkgutil
 
 import pytest
 import warp as wp
-from conftest import shipped_morphology, spot_like
+from conftest import shipped_morphology
 
 import morphkit.kernels
 from morphkit.kernels import fk_module
@@ -51,11 +51,7 @@ def test_module_compiles_for_cuda(name):
 
 @pytest.mark.parametrize("dtype", ["float32", "float64"])
 def test_generated_spot_fk_compiles_for_cuda(dtype):
-    try:
-        morphology = shipped_morphology("spot")
-    except pytest.skip.Exception:
-        morphology = spot_like()
-    module = fk_module(compile_model(morphology), dtype)
+    module = fk_module(compile_model(shipped_morphology("spot")), dtype)
     paths = wp.compile_aot_module(module, device=None, arch=90, use_ptx=True)
     assert paths and all(p.stat().st_size > 0 for p in paths)
     ptx = paths[0].read_text(errors="replace")

@@ -182,3 +182,17 @@ def test_cuda_matches_cpu():
     m = compile_model(spot_like())
     q = torch.tensor(random_q(m, 64, seed=8), dtype=torch.float32)
     torch.testing.assert_close(mt.fk(m, q.cuda()).cpu(), mt.fk(m, q), atol=1e-5, rtol=0)
+
+
+def test_broadcast_and_strided_incoming_gradients(device):
+    """``loss.sum()`` hands backward a fully broadcast gradient; slicing hands it strided ones."""
+    m = compile_model(spot_like())
+    q = _q(m, (5,), device, seed=9)
+    for loss in (lambda y: y.sum(), lambda y: y[..., ::2, :].sum(), lambda y: (y.transpose(0, 1) * 2).sum(),
+                 lambda y: y[..., 0].sum()):
+        (g,) = torch.autograd.grad(loss(mt.fk(m, q)), q)
+        (g_ref,) = torch.autograd.grad(loss(fk_reference(m, q)), q)
+        torch.testing.assert_close(g, g_ref, atol=1e-11, rtol=1e-9)
+        (g,) = torch.autograd.grad(loss(mt.end_effector_positions(m, q)), q)
+        (g_ref,) = torch.autograd.grad(loss(end_effectors_reference(m, fk_reference(m, q))[..., :3]), q)
+        torch.testing.assert_close(g, g_ref, atol=1e-11, rtol=1e-9)
