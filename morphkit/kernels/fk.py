@@ -119,6 +119,8 @@ class _CpuThreads:
         self.count = max(1, int(os.environ.get("MORPHKIT_CPU_THREADS", "0")) or (os.cpu_count() or 1))
         self.pool: ThreadPoolExecutor | None = None
         self.lock = threading.Lock()
+        self.loaded: set[tuple[int, str]] = set()
+        """Modules launched once on a device (safe to launch from several threads)."""
 
     def get_pool(self) -> ThreadPoolExecutor:
         with self.lock:
@@ -185,6 +187,12 @@ def _launch(kernel: Any, batch: int, device: Any, inputs: list, outputs: list, *
     if len(chunks) == 1:
         run(chunks[0])
         return
+    key = (id(kernel.module), str(device))
+    if key not in _cpu.loaded:
+        # The first launch may compile the module: run one chunk alone so threads never race to load it.
+        run(chunks[0])
+        _cpu.loaded.add(key)
+        chunks = chunks[1:]
     for f in [_cpu.get_pool().submit(run, c) for c in chunks]:
         f.result()
 
