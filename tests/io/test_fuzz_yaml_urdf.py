@@ -1,7 +1,7 @@
 """Property-based fuzz of the YAML and URDF readers: mutated valid text either reads, or raises a
 MorphkitError — never another exception. Whatever reads must also write and read back.
 
-``MORPHKIT_FUZZ_EXAMPLES`` raises the number of cases per test (default 1000) for a longer hunt.
+``MORPHKIT_FUZZ_EXAMPLES`` raises the number of cases per test (default 1500) for a longer hunt.
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ DATA = Path(__file__).resolve().parents[1] / "data"
 YAML_SEEDS = [(DATA / "tiny_creature.yaml").read_text()]
 URDF_SEEDS = [(DATA / "tiny_robot.urdf").read_text()]
 
-EXAMPLES = int(os.environ.get("MORPHKIT_FUZZ_EXAMPLES", "1000"))
+EXAMPLES = int(os.environ.get("MORPHKIT_FUZZ_EXAMPLES", "1500"))
 FUZZ = settings(max_examples=EXAMPLES, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 
 NUMBER = re.compile(r"-?\d+(?:\.\d*)?(?:[eE][-+]?\d+)?")
@@ -71,13 +71,25 @@ def mutated(draw: st.DrawFn, seeds: list[str], snippets: list[str]) -> str:
             if spans:
                 a, b = draw(st.sampled_from(spans))
                 text = text[:a] + draw(st.sampled_from(NUMBER_REPLACEMENTS)) + text[b:]
+        elif kind == "word":  # swap one identifier for another: names, types, roles, keys
+            spans = [m.span() for m in WORD.finditer(text)]
+            if spans:
+                a, b = draw(st.sampled_from(spans))
+                words = [m.group() for m in WORD.finditer(text)]
+                text = text[:a] + draw(st.sampled_from(words) | st.sampled_from(WORDS)) + text[b:]
         elif kind == "snippet":
             i = draw(st.integers(0, len(text)))
             text = text[:i] + draw(st.sampled_from(snippets)) + text[i:]
     return text
 
 
-KINDS = ("flip", "delete", "insert", "dup_line", "del_line", "swap_lines", "number", "number", "snippet")
+# Character-level edits mostly break the syntax; semantic edits (numbers, words, lines) reach the
+# readers' value and structure checks, so they are drawn more often.
+KINDS = ("flip", "delete", "insert", "dup_line", "dup_line", "del_line", "del_line", "swap_lines",
+         "number", "number", "number", "number", "word", "word", "word", "snippet", "snippet")
+WORD = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+WORDS = ["hinge", "world", "spherical", "planar", "floating", "wheeled", "fixed", "claw", "capsule", "mesh",
+         "quat", "rpy", "xyz", "name", "link", "joint", "parent", "child", "mimic", "wheels", "true", "null"]
 YAML_SNIPPETS = [
     "\n  extra: {type: fixed, parent: body, child: arm}\n", "\n  x: &a {b: *a}\n",
     "\nwheels: {joints: [], radius: 1}\n", "!!python/object:os.system ", "<<: {a: 1}\n", "\n---\n",
