@@ -160,9 +160,9 @@ def _chunks(batch: int, device: Any) -> list[tuple[int, int]]:
 
 
 def _tape_active() -> bool:
-    from warp._src.context import runtime
+    import warp._src.context as context  # the runtime object appears once Warp is initialised
 
-    return runtime is not None and runtime.tape is not None
+    return context.runtime is not None and context.runtime.tape is not None
 
 
 def _launch(kernel: Any, batch: int, device: Any, inputs: list, outputs: list, *, adjoint: bool = False,

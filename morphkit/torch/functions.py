@@ -118,24 +118,39 @@ class _Ctx:
         self.replays: dict[str, Any] = {}
         self.lock = threading.Lock()
 
-    def launch_fk(self, kernel: Any, B: int, inputs: list, out: Any) -> None:
-        """Launch a generated FK kernel; small batches replay a recorded launch (a few µs instead of ~15)."""
+    def launch_fk(self, kernel: Any, q: torch.Tensor, out: torch.Tensor, out_dtype: Any, wheel: Any,
+                  batched: int) -> None:
+        """Launch a generated FK kernel on ``q`` [B, C] into ``out`` [B, L, k] (both contiguous).
+
+        Small batches replay a recorded launch whose array descriptors are updated in place
+        (a few µs instead of ~15 for ``wp.launch``); large CPU batches are split over threads.
+        """
+        B = q.shape[0]
         if len(_fk._chunks(B, self.wp_device)) > 1 or _fk._tape_active():
-            _fk._launch(kernel, B, self.wp_device, inputs, [out])
+            _fk._launch(kernel, B, self.wp_device, [_ctype(q, self.scalar), wheel, batched, 0],
+                        [_ctype(out, out_dtype)])
             return
+        stream = wp.stream_from_torch(torch.cuda.current_stream(self.wp_device.ordinal)) \
+            if self.wp_device.is_cuda else None
         with self.lock:
-            replay = self.replays.get(kernel.key)
-            if replay is None:
-                replay = wp.launch(kernel, dim=B, inputs=inputs, outputs=[out], device=self.wp_device,
-                                   record_cmd=True)
-                self.replays[kernel.key] = replay
+            entry = self.replays.get(kernel.key)
+            if entry is None:
+                replay = wp.launch(kernel, dim=B, inputs=[_ctype(q, self.scalar), wheel, batched, 0],
+                                   outputs=[_ctype(out, out_dtype)], device=self.wp_device, record_cmd=True)
+                self.replays[kernel.key] = entry = [replay, B]
             else:
-                for i, v in enumerate(inputs):
-                    replay.set_param_at_index_from_ctype(i, v)
-                replay.set_param_at_index_from_ctype(len(inputs), out)
-                replay.set_dim(B)
-            stream = wp.stream_from_torch(torch.cuda.current_stream(self.wp_device.ordinal)) \
-                if self.wp_device.is_cuda else None
+                replay = entry[0]
+                # params: [bounds, q, wheel_q, wheel_batched, offset, out]
+                params = replay.params
+                q_arr, out_arr = params[1], params[5]
+                q_arr.data, q_arr.shape[0], q_arr.strides[0] = q.data_ptr(), B, q.stride(0) * q.element_size()
+                out_arr.data, out_arr.shape[0] = out.data_ptr(), B
+                out_arr.strides[0] = out.stride(0) * out.element_size()
+                replay.set_param_at_index_from_ctype(1, wheel)
+                params[3].value = batched
+                if entry[1] != B:
+                    replay.set_dim(B)
+                    entry[1] = B
             replay.launch(stream)
 
 
@@ -177,10 +192,8 @@ class FKFunction(torch.autograd.Function):
         if B:
             kernel = c.module.fk_transforms if kind == "transforms" else c.module.fk_positions
             wheel, batched = _wheels(c, model, wheel_q, B)
-            q_wp = _ctype(q, c.scalar)  # [B, C]
-            out_wp = _ctype(out, c.transform if width == 7 else c.vec3)  # [B, L]
             with _on_torch_stream(c.wp_device):
-                c.launch_fk(kernel, B, [q_wp, wheel, batched, 0], out_wp)
+                c.launch_fk(kernel, q, out, c.transform if width == 7 else c.vec3, wheel, batched)
         ctx.save_for_backward(q, wheel_q)
         ctx.model, ctx.kind = model, kind
         return out
@@ -236,10 +249,8 @@ class EndEffectorFunction(torch.autograd.Function):
         rot = torch.empty((B, E, 4), dtype=q.dtype, device=q.device)  # [B, E, 4]
         if B:
             wheel, batched = _wheels(c, model, wheel_q, B)
-            q_wp = _ctype(q, c.scalar)
-            Ts_wp = _ctype(Ts, c.transform)
             with _on_torch_stream(c.wp_device):
-                c.launch_fk(c.module.fk_transforms, B, [q_wp, wheel, batched, 0], Ts_wp)
+                c.launch_fk(c.module.fk_transforms, q, Ts, c.transform, wheel, batched)
                 if E:
                     _fk._launch(
                         _ee.end_effector_poses,

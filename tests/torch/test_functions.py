@@ -196,3 +196,12 @@ def test_broadcast_and_strided_incoming_gradients(device):
         (g,) = torch.autograd.grad(loss(mt.end_effector_positions(m, q)), q)
         (g_ref,) = torch.autograd.grad(loss(end_effectors_reference(m, fk_reference(m, q))[..., :3]), q)
         torch.testing.assert_close(g, g_ref, atol=1e-11, rtol=1e-9)
+
+
+def test_repeated_calls_with_changing_batch_sizes(device):
+    """The small-batch path replays one recorded launch; sizes, inputs and outputs change between calls."""
+    m = compile_model(spot_like())
+    for seed, B in enumerate([1, 3, 1, 64, 5000, 2, 2]):
+        q = torch.tensor(random_q(m, B, seed=seed), dtype=torch.float32, device=device)
+        torch.testing.assert_close(mt.fk(m, q), fk_reference(m, q), atol=2e-5, rtol=0)
+        torch.testing.assert_close(mt.link_positions(m, q), fk_reference(m, q)[..., :3], atol=2e-5, rtol=0)
