@@ -64,6 +64,7 @@ __all__ = [
     "human_state",
     "human_state_from_motion",
     "human_state_layout",
+    "is_motion_file",
     "kl_divergence",
     "load_motions",
     "map_end_effectors",
@@ -101,6 +102,34 @@ def __getattr__(name: str) -> Any:
     import importlib
 
     return getattr(importlib.import_module(module), name)
+
+
+def is_motion_file(path: str | os.PathLike[str]) -> bool:
+    """Whether ``path`` holds a motion (not only a description): any ``.bvh``; an ``.npz`` with a
+    ``q`` array; a USD file with time samples (``morphkit:motion:q`` or an authored time range).
+
+    Lets ``morphkit convert`` tell ``walk.bvh -> walk.usda`` (a motion) from ``spot.urdf ->
+    spot.usda`` (a description). Unreadable files answer ``False``.
+    """
+    p = Path(path)
+    suffix = p.suffix.lower()
+    if not p.is_file():
+        return False
+    if suffix == ".bvh":
+        return True
+    if suffix == ".npz":
+        import numpy as np
+
+        try:
+            with np.load(p, allow_pickle=False) as data:
+                return "q" in data.files
+        except (OSError, ValueError, EOFError):
+            return False
+    if suffix in (".usd", ".usda", ".usdc"):
+        from morphkit.motion.io_usd import usd_has_motion
+
+        return usd_has_motion(p)
+    return False
 
 
 def read_motion(path: str | os.PathLike[str], **options: Any) -> Motion:

@@ -13,6 +13,13 @@ exact read-back the default prim also carries:
 - ``morphkit:motion:coordinateNames`` (string[]): the q layout they follow;
 - ``morphkit:motion:name`` (string): the motion's name.
 
+With ``skeleton=True`` (the default) the file also holds a UsdSkel view of the same motion, for
+tools that animate characters rather than articulations (usdview, Blender's USD importer,
+Omniverse): a top-level ``SkelRoot`` ``/<name>_skel`` with a ``Skeleton`` whose joints are the
+links (joint paths follow the tree: ``root/child/...``), rest and bind transforms from the rest
+pose, and a ``SkelAnimation`` with time-sampled local translations and rotations of every link
+(the root's in the skeleton root's frame, i.e. the world).
+
 Reading (:func:`read_usd_motion`): the morphology comes from :func:`~morphkit.io.usd.read_usd`.
 With ``morphkit:motion:q`` present (and matching the layout) the coordinates are read from it;
 otherwise they are recovered from the link transforms' time samples (joint by joint: the
@@ -35,7 +42,7 @@ from morphkit.graph import BaseType, JointType, Morphology
 from morphkit.motion._rotations import quat_canonical, quat_normalize, yaw_from_quat
 from morphkit.motion.motion import Motion
 
-__all__ = ["q_from_link_poses", "read_usd_motion", "write_usd_motion"]
+__all__ = ["q_from_link_poses", "read_usd_motion", "usd_has_motion", "write_usd_motion"]
 
 _SUFFIXES = (".usd", ".usda", ".usdc")
 
@@ -62,8 +69,13 @@ def _link_prims(stage: Any, robot: Any, m: Morphology) -> list[Any]:
     return [by_name[n] for n in m.link_names]
 
 
-def write_usd_motion(motion: Motion, path: str | os.PathLike[str]) -> None:
+def write_usd_motion(motion: Motion, path: str | os.PathLike[str], *, skeleton: bool = True) -> None:
     """Write ``motion`` as a USD articulation with time-sampled link transforms (atomically).
+
+    Args:
+        motion: The motion.
+        path: ``.usd``, ``.usda`` or ``.usdc``.
+        skeleton: Also write the UsdSkel view (see the module docstring).
 
     Raises:
         MotionFormatError: the suffix is not ``.usd``, ``.usda`` or ``.usdc``.
@@ -101,7 +113,66 @@ def write_usd_motion(motion: Motion, path: str | os.PathLike[str]) -> None:
             list(m.coordinate_names)
         )
         robot.CreateAttribute("morphkit:motion:name", Sdf.ValueTypeNames.String, custom=True).Set(motion.name)
+        if skeleton:
+            _write_skel(stage, robot, motion, poses)
         stage.GetRootLayer().Save()
+
+
+def _joint_paths(m: Morphology) -> list[str]:
+    """UsdSkel joint paths (``root/child/grandchild``) of every link, in link order."""
+    from pxr import Tf
+
+    tokens = [Tf.MakeValidIdentifier(n) for n in m.link_names]
+    paths: list[str] = []
+    for i, parent in enumerate(m.link_parent):
+        paths.append(tokens[i] if parent < 0 else f"{paths[parent]}/{tokens[i]}")
+    return paths
+
+
+def _local_poses(m: Morphology, poses: np.ndarray) -> np.ndarray:
+    """Each link's pose in its parent link [..., L, 7] (the root's in the world)."""
+    out = np.array(poses, dtype=float, copy=True)
+    parent = np.asarray(m.link_parent[1:])
+    inv = quat_conjugate(poses[..., parent, 3:])
+    out[..., 1:, :3] = quat_rotate(inv, poses[..., 1:, :3] - poses[..., parent, :3])
+    out[..., 1:, 3:] = quat_multiply(inv, poses[..., 1:, 3:])
+    return out
+
+
+def _matrix(pose: np.ndarray) -> Any:
+    from pxr import Gf
+
+    mat = Gf.Matrix4d(1.0)
+    mat.SetRotateOnly(Gf.Quatd(float(pose[6]), float(pose[3]), float(pose[4]), float(pose[5])))
+    mat.SetTranslateOnly(Gf.Vec3d(float(pose[0]), float(pose[1]), float(pose[2])))
+    return mat
+
+
+def _write_skel(stage: Any, robot: Any, motion: Motion, poses: np.ndarray) -> None:
+    from pxr import Gf, Sdf, UsdSkel, Vt
+
+    m = motion.morphology
+    root_path = Sdf.Path.absoluteRootPath.AppendChild(f"{robot.GetName()}_skel")
+    UsdSkel.Root.Define(stage, root_path)
+    skel = UsdSkel.Skeleton.Define(stage, root_path.AppendChild("Skeleton"))
+    anim = UsdSkel.Animation.Define(stage, root_path.AppendChild("Animation"))
+    joints = Vt.TokenArray(_joint_paths(m))
+    skel.CreateJointsAttr(joints)
+    skel.CreateJointNamesAttr(Vt.TokenArray(list(m.link_names)))
+    rest = m.rest_link_poses()
+    skel.CreateRestTransformsAttr(Vt.Matrix4dArray([_matrix(p) for p in _local_poses(m, rest)]))
+    skel.CreateBindTransformsAttr(Vt.Matrix4dArray([_matrix(p) for p in rest]))
+    UsdSkel.BindingAPI.Apply(skel.GetPrim()).CreateAnimationSourceRel().SetTargets([anim.GetPath()])
+    anim.CreateJointsAttr(joints)
+    local = _local_poses(m, poses)  # [T, L, 7]
+    translations = anim.CreateTranslationsAttr()
+    rotations = anim.CreateRotationsAttr()
+    anim.CreateScalesAttr().Set(Vt.Vec3hArray([Gf.Vec3h(1.0, 1.0, 1.0)] * m.link_count))
+    for t in range(motion.frame_count):
+        translations.Set(Vt.Vec3fArray([Gf.Vec3f(*(float(v) for v in p[:3])) for p in local[t]]), t)
+        rotations.Set(
+            Vt.QuatfArray([Gf.Quatf(float(p[6]), float(p[3]), float(p[4]), float(p[5])) for p in local[t]]), t
+        )
 
 
 def read_usd_motion(path: str | os.PathLike[str], *, fps: float | None = None) -> Motion:
@@ -151,6 +222,23 @@ def read_usd_motion(path: str | os.PathLike[str], *, fps: float | None = None) -
         q = q_from_link_poses(m, poses)
     motion = Motion(m, rate, q, name)
     return motion.resample(fps) if fps is not None else motion
+
+
+def usd_has_motion(path: str | os.PathLike[str]) -> bool:
+    """Whether a USD file animates something: ``morphkit:motion:q`` samples or an authored time range."""
+    from pxr import Tf, Usd
+
+    try:
+        stage = Usd.Stage.Open(os.fspath(path))
+    except Tf.ErrorException:
+        return False
+    if stage is None:
+        return False
+    robot = _robot_prim(stage)
+    attr = robot.GetAttribute("morphkit:motion:q") if robot else None
+    if attr and attr.GetNumTimeSamples() > 0:
+        return True
+    return bool(stage.HasAuthoredTimeCodeRange())
 
 
 def _robot_prim(stage: Any) -> Any:

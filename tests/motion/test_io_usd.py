@@ -66,3 +66,41 @@ def test_usd_errors(tmp_path: Path) -> None:
     write_usd(m, tmp_path / "still.usda")
     with pytest.raises(MotionFormatError, match="no motion"):
         read_usd_motion(tmp_path / "still.usda")
+
+
+def test_usd_skel_view_reproduces_the_link_poses(tmp_path: Path) -> None:
+    from pxr import Usd, UsdSkel
+
+    m = TEST_CREATURES["spot_like"]()
+    motion = Motion(m, 30.0, random_q(compiled_model(m), 4, seed=6), "skel")
+    path = tmp_path / "skel.usda"
+    write_usd_motion(motion, path)
+    stage = Usd.Stage.Open(str(path))
+    cache = UsdSkel.Cache()
+    root = UsdSkel.Root(stage.GetPrimAtPath(f"/{m.name}_skel"))
+    cache.Populate(root, Usd.PrimDefaultPredicate)
+    query = cache.GetSkelQuery(UsdSkel.Skeleton(stage.GetPrimAtPath(f"/{m.name}_skel/Skeleton")))
+    assert query
+    poses = motion.link_poses()
+    for t in range(motion.frame_count):
+        mats = query.ComputeJointSkelTransforms(t)
+        pos = np.array([[mat.ExtractTranslation()[k] for k in range(3)] for mat in mats])
+        np.testing.assert_allclose(pos, poses[t, :, :3], atol=1e-5)
+    # The articulation reads back unchanged next to the skeleton.
+    assert read_usd_motion(path).morphology.link_names == m.link_names
+
+
+def test_is_motion_file(tmp_path: Path) -> None:
+    from morphkit.io.usd import write_usd
+    from morphkit.motion import is_motion_file
+
+    m = TEST_CREATURES["planar_arm"]()
+    motion = Motion(m, 30.0, np.zeros((3, m.coordinate_count)))
+    for suffix in (".usda", ".npz", ".bvh"):
+        write_motion(motion, tmp_path / f"m{suffix}")
+        assert is_motion_file(tmp_path / f"m{suffix}"), suffix
+    write_usd(m, tmp_path / "d.usda")
+    assert not is_motion_file(tmp_path / "d.usda")
+    assert not is_motion_file(tmp_path / "missing.bvh")
+    (tmp_path / "junk.usda").write_text("not usd")
+    assert not is_motion_file(tmp_path / "junk.usda")

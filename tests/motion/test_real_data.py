@@ -136,7 +136,7 @@ def test_other_humans_and_dogs_stand_upright() -> None:
 def test_real_clip_round_trips(tmp_path: Path) -> None:
     for key in ("cmu",):
         m = _load(key)[0][:60]
-        for suffix in (".bvh", ".npz"):
+        for suffix in (".bvh", ".npz", ".usda"):
             path = tmp_path / f"{key}{suffix}"
             write_motion(m, path)
             back = read_motion(path, ground=False) if suffix == ".bvh" else read_motion(path)
