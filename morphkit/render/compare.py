@@ -82,7 +82,9 @@ def iter_side_by_side_frames(
             for c, (scene, poses, framing) in enumerate(panels):
                 t = sync[k, c]
                 scene.set_link_poses(poses[t])
-                scene.place_ground(framing.targets[t, :2], framing.ground_z, framing.ground_radius)
+                scene.place_ground(
+                    framing.targets[t, :2], framing.ground_z, framing.ground_radius, slack=framing.ground_slack
+                )
                 scene.set_camera(framing.targets[t], framing.distance, style.azimuth_deg, width / height)
                 images.append(draw_label(scene.render(renderer), labels[c]))
                 images.append(divider)

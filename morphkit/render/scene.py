@@ -389,26 +389,32 @@ class CreatureScene:
         return np.einsum("...ij,...j->...i", rot, self._corner_local) + sel[..., :3]
 
     # ---- ground, lights, camera -----------------------------------------------------------
-    def place_ground(self, center_xy: Sequence[float], z: float, radius: float) -> None:
+    def place_ground(self, center_xy: Sequence[float], z: float, radius: float, *, slack: float = 0.0) -> None:
         """Put the ground at height ``z``: a disc of ``radius`` [m] near ``center_xy`` with a grid of
         :attr:`grid_step` cells, fading out over its outer quarter.
 
-        The disc is snapped to whole grid cells, so the grid stays fixed in the world while the disc
-        follows the creature. A bounded disc rather than an endless plane keeps the shadow map sharp
-        and, since shading a floor pixel with soft shadows is the dearest thing in a frame under a
-        software rasteriser, keeps the frame rate up.
+        The disc is snapped to whole grid cells, so the grid stays fixed in the world. It stays where
+        it is while ``center_xy`` is within ``slack`` [m] of its centre, so a disc following a walking
+        creature moves now and then rather than stepping under it every few frames. A bounded disc
+        rather than an endless plane keeps the shadow map sharp and, since shading a floor pixel with
+        soft shadows is the dearest thing in a frame under a software rasteriser, the frame rate up.
         """
         if not self.style.ground:
             return
         step = self._grid_step
         cells = max(2, math.ceil(radius / step))
+        want = np.round(np.asarray(center_xy[:2], dtype=float) / step) * step
         if self._ground_node is None or self._ground_cells != cells:
             if self._ground_node is not None:
                 self.scene.remove_node(self._ground_node)
             self._ground_node = self.scene.add(self._ground_mesh(cells * step), name="ground")
             self._ground_cells = cells
+        else:
+            here = self._ground_node.matrix[:2, 3]
+            if np.linalg.norm(np.asarray(center_xy[:2], dtype=float) - here) <= slack:
+                want = here
         T = np.eye(4)
-        T[:2, 3] = np.round(np.asarray(center_xy[:2], dtype=float) / step) * step
+        T[:2, 3] = want
         T[2, 3] = z - 1e-4 * step  # a hair below contact points so feet do not z-fight with the floor
         self.scene.set_pose(self._ground_node, T)
 

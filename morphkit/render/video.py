@@ -218,7 +218,12 @@ class MotionFraming:
         )
         self.ground_z = float(lo[:, 2].min())
         reach = float(np.linalg.norm(rel[:, :2], axis=1).max())
-        self.ground_radius = scene.ground_radius(reach, float((hi[:, 2] - lo[:, 2]).max()))
+        radius = scene.ground_radius(reach, float((hi[:, 2] - lo[:, 2]).max()))
+        travel = float(np.ptp(self.targets[:, :2], axis=0).max())
+        # A clip that travels gets a disc with room to stay put while the creature crosses part of it.
+        self.ground_slack = min(0.3 * radius, travel)
+        """How far [m] the camera target may drift before the ground disc moves under it again."""
+        self.ground_radius = radius + self.ground_slack
         """Radius of the ground disc [m]."""
 
 
@@ -261,7 +266,9 @@ def iter_motion_frames(
     with offscreen_renderer(width, height) as renderer:
         for t in progress_bar(idx, total=len(idx), desc=f"render {m.name}", enabled=progress):
             scene.set_link_poses(poses[t])
-            scene.place_ground(framing.targets[t, :2], framing.ground_z, framing.ground_radius)
+            scene.place_ground(
+                framing.targets[t, :2], framing.ground_z, framing.ground_radius, slack=framing.ground_slack
+            )
             scene.set_camera(framing.targets[t], framing.distance, style.azimuth_deg, width / height)
             yield scene.render(renderer)
 
