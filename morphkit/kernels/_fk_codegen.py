@@ -19,7 +19,7 @@ from morphkit.model.kinematic_model import KinematicModel
 
 __all__ = ["GENERATOR_VERSION", "generate_source"]
 
-GENERATOR_VERSION = 1
+GENERATOR_VERSION = 2
 """Bumped whenever the generated code changes for the same model (part of the source hash)."""
 
 Val = float | str
@@ -131,8 +131,12 @@ def _const(v: float) -> float:
     return float(v)
 
 
-def _body(model: KinematicModel, e: _Emitter, store: str) -> None:
-    """Emit the FK of one pose ``b``; ``store`` formats the per-link write from ``{link}``, ``{p}``, ``{r}``."""
+def _body(model: KinematicModel, e: _Emitter, store: str, *, frames: bool = False) -> None:
+    """Emit the FK of one pose ``b``; ``store`` formats the per-link write from ``{link}``, ``{p}``, ``{r}``.
+
+    With ``frames``, also store each moving joint's frame rotation in world (``frames[b, j]``) for
+    :func:`_vjp_body`.
+    """
     coord: dict[int, str] = {}
 
     def qv(i: int) -> str:
@@ -165,11 +169,13 @@ def _body(model: KinematicModel, e: _Emitter, store: str) -> None:
         X = model.joint_X_parent[j]
         Xp: Vec = tuple(_const(v) for v in X[:3])  # type: ignore[assignment]
         Xq: Quat = tuple(_const(v) for v in X[3:])  # type: ignore[assignment]
-        if np.allclose(np.abs(X[6]), 1.0, rtol=0, atol=0) and not np.any(X[3:6]):
+        if X[6] == 1.0 and not np.any(X[3:6]):
             Xq = _IDENTITY
         # Joint frame in world: p_J = p_P + R_P X_p, r_J = r_P X_q.
         pj = e.add(pp, e.rotate(rp, Xp, f"o{c}"), f"pj{c}") if any(Xp) else pp
         rj = rp if Xq == _IDENTITY else e.qmul(rp, Xq, f"rj{c}")
+        if frames and jt != JointType.FIXED:
+            e.lines.append(f"frames[b, {j}] = Q({', '.join(e.value(v) for v in rj)})")
         axis = tuple(_const(v) for v in model.joint_axis[j])
         if jt in (JointType.REVOLUTE, JointType.CONTINUOUS, JointType.PRISMATIC):
             target = int(model.joint_mimic_target[j])
@@ -204,6 +210,79 @@ def _body(model: KinematicModel, e: _Emitter, store: str) -> None:
         emit_store(c, pc, rc)
 
 
+def _vjp_body(model: KinematicModel, e: _Emitter) -> None:
+    r"""Emit the vector–Jacobian product of the link positions for one pose ``b``.
+
+    With $w_l$ the cotangent of link position $p_l$, the reverse sweep accumulates over each
+    subtree the force $F_c = \sum w_l$ and the moment $M_c = \sum p_l \times w_l$; the torque
+    about joint $j$'s centre is $\tau = M_c - p_c \times F_c$. Then a revolute joint with world
+    axis $a$ gets $a \cdot \tau$, a prismatic one $a \cdot F_c$, a spherical joint (and the
+    floating base) the quaternion gradient of the rotation increment
+    $\delta\phi = 2\,\mathrm{vec}(\delta n \otimes n^*)$ mapped through the normalisation:
+    $\partial\ell/\partial v = 2 (n_w \tau_J + \tau_J \times n_v) / |q|$,
+    $\partial\ell/\partial w = -2\, n_v \cdot \tau_J / |q|$ with $\tau_J$ the torque in the
+    joint frame; mimic joints pass $m\,g$ to their target.
+    """
+    L, J = model.link_count, model.joint_count
+    grads: dict[int, list[str]] = {}
+
+    def add(k: int, expr: str) -> None:
+        grads.setdefault(k, []).append(expr)
+
+    for link in range(L):
+        e.lines.append(f"P{link} = pos[b, {link}]")
+        e.lines.append(f"F{link} = adj[b, {link}]")
+        e.lines.append(f"M{link} = wp.cross(P{link}, F{link})")
+
+    def quat_grad(prefix: str, s: int, tau_joint: str) -> None:
+        e.lines.append(f"{prefix}v = V(q[b, {s}], q[b, {s + 1}], q[b, {s + 2}])")
+        e.lines.append(f"{prefix}w = q[b, {s + 3}]")
+        e.lines.append(f"{prefix}i = S(1.0) / wp.sqrt(wp.dot({prefix}v, {prefix}v) + {prefix}w * {prefix}w)")
+        e.lines.append(f"{prefix}gv = ({tau_joint} * ({prefix}w * {prefix}i) + wp.cross({tau_joint}, {prefix}v * "
+                       f"{prefix}i)) * (S(2.0) * {prefix}i)")
+        e.lines.append(f"{prefix}gw = -S(2.0) * {prefix}i * {prefix}i * wp.dot({prefix}v, {tau_joint})")
+        for k in range(3):
+            add(s + k, f"{prefix}gv[{k}]")
+        add(s + 3, f"{prefix}gw")
+
+    qs = model.joint_q_start
+    for j in reversed(range(J)):
+        jt = JointType(int(model.joint_type[j]))
+        c, parent = j + 1, int(model.joint_parent[j])
+        wheel = int(model.joint_wheel[j])
+        if jt != JointType.FIXED and wheel < 0:
+            axis = ", ".join(e.lit(v) for v in model.joint_axis[j])
+            if jt == JointType.SPHERICAL:
+                e.lines.append(f"t{c} = wp.quat_rotate_inv(frames[b, {j}], M{c} - wp.cross(P{c}, F{c}))")
+                quat_grad(f"s{c}", int(qs[j]), f"t{c}")
+            else:
+                e.lines.append(f"a{c} = wp.quat_rotate(frames[b, {j}], V({axis}))")
+                if jt == JointType.PRISMATIC:
+                    e.lines.append(f"g{c} = wp.dot(a{c}, F{c})")
+                else:
+                    e.lines.append(f"g{c} = wp.dot(a{c}, M{c} - wp.cross(P{c}, F{c}))")
+                target = int(model.joint_mimic_target[j])
+                if target >= 0:
+                    add(int(qs[target]), f"{e.lit(model.joint_mimic_multiplier[j])} * g{c}")
+                else:
+                    add(int(qs[j]), f"g{c}")
+        e.lines.append(f"F{parent} = F{parent} + F{c}")
+        e.lines.append(f"M{parent} = M{parent} + M{c}")
+
+    base = BaseType(model.base_type)
+    if base != BaseType.FIXED:
+        e.lines.append("t0 = M0 - wp.cross(P0, F0)")
+        add(0, "F0[0]")
+        add(1, "F0[1]")
+        if base == BaseType.FLOATING:
+            add(2, "F0[2]")
+            quat_grad("s0", 3, "t0")
+        else:
+            add(2, "t0[2]")
+    for k in sorted(grads):
+        e.lines.append(f"adj_q[b, {k}] = adj_q[b, {k}] + " + " + ".join(grads[k]))
+
+
 _SCALAR = {
     "float32": ("wp.float32", "wp.transform", "wp.vec3", "wp.quat"),
     "float64": ("wp.float64", "wp.transformd", "wp.vec3d", "wp.quatd"),
@@ -211,11 +290,14 @@ _SCALAR = {
 
 
 def generate_source(model: KinematicModel, dtype_name: str) -> str:
-    """Python source of a module with the kernels ``fk_transforms`` and ``fk_positions``.
+    """Python source of a module with the generated FK kernels.
 
-    Both have the signature ``(q, wheel_q, wheel_batched, offset, out)``: thread ``i`` computes
-    pose ``b = i + offset`` from ``q[b]`` (and ``wheel_q[b * wheel_batched]``) and writes
-    ``out[b, link]`` (a transform, or the link origin).
+    ``fk_transforms`` and ``fk_positions`` have the signature ``(q, wheel_q, wheel_batched, offset,
+    out)``: thread ``i`` computes pose ``b = i + offset`` from ``q[b]`` (and
+    ``wheel_q[b * wheel_batched]``) and writes ``out[b, link]`` (a transform, or the link origin).
+    ``fk_positions_frames`` also writes each moving joint's world rotation ``frames[b, j]``, which
+    ``fk_positions_vjp(q, pos, frames, adj, offset, adj_q)`` uses to add the analytic
+    vector–Jacobian product of the positions to ``adj_q`` (forward-only kernels, no Warp adjoint).
     """
     scalar, transform, vec3, quat = _SCALAR[dtype_name]
     kernels: list[str] = []
@@ -236,6 +318,34 @@ def generate_source(model: KinematicModel, dtype_name: str) -> str:
             "):\n"
             "    b = wp.tid() + offset\n" + "".join(f"    {line}\n" for line in e.lines)
         )
+    e = _Emitter()
+    _body(model, e, "out[b, {link}] = V({p})", frames=True)
+    kernels.append(
+        "@wp.kernel(enable_backward=False)\n"
+        "def fk_positions_frames(\n"
+        f"    q: wp.array2d[{scalar}],\n"
+        f"    wheel_q: wp.array2d[{scalar}],\n"
+        "    wheel_batched: int,\n"
+        "    offset: int,\n"
+        f"    out: wp.array2d[{vec3}],\n"
+        f"    frames: wp.array2d[{quat}],\n"
+        "):\n"
+        "    b = wp.tid() + offset\n" + "".join(f"    {line}\n" for line in e.lines)
+    )
+    e = _Emitter()
+    _vjp_body(model, e)
+    kernels.append(
+        "@wp.kernel(enable_backward=False)\n"
+        "def fk_positions_vjp(\n"
+        f"    q: wp.array2d[{scalar}],\n"
+        f"    pos: wp.array2d[{vec3}],\n"
+        f"    frames: wp.array2d[{quat}],\n"
+        f"    adj: wp.array2d[{vec3}],\n"
+        "    offset: int,\n"
+        f"    adj_q: wp.array2d[{scalar}],\n"
+        "):\n"
+        "    b = wp.tid() + offset\n" + "".join(f"    {line}\n" for line in e.lines)
+    )
     key = hashlib.sha1("\n".join(kernels).encode()).hexdigest()[:16]
     header = (
         f"# Generated by morphkit.kernels.fk (generator v{GENERATOR_VERSION}) for {model.name!r}: "

@@ -369,9 +369,34 @@ def eval_fk_adjoint(model: KinematicModel, q: Any, adj_out: wp.array, *, adj_q: 
 
 def eval_link_positions_adjoint(model: KinematicModel, q: Any, adj_out: wp.array, *, adj_q: wp.array | None = None,
                                 wheel_q: Any = None, device: Any = None) -> wp.array:
-    """Vector–Jacobian product of :func:`eval_link_positions` (``adj_out``: [..., L] vec3), added to ``adj_q``."""
-    return _eval_adjoint(model, q, adj_out, "fk_positions", _vec3_type, adj_q=adj_q, wheel_q=wheel_q,
-                         device=device)
+    """Vector–Jacobian product of :func:`eval_link_positions` (``adj_out``: [..., L] vec3), added to ``adj_q``.
+
+    Uses the generated analytic reverse sweep (forces and moments accumulated over subtrees, see
+    ``_fk_codegen._vjp_body``) instead of Warp's adjoint: it re-runs the forward pass once to
+    record the joint frames, then sweeps the tree backwards.
+    """
+    device = _device(model, q, device)
+    q2, lead, dtype = _as_batch(model, q, device)
+    B, L, C = q2.shape[0], model.link_count, model.coordinate_count
+    wheel, wheel_batched = _wheel_input(model, wheel_q, B, lead, device, dtype)
+    vec3 = _vec3_type(dtype)
+    if tuple(adj_out.shape) != (*lead, L) or not wp.types.types_equal(adj_out.dtype, vec3):
+        raise GraphError(f"adj_out: expected shape {[*lead, L]} of {wp.types.type_repr(vec3)}, "
+                         f"got {list(adj_out.shape)} of {wp.types.type_repr(adj_out.dtype)}")
+    if adj_q is None:
+        adj_q = wp.zeros((*lead, C), dtype=dtype, device=device)
+    elif tuple(adj_q.shape) != (*lead, C) or adj_q.dtype != dtype:
+        raise GraphError(f"adj_q: expected shape {[*lead, C]}, got {list(adj_q.shape)}")
+    if B == 0:
+        return adj_q
+    module = fk_module(model, dtype)
+    pos = wp.empty((B, L), dtype=vec3, device=device)
+    frames = wp.empty((B, max(model.joint_count, 1)), dtype=wp.quatd if dtype == wp.float64 else wp.quat,
+                      device=device)
+    _launch(module.fk_positions_frames, B, device, _fk_inputs(q2, wheel, wheel_batched), [pos, frames])
+    _launch(module.fk_positions_vjp, B, device, [q2, pos, frames, adj_out.contiguous().reshape((B, L)), 0],
+            [adj_q.reshape((B, C))])
+    return adj_q
 
 
 # ---------------------------------------------------------------------------------------------

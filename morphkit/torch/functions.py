@@ -118,9 +118,9 @@ class _Ctx:
         self.replays: dict[str, Any] = {}
         self.lock = threading.Lock()
 
-    def launch_fk(self, kernel: Any, q: torch.Tensor, out: torch.Tensor, out_dtype: Any, wheel: Any,
+    def launch_fk(self, kernel: Any, q: torch.Tensor, outs: list[tuple[torch.Tensor, Any]], wheel: Any,
                   batched: int) -> None:
-        """Launch a generated FK kernel on ``q`` [B, C] into ``out`` [B, L, k] (both contiguous).
+        """Launch a generated FK kernel on ``q`` [B, C] into ``outs`` (contiguous ``(tensor, Warp dtype)`` pairs).
 
         Small batches replay a recorded launch whose array descriptors are updated in place
         (a few µs instead of ~15 for ``wp.launch``); large CPU batches are split over threads.
@@ -128,7 +128,7 @@ class _Ctx:
         B = q.shape[0]
         if len(_fk._chunks(B, self.wp_device)) > 1 or _fk._tape_active():
             _fk._launch(kernel, B, self.wp_device, [_ctype(q, self.scalar), wheel, batched, 0],
-                        [_ctype(out, out_dtype)])
+                        [_ctype(t, dt) for t, dt in outs])
             return
         stream = wp.stream_from_torch(torch.cuda.current_stream(self.wp_device.ordinal)) \
             if self.wp_device.is_cuda else None
@@ -136,16 +136,15 @@ class _Ctx:
             entry = self.replays.get(kernel.key)
             if entry is None:
                 replay = wp.launch(kernel, dim=B, inputs=[_ctype(q, self.scalar), wheel, batched, 0],
-                                   outputs=[_ctype(out, out_dtype)], device=self.wp_device, record_cmd=True)
+                                   outputs=[_ctype(t, dt) for t, dt in outs], device=self.wp_device,
+                                   record_cmd=True)
                 self.replays[kernel.key] = entry = [replay, B]
             else:
                 replay = entry[0]
-                # params: [bounds, q, wheel_q, wheel_batched, offset, out]
+                # params: [bounds, q, wheel_q, wheel_batched, offset, *outs]
                 params = replay.params
-                q_arr, out_arr = params[1], params[5]
-                q_arr.data, q_arr.shape[0], q_arr.strides[0] = q.data_ptr(), B, q.stride(0) * q.element_size()
-                out_arr.data, out_arr.shape[0] = out.data_ptr(), B
-                out_arr.strides[0] = out.stride(0) * out.element_size()
+                for arr, t in ((params[1], q), *((params[5 + i], o) for i, (o, _) in enumerate(outs))):
+                    arr.data, arr.shape[0], arr.strides[0] = t.data_ptr(), B, t.stride(0) * t.element_size()
                 replay.set_param_at_index_from_ctype(1, wheel)
                 params[3].value = batched
                 if entry[1] != B:
@@ -177,7 +176,9 @@ def _flat_q(model: KinematicModel, q: torch.Tensor) -> torch.Tensor:
 class FKFunction(torch.autograd.Function):
     """$Ts = FK(q)$ (``kind="transforms"``, [B, L, 7]) or link origins (``kind="positions"``, [B, L, 3]).
 
-    Backward: $\\bar q = J^\\top \\bar y$ by the adjoint of the generated kernel. ``wheel_q`` is
+    Backward: $\\bar q = J^\\top \\bar y$. For transforms, by Warp's adjoint of the generated
+    kernel; for positions, by the generated analytic reverse sweep (forces and moments over
+    subtrees), from the positions and the joint frames the forward pass saved. ``wheel_q`` is
     treated as a constant.
     """
 
@@ -186,22 +187,35 @@ class FKFunction(torch.autograd.Function):
         ctx: Any, q: torch.Tensor, wheel_q: torch.Tensor | None, model: KinematicModel, kind: str
     ) -> torch.Tensor:
         c = _ctx(model, q)
-        B, L = q.shape[0], model.link_count
-        width = 7 if kind == "transforms" else 3
-        out = torch.empty((B, L, width), dtype=q.dtype, device=q.device)  # [B, L, 7 | 3]
+        B, L, J = q.shape[0], model.link_count, model.joint_count
+        transforms = kind == "transforms"
+        out = torch.empty((B, L, 7 if transforms else 3), dtype=q.dtype, device=q.device)  # [B, L, 7 | 3]
+        frames = None
+        outs = [(out, c.transform if transforms else c.vec3)]
+        if transforms:
+            kernel = c.module.fk_transforms
+        elif ctx.needs_input_grad[0]:
+            kernel = c.module.fk_positions_frames
+            frames = torch.empty((B, max(J, 1), 4), dtype=q.dtype, device=q.device)  # [B, J, 4]
+            outs.append((frames, c.quat))
+        else:
+            kernel = c.module.fk_positions
         if B:
-            kernel = c.module.fk_transforms if kind == "transforms" else c.module.fk_positions
             wheel, batched = _wheels(c, model, wheel_q, B)
             with _on_torch_stream(c.wp_device):
-                c.launch_fk(kernel, q, out, c.transform if width == 7 else c.vec3, wheel, batched)
-        ctx.save_for_backward(q, wheel_q)
+                c.launch_fk(kernel, q, outs, wheel, batched)
+        if frames is not None:
+            ctx.save_for_backward(q, wheel_q, out, frames)
+        else:
+            ctx.save_for_backward(q, wheel_q)
         ctx.model, ctx.kind = model, kind
         return out
 
     @staticmethod
     @once_differentiable
     def backward(ctx: Any, grad_out: torch.Tensor) -> tuple[torch.Tensor | None, None, None, None]:
-        q, wheel_q = ctx.saved_tensors
+        saved = ctx.saved_tensors
+        q, wheel_q = saved[0], saved[1]
         model: KinematicModel = ctx.model
         if not ctx.needs_input_grad[0]:
             return None, None, None, None
@@ -210,24 +224,31 @@ class FKFunction(torch.autograd.Function):
         grad_q = _zeros(q.shape, q)  # [B, C]
         if B:
             grad_out = _cotangent(grad_out)  # [B, L, 7 | 3]
-            transforms = ctx.kind == "transforms"
-            kernel = c.module.fk_transforms if transforms else c.module.fk_positions
-            wheel, batched = _wheels(c, model, wheel_q, B)
-            q_wp = _ctype(q, c.scalar)
-            adj_q = _ctype(grad_q, c.scalar)
-            adj_out = _ctype(grad_out, c.transform if transforms else c.vec3)
             with _on_torch_stream(c.wp_device):
-                # The adjoint never reads the forward output: the gradient buffer stands in for it.
-                _fk._launch(
-                    kernel,
-                    B,
-                    c.wp_device,
-                    [q_wp, wheel, batched, 0],
-                    [adj_out],
-                    adjoint=True,
-                    adj_inputs=[adj_q, None, 0, 0],
-                    adj_outputs=[adj_out],
-                )
+                if ctx.kind == "positions":
+                    pos, frames = saved[2], saved[3]  # [B, L, 3], [B, J, 4]
+                    _fk._launch(
+                        c.module.fk_positions_vjp,
+                        B,
+                        c.wp_device,
+                        [_ctype(q, c.scalar), _ctype(pos, c.vec3), _ctype(frames, c.quat), _ctype(grad_out, c.vec3),
+                         0],
+                        [_ctype(grad_q, c.scalar)],
+                    )
+                else:
+                    wheel, batched = _wheels(c, model, wheel_q, B)
+                    adj_out = _ctype(grad_out, c.transform)
+                    # The adjoint never reads the forward output: the gradient buffer stands in for it.
+                    _fk._launch(
+                        c.module.fk_transforms,
+                        B,
+                        c.wp_device,
+                        [_ctype(q, c.scalar), wheel, batched, 0],
+                        [adj_out],
+                        adjoint=True,
+                        adj_inputs=[_ctype(grad_q, c.scalar), None, 0, 0],
+                        adj_outputs=[adj_out],
+                    )
         return grad_q, None, None, None
 
 
@@ -250,7 +271,7 @@ class EndEffectorFunction(torch.autograd.Function):
         if B:
             wheel, batched = _wheels(c, model, wheel_q, B)
             with _on_torch_stream(c.wp_device):
-                c.launch_fk(c.module.fk_transforms, q, Ts, c.transform, wheel, batched)
+                c.launch_fk(c.module.fk_transforms, q, [(Ts, c.transform)], wheel, batched)
                 if E:
                     _fk._launch(
                         _ee.end_effector_poses,
