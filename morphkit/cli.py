@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 from collections.abc import Sequence
 
@@ -50,11 +51,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; returns the exit code (0 success, 2 bad input)."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    os.environ.setdefault("MORPHKIT_QUIET_WARP", "1")
     try:
         return int(args.run(args) or 0)
     except MorphkitError as exc:
         sys.stderr.write(f"error: {exc}\n")
         return 2
+    except BrokenPipeError:
+        return 0
     except OSError as exc:
         # Unreadable or unwritable paths are bad input too: one line, no traceback.
         where = f"{exc.filename}: " if exc.filename else ""
@@ -63,8 +67,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         sys.stderr.write("interrupted\n")
         return 130
-    except BrokenPipeError:
-        return 0
 
 
 if __name__ == "__main__":

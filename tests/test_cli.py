@@ -129,3 +129,27 @@ def test_convert_never_clobbers_output_on_failure(tmp_path):
     assert res.returncode == 2
     assert dst.read_text() == "precious"
     assert sorted(os.listdir(tmp_path)) == ["bad.yaml", "keep.urdf"]
+
+
+def test_convert_motion_between_bvh_npz_and_usd(tmp_path):
+    """A BVH motion converts to NPZ, USD and back, frames intact; its skeleton converts to YAML."""
+    import numpy as np
+
+    from morphkit.motion import read_motion
+
+    src = ROOT / "tests" / "data" / "tiny.bvh"
+    first = read_motion(src)
+    for name in ("m.npz", "m.usda", "m.bvh"):
+        res = run_cli("convert", str(src), str(tmp_path / name))
+        assert res.returncode == 0, res.stderr
+        assert "Warp" not in res.stdout
+        back = read_motion(tmp_path / name)
+        # BVH export gives fixed joints zero rotation channels, so compare frames and link positions.
+        assert back.q.shape[0] == first.q.shape[0] and back.fps == first.fps
+        assert back.morphology.link_names == first.morphology.link_names
+        np.testing.assert_allclose(back.link_positions(), first.link_positions(), atol=1e-5)
+    res = run_cli("convert", str(tmp_path / "m.npz"), str(tmp_path / "m60.npz"), "--fps", str(2 * first.fps))
+    assert res.returncode == 0, res.stderr
+    assert read_motion(tmp_path / "m60.npz").q.shape[0] == 2 * first.q.shape[0] - 1
+    res = run_cli("convert", str(src), str(tmp_path / "skeleton.yaml"))
+    assert res.returncode == 0 and "links" in res.stdout

@@ -1,22 +1,50 @@
-"""``morphkit convert IN OUT``: convert a creature description between formats, by extension."""
+"""``morphkit convert IN OUT``: convert a creature description or a motion between formats, by extension.
+
+A motion (any ``.bvh``; an ``.npz`` with ``q``; a USD file with time samples) written to ``.bvh``,
+``.npz`` or ``.usd``/``.usda``/``.usdc`` converts as a motion; everything else converts the
+description (a BVH file's skeleton, for instance, to ``.yaml`` or ``.urdf``).
+"""
 
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
+
+MOTION_SUFFIXES = (".bvh", ".npz", ".usd", ".usda", ".usdc")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("convert", help="convert a description between .yaml/.urdf/.usd[a|c] (by extension)")
-    p.add_argument("input", metavar="IN", help="description file or shipped creature name")
+    p = sub.add_parser(
+        "convert",
+        help="convert a description (.yaml/.urdf/.usd[a|c]/.bvh) or a motion (.bvh/.npz/.usd[a|c]) by extension",
+    )
+    p.add_argument("input", metavar="IN", help="description or motion file, or a shipped creature name")
     p.add_argument("output", metavar="OUT", help="output file; its extension picks the format")
+    p.add_argument("--fps", type=float, default=None, help="resample a motion to this frame rate")
+    p.add_argument(
+        "--description-only", action="store_true", help="convert only the skeleton of a motion file, not its frames"
+    )
     p.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
+    from morphkit.errors import ConfigError
     from morphkit.io import read_morphology, write_morphology
     from morphkit.io.shipped import resolve_morphology
 
-    m = read_morphology(resolve_morphology(args.input))
+    src = resolve_morphology(args.input)
+    if args.fps is not None and not args.fps > 0:
+        raise ConfigError(f"--fps must be > 0, got {args.fps}")
+    if not args.description_only and Path(args.output).suffix.lower() in MOTION_SUFFIXES:
+        # Motion io lives a layer up (morphkit.motion); imported only when a motion is converted.
+        from morphkit.motion import is_motion_file, read_motion, write_motion
+
+        if is_motion_file(src):
+            motion = read_motion(src) if args.fps is None else read_motion(src, fps=args.fps)
+            write_motion(motion, args.output)
+            print(f"wrote {args.output} ({motion.morphology.name}: {len(motion.q)} frames at {motion.fps:g} fps)")
+            return 0
+    m = read_morphology(src)
     write_morphology(m, args.output)
     print(f"wrote {args.output} ({m.name}: {m.link_count} links, {m.joint_count} joints)")
     return 0

@@ -4,6 +4,14 @@ Every launcher takes the compiled :class:`~morphkit.model.KinematicModel`, batch
 any leading shape, an optional ``out=`` and ``device=``; see ``docs/design/fk-kernels.md``.
 """
 
+import os as _os
+
+import warp as _wp
+
+if _os.environ.get("MORPHKIT_QUIET_WARP"):
+    # Set by the CLI, which owns stdout: Warp's banner and module-load lines would break --json output.
+    _wp.config.log_level = _wp.LOG_WARNING
+
 from morphkit.kernels.contact import SelfCollisionPairs as SelfCollisionPairs
 from morphkit.kernels.contact import eval_contact_flags as eval_contact_flags
 from morphkit.kernels.contact import eval_foot_heights as eval_foot_heights
