@@ -68,6 +68,24 @@ def generate_fk_source(model: KinematicModel, dtype: Any = None) -> str:
     return generate_source(model, resolve_float_dtype(dtype).__name__)
 
 
+def _write_source(name: str, source: str) -> Path:
+    """Write a generated module into the cache directory (a temporary one if that is not writable)."""
+    import tempfile
+
+    fallback = Path(tempfile.gettempdir()) / f"morphkit-{os.getuid() if hasattr(os, 'getuid') else 'user'}"
+    for folder in (kernel_cache_dir(), fallback / __version__ / "kernels"):
+        path = folder / f"{name}.py"
+        try:
+            if not path.exists() or path.read_text() != source:
+                folder.mkdir(parents=True, exist_ok=True)
+                atomic_write_text(path, source)
+            return path
+        except OSError:
+            continue
+    raise GraphError(f"cannot write generated kernel module {name}.py to {kernel_cache_dir()} or {fallback}; "
+                     "set MORPHKIT_CACHE_DIR to a writable folder")
+
+
 _module_lock = threading.Lock()
 _modules: dict[str, ModuleType] = {}
 
@@ -89,10 +107,7 @@ def fk_module(model: KinematicModel, dtype: Any = None) -> ModuleType:
     with _module_lock:
         module = _modules.get(name)
         if module is None:
-            path = kernel_cache_dir() / f"{name}.py"
-            if not path.exists() or path.read_text() != source:
-                path.parent.mkdir(parents=True, exist_ok=True)
-                atomic_write_text(path, source)
+            path = _write_source(name, source)
             spec = importlib.util.spec_from_file_location(name, path)
             if spec is None or spec.loader is None:  # pragma: no cover - importlib always finds a .py file
                 raise GraphError(f"cannot import generated kernel module {path}")

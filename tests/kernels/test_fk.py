@@ -280,3 +280,13 @@ def test_wheel_angles_need_a_motion():
     with pytest.raises(GraphError, match="motion"):
         eval_wheel_angles(m, np.zeros(5))
     assert eval_wheel_angles(compile_model(planar_arm()), np.zeros((1, 4, 2))).shape == (1, 4, 0)
+
+
+def test_generated_source_falls_back_to_a_temporary_folder(monkeypatch, tmp_path):
+    from morphkit.kernels import fk as fk_mod
+
+    blocked = tmp_path / "file"
+    blocked.write_text("not a folder")
+    monkeypatch.setenv("MORPHKIT_CACHE_DIR", str(blocked))
+    path = fk_mod._write_source("morphkit_fk_test_fallback", "# test\n")
+    assert path.read_text() == "# test\n" and blocked not in path.parents
