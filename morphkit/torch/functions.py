@@ -56,7 +56,9 @@ def _array(t: torch.Tensor, dtype: Any) -> wp.array:
 
 
 def _zeros(shape: tuple[int, ...] | torch.Size, like: torch.Tensor) -> torch.Tensor:
-    """A zeroed tensor, cleared by Warp's memset (torch's multi-threaded fill stalls on a busy CPU)."""
+    """A zeroed tensor; on the CPU cleared by Warp's memset (torch's multi-threaded fill stalls on a busy CPU)."""
+    if like.device.type != "cpu":
+        return torch.zeros(tuple(shape), dtype=like.dtype, device=like.device)  # on torch's stream
     t = torch.empty(tuple(shape), dtype=like.dtype, device=like.device)
     if t.numel():
         wp.from_torch(t.reshape(-1), requires_grad=False).zero_()
