@@ -237,7 +237,12 @@ def _as_batch(model: KinematicModel, q: Any, device: Any, what: str = "q") -> tu
     B = int(np.prod(lead)) if lead else 1
     if not q.is_contiguous:
         q = q.contiguous()
-    return q.reshape((B, C)), lead, q.dtype
+    return _as_shape(q, (B, C)), lead, q.dtype
+
+
+def _as_shape(a: wp.array, shape: tuple[int, ...]) -> wp.array:
+    """``a`` viewed with ``shape`` (no new array object when it already has it)."""
+    return a if tuple(a.shape) == shape else a.reshape(shape)
 
 
 def _wheel_input(model: KinematicModel, wheel_q: Any, B: int, lead: tuple[int, ...], device: Any,
@@ -291,7 +296,7 @@ def _eval(model: KinematicModel, q: Any, kernel_name: str, out_dtype_of: Any, *,
     if B == 0:
         return out
     kernel = getattr(fk_module(model, dtype), kernel_name)
-    _launch(kernel, B, device, _fk_inputs(q2, wheel, wheel_batched), [out.reshape((B, L))])
+    _launch(kernel, B, device, _fk_inputs(q2, wheel, wheel_batched), [_as_shape(out, (B, L))])
     return out
 
 
