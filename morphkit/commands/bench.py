@@ -82,9 +82,9 @@ class BenchConfig:
     batches: tuple[int, ...] = BATCHES
     loop_poses: int = 2000
     """Poses per timed call at most for the Python-loop peers (Pinocchio, MuJoCo)."""
-    repeats: int = 3
+    repeats: int = 5
     """Timed repeats per measurement (the best is kept), after one warm-up call."""
-    min_time: float = 0.05
+    min_time: float = 0.03
     """Each repeat calls the workload until this many seconds [s] have passed."""
     threads: int = 2
     """``torch.set_num_threads`` and morphkit's CPU launch threads."""
@@ -392,24 +392,36 @@ SLOW_CALL = 0.5
 """A warm-up call slower than this [s] is timed once more instead of ``repeats`` times (keeps runs short)."""
 
 
-def time_call(fn: Callable[[], Any], poses: int, *, repeats: int, min_time: float) -> float:
-    """Poses per second of ``fn`` (which evaluates ``poses`` poses): one warm-up, best of ``repeats``."""
+def _seconds_per_call(fn: Callable[[], Any], min_time: float) -> float:
+    """One repeat: call ``fn`` until ``min_time`` [s] has passed; mean seconds per call."""
+    calls = 0
     t0 = time.perf_counter()
-    fn()
-    if time.perf_counter() - t0 > SLOW_CALL:
-        repeats = 1
-    best = float("inf")
-    for _ in range(max(1, repeats)):
-        calls = 0
+    while True:
+        fn()
+        calls += 1
+        elapsed = time.perf_counter() - t0
+        if elapsed >= min_time:
+            return elapsed / calls
+
+
+def time_calls(fns: dict[str, tuple[Callable[[], Any], int]], *, repeats: int, min_time: float) -> dict[str, float]:
+    """Poses per second of each ``name → (fn, poses per call)``: one warm-up each, then the best of ``repeats``.
+
+    Repeats run in rounds over all functions (A, B, C, A, B, C, ...) rather than back to back, so
+    a burst of load from other processes hits every implementation alike instead of one of them.
+    A function whose warm-up took longer than :data:`SLOW_CALL` is timed in the first round only.
+    """
+    rounds: dict[str, int] = {}
+    for name, (fn, _poses) in fns.items():
         t0 = time.perf_counter()
-        while True:
-            fn()
-            calls += 1
-            elapsed = time.perf_counter() - t0
-            if elapsed >= min_time:
-                break
-        best = min(best, elapsed / calls)
-    return poses / best
+        fn()
+        rounds[name] = 1 if time.perf_counter() - t0 > SLOW_CALL else max(1, repeats)
+    best = dict.fromkeys(fns, float("inf"))
+    for r in range(max(rounds.values(), default=0)):
+        for name, (fn, _poses) in fns.items():
+            if r < rounds[name]:
+                best[name] = min(best[name], _seconds_per_call(fn, min_time))
+    return {name: poses / best[name] for name, (_fn, poses) in fns.items()}
 
 
 def bridge_latency(raw: Callable[[], Any], bridged: Callable[[], Any], *, calls: int = 400) -> dict[str, float]:
@@ -561,14 +573,17 @@ def run_fk_benchmark(config: BenchConfig, *, log: Callable[[str], None] | None =
         q_all = random_q(m, max(config.batches), rng)
         for mode in config.modes:
             for batch in config.batches:
+                fns: dict[str, tuple[Callable[[], Any], int]] = {}
                 for name, impl in impls.items():
                     work = impl.workload(q_all[:batch])
                     fn = work.fwd if mode == "fwd" else work.fwd_bwd
                     if fn is None:
                         result.skipped[f"{key}/{name}/{mode}"] = "no gradient analogue"
-                        continue
-                    rate = time_call(fn, work.poses, repeats=config.repeats, min_time=config.min_time)
-                    del work
+                    else:
+                        fns[name] = (fn, work.poses)
+                rates = time_calls(fns, repeats=config.repeats, min_time=config.min_time)
+                del fns
+                for name, rate in rates.items():
                     result.records.append(
                         {"creature": key, "impl": name, "mode": mode, "batch": batch, "poses_per_s": round(rate, 1)}
                     )
