@@ -215,16 +215,22 @@ class Morphology:
     def rest_link_poses(self) -> np.ndarray:
         """Link poses ``T_world_link`` at :meth:`rest_q`, shape [link_count, 7] (NumPy, for queries only)."""
         q = self.rest_q()
+        value = np.zeros(self.joint_count)  # 1-DoF joint values; mimic joints follow their target
+        for ji, j in enumerate(self.joints):
+            if not self.is_driven(j) and j.type in (JointType.REVOLUTE, JointType.CONTINUOUS, JointType.PRISMATIC):
+                value[ji] = q[self.joint_q_start[ji]]
+        for ji, j in enumerate(self.joints):
+            if j.mimic is not None:
+                value[ji] = j.mimic.multiplier * value[self.joint_index(j.mimic.joint)] + j.mimic.offset
         poses = np.zeros((self.link_count, 7))
         poses[0, 6] = 1.0
         for ji, j in enumerate(self.joints):
-            start = self.joint_q_start[ji]
             local = j.origin.as_array()
-            if j.type in (JointType.REVOLUTE, JointType.CONTINUOUS) and not self.is_driven(j):
-                motion = np.array([0, 0, 0, *quat_from_axis_angle(np.asarray(j.axis), q[start])])
+            if j.type in (JointType.REVOLUTE, JointType.CONTINUOUS):
+                motion = np.array([0, 0, 0, *quat_from_axis_angle(np.asarray(j.axis), value[ji])])
                 local = transform_multiply(local, motion)
-            elif j.type == JointType.PRISMATIC and not self.is_driven(j):
-                local = transform_multiply(local, np.array([*(q[start] * np.asarray(j.axis)), 0, 0, 0, 1]))
+            elif j.type == JointType.PRISMATIC:
+                local = transform_multiply(local, np.array([*(value[ji] * np.asarray(j.axis)), 0, 0, 0, 1]))
             poses[ji + 1] = transform_multiply(poses[self.link_parent[ji + 1]], local)
         return poses
 

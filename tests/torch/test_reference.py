@@ -18,8 +18,7 @@ from morphkit.torch.reference import (
 )
 
 
-# ``Morphology.rest_link_poses`` leaves driven joints at 0, so a mimic offset (the gripper's 0.1) is not applied there.
-@pytest.mark.parametrize("name", [n for n in TEST_CREATURES if n != "mimic"])
+@pytest.mark.parametrize("name", TEST_CREATURES)
 def test_rest_pose_matches_graph(name):
     """``Morphology.rest_link_poses`` is an independent NumPy FK (1-DoF joints only, spherical at identity)."""
     m = creature(name)
