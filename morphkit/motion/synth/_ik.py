@@ -16,15 +16,19 @@ All legs and arms of a pose are solved in one :func:`~morphkit.kernels.ik.ik_ste
 from __future__ import annotations
 
 import dataclasses
+import itertools
+import os
+import threading
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
 import warp as wp
 
-from morphkit.conventions import quat_conjugate, quat_multiply, quat_rotate
+from morphkit.conventions import matrix_from_quat, quat_conjugate, quat_from_matrix, quat_multiply, quat_rotate
 from morphkit.graph import EndEffector, EndEffectorRole, JointType, Morphology
-from morphkit.kernels import eval_fk
-from morphkit.kernels.ik import ik_step
+from morphkit.kernels import eval_fk, fk_module
+from morphkit.kernels.ik import dls_step_kernel, eval_ee_jacobian, ik_step
 from morphkit.model import KinematicModel, compile_model
 from morphkit.motion.synth._util import quat_from_yaw
 from morphkit.motion.synth.analysis import BodyPlan, Limb
@@ -61,6 +65,115 @@ def _moving(m: Morphology, names: tuple[str, ...]) -> list[int]:
     return out
 
 
+class _Workspace:
+    """Buffers and recorded kernel launches for repeated DLS steps on a batch of ``B`` poses.
+
+    Mirrors :func:`~morphkit.kernels.ik.ik_step` (FK, then the DLS step kernel) with every buffer
+    allocated once and both launches recorded (``wp.launch(..., record_cmd=True)``), so a step
+    costs the kernels and little else; the batch is split in ``parts`` launched from threads
+    (Warp's CPU kernels release the GIL).
+    """
+
+    def __init__(self, model: KinematicModel, ee: np.ndarray, mask: np.ndarray, B: int, parts: int,
+                 damping: float, max_step: float, max_error: float | None) -> None:
+        C = model.coordinate_count
+        E = len(ee)
+        dofs = eval_ee_jacobian(model, model.rest_q[None].astype(np.float64), ee=ee, dof_mask=mask)[1]
+        D = len(mask)
+        col = np.full(D, -1, dtype=np.int32)
+        col[dofs] = np.arange(len(dofs), dtype=np.int32)
+        n = len(dofs)
+        m = 3 * E
+        use_dual = int(m < n)
+        K = max(min(m, n), 1)
+        dev = "cpu"
+        f64, v3 = wp.float64, wp.vec3d
+        self.B, self.C, self.E = B, C, E
+        self.q = [wp.zeros((B, C), dtype=f64, device=dev), wp.zeros((B, C), dtype=f64, device=dev)]
+        self.targets = wp.zeros((B, E), dtype=v3, device=dev)
+        self.X = wp.zeros((B, model.link_count), dtype=wp.transformd, device=dev)
+        self.Jm = wp.zeros((B, m, max(n, 1)), dtype=f64, device=dev)
+        A = wp.zeros((B, K, K), dtype=f64, device=dev)
+        y = wp.zeros((B, K), dtype=f64, device=dev)
+        delta = wp.zeros((B, max(n, 1)), dtype=f64, device=dev)
+        err = wp.zeros((B, E), dtype=v3, device=dev)
+        self.residual = wp.zeros((B, E), dtype=v3, device=dev)
+        self.q_np = [a.numpy() for a in self.q]
+        self.targets_np = self.targets.numpy().reshape(B, E, 3) if E else np.zeros((B, 0, 3))
+        self.residual_np = self.residual.numpy().reshape(B, E, 3) if E else np.zeros((B, 0, 3))
+        self.Jm_np = self.Jm.numpy()
+        a = model.arrays(dev, f64)
+        ee_link = wp.array(np.asarray(model.ee_link)[ee].astype(np.int32), dtype=wp.int32, device=dev)
+        ee_offset = wp.array(np.asarray(model.ee_offset, dtype=np.float64)[ee], dtype=v3, device=dev)
+        col_w = wp.array(col, dtype=wp.int32, device=dev)
+        self._keep = (ee_link, ee_offset, col_w, A, y, delta, err)
+        fk = fk_module(model, wp.float64).fk_transforms
+        wheel = wp.zeros((1, max(model.wheel_count, 1)), dtype=f64, device=dev)
+        self._keep += (wheel,)
+        bounds = np.linspace(0, B, parts + 1).astype(int)
+        self.launches: list[list[list]] = [[], []]  # [source buffer][part] -> [fk, dls]
+        for src in (0, 1):
+            qs, qd = self.q[src], self.q[1 - src]
+            for lo, hi in itertools.pairwise(bounds):
+                if hi <= lo:
+                    continue
+                sl = slice(int(lo), int(hi))
+                cmd_fk = wp.launch(fk, dim=hi - lo, inputs=[qs[sl], wheel, 0, 0], outputs=[self.X[sl]], device=dev,
+                                   record_cmd=True)
+                cmd_dls = wp.launch(
+                    dls_step_kernel, dim=hi - lo,
+                    inputs=[qs[sl], self.X[sl], self.targets[sl], ee_link, ee_offset, a.link_parent, a.joint_type,
+                            a.joint_axis, a.joint_q_start, a.joint_qd_start, a.joint_mimic_target,
+                            a.joint_mimic_multiplier, a.joint_wheel, a.coordinate_lower, a.coordinate_upper,
+                            int(model.base_type), col_w, f64(damping), f64(1.0), f64(max_step),
+                            f64(0.0 if max_error is None else max_error), 1, use_dual if n else 0,
+                            self.Jm[sl], A[sl], y[sl], delta[sl], err[sl]],
+                    outputs=[qd[sl], self.residual[sl]], device=dev, record_cmd=True)
+                self.launches[src].append([cmd_fk, cmd_dls])
+
+    def run(self, src: int, pool: ThreadPoolExecutor | None) -> int:
+        """One DLS step from ``q[src]`` into ``q[1 - src]``; returns the destination index."""
+        self.Jm_np.fill(0.0)
+        parts = self.launches[src]
+        if pool is None or len(parts) == 1:
+            for fk, dls in parts:
+                fk.launch()
+                dls.launch()
+        else:
+            futures = [pool.submit(_run_pair, p) for p in parts[1:]]
+            _run_pair(parts[0])
+            for f in futures:
+                f.result()
+        return 1 - src
+
+
+def _run_pair(pair: list) -> None:
+    pair[0].launch()
+    pair[1].launch()
+
+
+_pool_lock = threading.Lock()
+_pools: dict[int, ThreadPoolExecutor] = {}
+
+
+def _thread_pool(workers: int) -> ThreadPoolExecutor | None:
+    if workers <= 1:
+        return None
+    with _pool_lock:
+        pool = _pools.get(workers)
+        if pool is None:
+            pool = _pools[workers] = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="morphkit-synth-ik")
+        return pool
+
+
+def cpu_workers() -> int:
+    """Threads the IK launches are split over (``MORPHKIT_CPU_THREADS``, default all cores)."""
+    return max(1, int(os.environ.get("MORPHKIT_CPU_THREADS", "0")) or _CPU_COUNT)
+
+
+_CPU_COUNT = os.cpu_count() or 1
+
+
 class LimbSolver:
     """Batched DLS IK of all limbs of a creature (see the module docstring for which DoFs move).
 
@@ -68,16 +181,26 @@ class LimbSolver:
         m: The creature.
         plan: Its body plan.
         damping: DLS damping [m].
-        max_step: Largest DoF change per iteration [rad or m].
+        max_step: Largest DoF change per iteration [rad or m]; the kernel scales the whole step of a
+            pose (all limbs) when one DoF exceeds it, so it is only a guard against blow-ups.
+        max_error: Longest error per end-effector a step works on [m] (default a quarter of the mean
+            limb reach): limits each limb's step on its own, where ``max_step`` would couple them.
     """
 
-    def __init__(self, m: Morphology, plan: BodyPlan, *, damping: float = 0.004, max_step: float = 0.35) -> None:
+    def __init__(self, m: Morphology, plan: BodyPlan, *, damping: float = 0.004, max_step: float = 1.5,
+                 max_error: float | None = None) -> None:
         self.morphology = m
         self.plan = plan
         self.damping = damping
         self.max_step = max_step
+        reaches = [limb.reach for limb in plan.legs + plan.arms]
+        self.max_error = max_error if max_error is not None else (0.25 * float(np.mean(reaches)) if reaches else None)
         rest = m.rest_link_poses()
         self.ankles: list[Ankle | None] = []
+        self.ball_constraints: list[tuple[int, int, int]] = []
+        """Leg ball joints ``(q start, axis, hinge)``: a hip (``hinge >= 0``, or -1 without one) loses its
+        twist about the local bone ``axis``; a knee (``hinge == -2``) keeps only its rotation about
+        ``axis`` (see :meth:`constrain`)."""
         extra: list[EndEffector] = []
         leg_dofs: list[list[int]] = []
         qd = m.joint_qd_start
@@ -102,7 +225,7 @@ class LimbSolver:
                                              EndEffectorRole.TOOL))
                     mov = mov[:-1]
             self.ankles.append(ankle)
-            leg_dofs.append(self._leg_dofs(m, leg, mov, rest, ankle))
+            leg_dofs.append(self._leg_dofs(m, leg, mov, rest, ankle, self.ball_constraints))
         self.ik_morphology = dataclasses.replace(m, end_effectors=m.end_effectors + tuple(extra)) if extra else m
         self.model: KinematicModel = compile_model(self.ik_morphology, device="cpu")
         self.leg_ee = np.array([
@@ -121,9 +244,11 @@ class LimbSolver:
         self.all_mask = self.leg_mask | self.arm_mask
         self.all_ee = np.concatenate([self.leg_ee, self.arm_ee]).astype(np.int64)
         self._bufs: dict[tuple[int, ...], tuple[wp.array, wp.array]] = {}
+        self._ws: dict[tuple[str, int], _Workspace] = {}
 
     @staticmethod
-    def _leg_dofs(m: Morphology, leg: Limb, mov: list[int], rest: np.ndarray, ankle: Ankle | None) -> list[int]:
+    def _leg_dofs(m: Morphology, leg: Limb, mov: list[int], rest: np.ndarray, ankle: Ankle | None,
+                  constraints: list[tuple[int, int, int]]) -> list[int]:
         qd = m.joint_qd_start
         dofs: list[int] = []
         # leg direction decides the knee hinge: upright legs bend fore-aft, sprawled legs up-down
@@ -148,21 +273,25 @@ class LimbSolver:
                 T = rest[m.link_index(ee.link)]
                 nxt = T[:3] + quat_rotate(T[3:], np.asarray(ee.offset, dtype=float))
             bone = quat_rotate(quat_conjugate(child[3:]), nxt - child[:3])
+            local = quat_rotate(quat_conjugate(child[3:]), hinge)
+            h = int(np.argmax(np.abs(local)))
             if k == 0:
                 twist = int(np.argmax(np.abs(bone)))
                 dofs.extend(qd[ji] + a for a in range(3) if a != twist)
+                constraints.append((m.joint_q_start[ji], twist, h if h != twist else -1))
             else:
-                local = quat_rotate(quat_conjugate(child[3:]), hinge)
-                dofs.append(qd[ji] + int(np.argmax(np.abs(local))))
+                dofs.append(qd[ji] + h)
+                constraints.append((m.joint_q_start[ji], h, -2))
         return dofs
 
     # ---- solving --------------------------------------------------------------------------
     def step(self, q: np.ndarray, targets: np.ndarray, *, ee: np.ndarray, mask: np.ndarray,
-             iterations: int) -> tuple[np.ndarray, np.ndarray]:
+             iterations: int, max_error: float | None = None) -> tuple[np.ndarray, np.ndarray]:
         """``iterations`` DLS steps from ``q`` [B, C] toward world ``targets`` [B, E, 3] of end-effectors ``ee``.
 
         Returns ``(q, residual)``: the new coordinates and the residual [B, E, 3] at the input of
-        the last step (zeros when ``iterations`` is 0).
+        the last step (zeros when ``iterations`` is 0). ``max_error`` [m] shortens the error each step
+        works on (for targets that may be out of reach).
         """
         B = q.shape[0]
         if iterations <= 0 or B == 0 or len(ee) == 0:
@@ -178,8 +307,115 @@ class LimbSolver:
         for i in range(iterations):
             out = bufs[i % 2]
             cur, res = ik_step(self.model, cur, tgt, ee=ee, dof_mask=mask, damping=self.damping,
-                               max_step=self.max_step, out=out)
+                               max_step=self.max_step, max_error=self.max_error if max_error is None else max_error,
+                               out=out)
         return cur.numpy().copy(), res.numpy()
+
+    def _workspace(self, key: str, ee: np.ndarray, mask: np.ndarray, B: int) -> _Workspace:
+        ws = self._ws.get((key, B))
+        if ws is None:
+            workers = cpu_workers()
+            parts = min(workers, max(1, B // 32))
+            ws = _Workspace(self.model, ee, mask, B, parts, self.damping, self.max_step, self.max_error)
+            self._ws[(key, B)] = ws
+        return ws
+
+    def solve(self, q: np.ndarray, targets: np.ndarray, *, key: str, ee: np.ndarray, mask: np.ndarray,
+              min_iterations: int = 2, max_iterations: int = 8, tolerance: float = 1e-4,
+              weight: np.ndarray | None = None) -> np.ndarray:
+        """DLS steps until every end-effector of a pose is within ``tolerance`` [m] of its target.
+
+        Every pose takes ``min_iterations`` steps; poses whose residual before the last step still
+        exceeded the tolerance (a touchdown, a sudden change) take more, up to ``max_iterations``,
+        as a shrinking sub-batch (padded to a power of two so its buffers are reused).
+
+        Args:
+            q: Coordinates [B, C] (warm start).
+            targets: World targets [B, E, 3] of the end-effectors ``ee``.
+            key: Names the (ee, mask) combination, for caching buffers.
+            ee: End-effector indices in :attr:`model` [E].
+            mask: DoF mask [D].
+            min_iterations: Steps every pose takes.
+            max_iterations: Most steps a pose takes.
+            tolerance: Residual [m] that ends iterating.
+            weight: [B, E] multiplies each residual before the tolerance test (0 ignores an
+                end-effector, e.g. a swinging foot whose exact position does not matter).
+
+        Returns:
+            The new coordinates [B, C].
+        """
+        B = q.shape[0]
+        if B == 0 or len(ee) == 0 or min_iterations <= 0:
+            return q
+        pool = _thread_pool(cpu_workers())
+        ws = self._workspace(key, ee, mask, B)
+        ws.q_np[0][:] = q
+        ws.targets_np[:] = targets
+        src = 0
+        for _ in range(min_iterations):
+            src = ws.run(src, pool)
+        q = ws.q_np[src].copy()
+        err = np.linalg.norm(ws.residual_np, axis=-1)
+        if weight is not None:
+            err = err * weight
+        active = np.nonzero(err.max(axis=-1) > tolerance)[0]
+        it = min_iterations
+        while active.size and it < max_iterations:
+            n = int(active.size)
+            size = min(B, 1 << int(np.ceil(np.log2(max(n, 8)))))
+            sub = self._workspace(key, ee, mask, size)
+            pad = np.concatenate([active, np.full(size - n, active[0])])
+            sub.q_np[0][:] = q[pad]
+            sub.targets_np[:] = targets[pad]
+            sub.run(0, pool)
+            q[active] = sub.q_np[1][:n]
+            err = np.linalg.norm(sub.residual_np[:n], axis=-1)
+            if weight is not None:
+                err = err * weight[active]
+            active = active[err.max(axis=-1) > tolerance]
+            it += 1
+        return q
+
+    def constrain(self, q: np.ndarray) -> np.ndarray:
+        """Project leg ball joints back onto their allowed rotations, in place; returns ``q``.
+
+        Steps about two local axes compose into a small rotation about the third (they do not
+        commute), so over a long rollout a hip would slowly twist and swing its knee sideways. A hip
+        is projected onto ``R_h(a) R_o(b)`` (flexion about the hinge axis ``h``, then abduction about
+        the remaining axis ``o``, no twist about the bone ``t``): the rotation that points the bone
+        where it points now while the abduction axis stays perpendicular to the hinge axis, so the
+        knee below keeps bending in the leg's plane. A knee keeps only its rotation about its hinge.
+        """
+        for s, t, h in self.ball_constraints:
+            quat = q[:, s:s + 4]
+            if h == -2:  # knee: the twist part about the hinge axis t
+                hinge = np.zeros_like(quat)
+                hinge[:, t] = quat[:, t]
+                hinge[:, 3] = quat[:, 3]
+                q[:, s:s + 4] = hinge / np.maximum(np.linalg.norm(hinge, axis=1, keepdims=True), 1e-12)
+                continue
+            if h == -1:  # no usable hinge: plain swing-twist, drop the twist
+                tw = np.zeros_like(quat)
+                tw[:, t] = quat[:, t]
+                tw[:, 3] = quat[:, 3]
+                tw /= np.maximum(np.linalg.norm(tw, axis=1, keepdims=True), 1e-12)
+                sw = quat_multiply(quat, quat_conjugate(tw))
+                q[:, s:s + 4] = sw / np.linalg.norm(sw, axis=1, keepdims=True)
+                continue
+            o = 3 - t - h
+            R = matrix_from_quat(quat)
+            d = R[:, :, t]
+            eh = np.zeros(3)
+            eh[h] = 1.0
+            co = np.cross(eh, d)
+            co /= np.maximum(np.linalg.norm(co, axis=1, keepdims=True), 1e-12)
+            co *= np.where(np.sum(co * R[:, :, o], axis=1, keepdims=True) < 0, -1.0, 1.0)
+            cols = np.empty_like(R)
+            cols[:, :, t] = d
+            cols[:, :, o] = co
+            cols[:, :, h] = np.cross(d, co) if (t + 1) % 3 == o else np.cross(co, d)
+            q[:, s:s + 4] = quat_from_matrix(cols)
+        return q
 
     def level_ankles(self, q: np.ndarray, foot_yaw: np.ndarray) -> np.ndarray:
         """Turn every ankle so its foot is level with heading ``foot_yaw`` [B, NL] [rad]; returns ``q``."""

@@ -14,8 +14,8 @@ with $\\phi$ the rollout's cycle phase. Gaits by leg count:
 
 The speed that picks a gait is the *speed fraction* $s \\in [0, 1]$: how much of the creature's
 fastest stepping the current command needs (see :mod:`morphkit.motion.synth.legged`). A gait with
-duty $\\beta$ can deliver at most $s_\\beta = \\frac{(1-\\beta)/\\beta}{(1-\\beta_{min})/\\beta_{min}}$ of it
-at its highest step frequency, so each band ends at 0.85 $s_\\beta$ of its slowest gait. Within a
+duty $\\beta$ can deliver at most a fraction $s_\\beta$ of it at its highest step frequency (see
+:func:`gait_bands`), so each band ends at 0.85 $s_\\beta$ of its slowest gait. Within a
 band, alternatives (trot or pace; bound or gallop) are picked per command segment.
 """
 
@@ -74,12 +74,18 @@ def _gait(name: str, duty: float, n: int, phases: dict[int, float]) -> Gait:
     return Gait(name, duty, tuple(float(phases[i] % 1.0) for i in range(n)))
 
 
-def _capacity(duty: float, duty_min: float) -> float:
-    return ((1 - duty) / duty) / ((1 - duty_min) / duty_min)
+def _capacity(duty: float, duty_min: float, overhead: float) -> float:
+    return (duty_min / (1 - duty_min) + overhead) / (duty / (1 - duty) + overhead)
 
 
-def gait_bands(feet_xy: np.ndarray) -> tuple[GaitBand, ...]:
-    """The gait bands of a creature whose legs stand at ``feet_xy`` [NL, 2] (root frame)."""
+def gait_bands(feet_xy: np.ndarray, overhead: float = 0.0) -> tuple[GaitBand, ...]:
+    """The gait bands of a creature whose legs stand at ``feet_xy`` [NL, 2] (root frame).
+
+    ``overhead`` is the extra stance-like time a stride needs, in units of the shortest swing (the
+    frames a swinging foot rises and lands vertically while the body moves on, see
+    :mod:`morphkit.motion.synth.legged`): a gait of duty $\beta$ then delivers
+    $s_\beta = (\rho_{min} + o) / (\rho_\beta + o)$ with $\rho_\beta = \beta / (1 - \beta)$.
+    """
     n = len(feet_xy)
     lay = leg_layout(feet_xy)
     L, Rt = lay["left"], lay["right"]
@@ -118,7 +124,7 @@ def gait_bands(feet_xy: np.ndarray) -> tuple[GaitBand, ...]:
     duty_min = min(g.duty for gs, _ in bands for g in gs)
     out = []
     for i, (gs, ws) in enumerate(bands):
-        upper = 0.85 * _capacity(max(g.duty for g in gs), duty_min) if i < len(bands) - 1 else np.inf
+        upper = 0.85 * _capacity(max(g.duty for g in gs), duty_min, overhead) if i < len(bands) - 1 else np.inf
         out.append(GaitBand(float(upper), tuple(gs), tuple(ws)))
     return tuple(out)
 

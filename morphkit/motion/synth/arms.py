@@ -1,0 +1,353 @@
+"""Arms and the remaining joints: smooth random reaching and waving, solved by IK within limits.
+
+**Upper-body pose pool** (:func:`calibrate_arms`, once per creature). The joints that are not
+legs — arms, plus *other* joints: heads, necks, spines, tails, grippers — are sampled together:
+each 1-DoF joint uniform within ``joint_range`` of its span about rest (within limits, so prismatic
+lifts and telescopes extend too; other joints within ``other_range``, a third of that for joints
+carrying a leg, none below a foot), ball joints turned up to ``spherical_angle`` (``other_angle``)
+about a random axis. Poses where any of these links hits the body, the legs at stance or the
+ground are dropped; the stance pose is always pose 0. Each pose is linked to its nearest
+neighbours (joint space), and a link is kept only if *moving along it the way rollouts do* — arm
+tips on straight lines in the root frame, solved by IK, other joints blended in joint space —
+collides with nothing and stays above the ground. Rollouts walk this graph at random, so reaching
+motions are collision-checked before they are ever generated.
+
+**Motion** (per rollout, drawn up front): the upper body moves from pose to pose of the walk
+along a smoothstep (move, then hold), arm tips on straight lines in the root frame; in some
+segments an arm waves (a sinusoid of random amplitude, frequency and direction added to its
+target, faded in and out). IK (:mod:`morphkit.motion.synth._ik`) solves the arm targets every
+frame, pulled toward the joint-space blend of the two poses so that redundant arms keep a natural
+posture and never drift; other joints follow that blend directly.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from morphkit.conventions import quat_multiply, quat_rotate
+from morphkit.graph import JointType, Morphology
+from morphkit.kernels import eval_fk
+from morphkit.kernels.contact import eval_self_collision_distance, self_collision_pairs
+from morphkit.motion.synth._ik import LimbSolver
+from morphkit.motion.synth._util import nlerp, smoothstep
+from morphkit.motion.synth.analysis import BodyPlan
+from morphkit.motion.synth.legged import _subset_pairs, limb_links
+
+__all__ = ["ArmConfig", "PosePool", "UpperBodyTrack", "calibrate_arms", "draw_upper_body", "other_joints"]
+
+
+@dataclass(frozen=True)
+class ArmConfig:
+    """Arm and other-joint motion parameters (see the module docstring)."""
+
+    pool_size: int = 160
+    """Random upper-body poses drawn (before filtering)."""
+    neighbours: int = 8
+    """Links per pose in the pose graph (before validation)."""
+    validation_steps: int = 6
+    """Points checked along each link."""
+    joint_range: float = 0.7
+    """Fraction of each arm joint's span (about rest, within limits) that poses are drawn from."""
+    spherical_angle: float = 0.8
+    """Largest rotation of an arm ball joint from rest [rad]."""
+    continuous_angle: float = 2.0
+    """Largest rotation of an arm continuous joint from rest [rad]."""
+    other_range: float = 0.3
+    """Fraction of an other joint's span its poses are drawn from."""
+    other_angle: float = 0.25
+    """Largest rotation of an other ball joint from rest [rad]."""
+    move_seconds: tuple[float, float] = (0.6, 2.0)
+    hold_seconds: tuple[float, float] = (0.2, 1.5)
+    wave_probability: float = 0.3
+    wave_amplitude: tuple[float, float] = (0.03, 0.08)
+    """Wave amplitude as a fraction of the arm's reach."""
+    wave_hz: tuple[float, float] = (0.7, 2.0)
+    posture_gain: float = 0.3
+    """Per-frame pull of arm joints toward the blended pool posture, before IK."""
+    ground_clearance: float = 0.05
+    """Upper-body links and arm tips stay this high above the ground at stance [m]."""
+    collision_margin: float = 0.01
+    """Pool poses keep this clearance [m] between shapes (links between them only need no contact)."""
+    collision_rest_margin: float = 0.005
+    """Shape pairs closer than this at rest [m] touch by design and are not checked."""
+
+
+@dataclass(frozen=True, eq=False)
+class PosePool:
+    """Upper-body poses and the graph of safe moves between them (from :func:`calibrate_arms`)."""
+
+    coords: np.ndarray
+    """Indices in ``q`` of every pooled coordinate [D]."""
+    quat_offsets: tuple[int, ...]
+    """Offsets in ``coords`` where a ball joint's quaternion starts."""
+    q: np.ndarray
+    """Pooled coordinates [P, D] (pose 0: the stance)."""
+    tips: np.ndarray
+    """Arm tip positions in the root frame [P, A, 3] [m]."""
+    neighbours: np.ndarray
+    """[P, K] poses reachable from each pose by a validated move (-1: none)."""
+    arm_coords: np.ndarray
+    """Indices in ``q`` of the coordinates IK moves [n] (a subset of ``coords``)."""
+    arm_quat_offsets: tuple[int, ...]
+    """Offsets in ``arm_coords`` where a quaternion starts."""
+    direct: np.ndarray
+    """Positions in ``coords`` of the coordinates set directly from the blend (other joints)."""
+    reach: np.ndarray
+    """Per arm reach [A] [m]."""
+    stats: dict = field(default_factory=dict)
+
+    @property
+    def arm_count(self) -> int:
+        """A."""
+        return self.tips.shape[1]
+
+    @property
+    def empty(self) -> bool:
+        """No pooled coordinate at all."""
+        return self.coords.size == 0
+
+
+def _joint_coords(m: Morphology, joints: Sequence[int]) -> tuple[list[int], list[int]]:
+    """Coordinates of the given joints and the offsets of ball-joint quaternions among them."""
+    coords: list[int] = []
+    quats: list[int] = []
+    for ji in joints:
+        j = m.joints[ji]
+        s, e = m.joint_q_start[ji], m.joint_q_start[ji + 1]
+        if e == s:
+            continue
+        if j.type == JointType.SPHERICAL:
+            quats.append(len(coords))
+        coords.extend(range(s, e))
+    return coords, quats
+
+
+def _moving_joints(m: Morphology, names: Sequence[str]) -> list[int]:
+    return [m.joint_index(n) for n in names
+            if m.joint(n).type != JointType.FIXED and m.joint(n).mimic is None and n not in m.wheel_joints]
+
+
+def _random_rotation(rng: np.random.Generator, n: int, max_angle: float) -> np.ndarray:
+    axis = rng.normal(size=(n, 3))
+    axis /= np.linalg.norm(axis, axis=1, keepdims=True)
+    angle = max_angle * rng.random(n) ** (1 / 3)  # uniform in the ball of rotation vectors
+    return np.concatenate([axis * np.sin(0.5 * angle)[:, None], np.cos(0.5 * angle)[:, None]], axis=1)
+
+
+def _sample(rng: np.random.Generator, m: Morphology, q: np.ndarray, ji: int, fraction: float, ball_angle: float,
+            continuous_angle: float) -> None:
+    """Draw joint ``ji`` of every row of ``q`` [n, C] about its current (rest) value, within limits, in place."""
+    lower, upper = m.coordinate_limits
+    j = m.joints[ji]
+    s = m.joint_q_start[ji]
+    n = len(q)
+    if j.type == JointType.SPHERICAL:
+        q[:, s:s + 4] = quat_multiply(q[:, s:s + 4], _random_rotation(rng, n, ball_angle))
+    elif j.type == JointType.CONTINUOUS or not (np.isfinite(lower[s]) and np.isfinite(upper[s])):
+        q[:, s] = q[:, s] + continuous_angle * fraction * rng.uniform(-1, 1, n)
+    else:
+        lo = q[:, s] - fraction * (q[:, s] - lower[s])
+        hi = q[:, s] + fraction * (upper[s] - q[:, s])
+        q[:, s] = rng.uniform(lo, hi)
+
+
+def other_joints(m: Morphology, plan: BodyPlan) -> tuple[list[int], list[int]]:
+    """Joints that are neither leg nor arm nor below a foot, and those among them carrying a leg."""
+    in_limb = {n for limb in plan.legs + plan.arms for n in limb.joints}
+    below_feet: set[str] = set()
+    for leg in plan.legs:
+        below_feet |= limb_links(m, leg.joints)
+    leg_mounts = {n for leg in plan.legs for n in m.chain(leg.mount_link)}
+    out, carrying = [], []
+    for ji, j in enumerate(m.joints):
+        if j.type == JointType.FIXED or j.mimic is not None or j.name in m.wheel_joints or j.name in in_limb:
+            continue
+        if j.child in below_feet:
+            continue
+        out.append(ji)
+        if j.name in leg_mounts:
+            carrying.append(ji)
+    return out, carrying
+
+
+def calibrate_arms(m: Morphology, plan: BodyPlan, solver: LimbSolver, q_stance: np.ndarray, cfg: ArmConfig,
+                   seed: int = 0) -> PosePool:
+    """The upper-body pose pool and its validated move graph, with the creature standing at ``q_stance`` [C]."""
+    model = solver.model
+    rng = np.random.default_rng(seed + 7919)
+    arm_joints = [_moving_joints(m, arm.joints) for arm in plan.arms]
+    others, carrying = other_joints(m, plan)
+    flat_arm = [j for js in arm_joints for j in js]
+    arm_coords, arm_quats = _joint_coords(m, flat_arm)
+    all_joints = flat_arm + others
+    coords, quats = _joint_coords(m, all_joints)
+    A = len(plan.arms)
+    if not coords:
+        return PosePool(np.zeros(0, np.int64), (), np.zeros((1, 0)), np.zeros((1, A, 3)), np.full((1, 1), -1),
+                        np.zeros(0, np.int64), (), np.zeros(0, np.int64), np.zeros(A))
+    # which shape pairs and links concern the upper body
+    upper_links: set[str] = set()
+    for ji in all_joints:
+        upper_links |= limb_links(m, (m.joints[ji].name,))
+    uidx = np.array(sorted(model.link_index(n) for n in upper_links), dtype=np.int64)
+    pairs = self_collision_pairs(model, rest_margin=cfg.collision_rest_margin)
+    keep = np.array([(int(a) in uidx) or (int(b) in uidx) for a, b in zip(pairs.link_a, pairs.link_b, strict=True)],
+                    dtype=bool)
+    pairs = _subset_pairs(pairs, keep)
+    ee = solver.arm_ee
+    root = q_stance[:3].copy() if m.base_coordinate_count >= 3 else np.zeros(3)
+    if m.base_coordinate_count == 3:  # planar / wheeled: (x, y, yaw)
+        root = np.array([q_stance[0], q_stance[1], 0.0])
+
+    def check(qs: np.ndarray, margin: float) -> tuple[np.ndarray, np.ndarray]:
+        """[B] ok flags (no contact closer than ``margin``, above the ground) and arm tips [B, A, 3] (root frame)."""
+        Xw = eval_fk(model, qs, device="cpu")
+        X = Xw.numpy()
+        ok = np.ones(len(qs), dtype=bool)
+        if pairs.pair_count:
+            # pairs that are close at rest by design only need to keep half their rest clearance
+            need = np.minimum(margin, 0.5 * pairs.rest_distance)
+            ok &= (eval_self_collision_distance(model, pairs, Xw).numpy() > need).all(axis=1)
+        if uidx.size:
+            ok &= (X[:, uidx, 2] > cfg.ground_clearance).all(axis=1)
+        tips = np.zeros((len(qs), A, 3))
+        for a in range(A):
+            e = int(ee[a])
+            T = X[:, int(model.ee_link[e])]
+            tips[:, a] = T[:, :3] + quat_rotate(T[:, 3:], np.asarray(model.ee_offset[e], dtype=float)) - root
+        if A:
+            ok &= (tips[:, :, 2] + root[2] > cfg.ground_clearance).all(axis=1)
+        return ok, tips
+
+    # draw until the pool is full (poses that collide are dropped), at most four rounds
+    kept_q = [q_stance[None]]
+    for _ in range(4):
+        need = cfg.pool_size - sum(len(k) for k in kept_q) + 1
+        if need <= 0:
+            break
+        q = np.repeat(q_stance[None], cfg.pool_size, axis=0)
+        for ji in flat_arm:
+            _sample(rng, m, q, ji, cfg.joint_range, cfg.spherical_angle, cfg.continuous_angle)
+        for ji in others:
+            k = 1.0 / 3.0 if ji in carrying else 1.0
+            _sample(rng, m, q, ji, cfg.other_range * k, cfg.other_angle * k, np.pi * k)
+        ok, _ = check(q, cfg.collision_margin)
+        kept_q.append(q[ok][:need])
+    q = np.concatenate(kept_q)
+    _, tips = check(q, cfg.collision_margin)
+    P = len(q)
+    pool_q = q[:, coords]
+
+    # pose graph: nearest neighbours in joint space, scaled by each coordinate's spread
+    spread = pool_q.std(axis=0) + 1e-9
+    z = pool_q / spread
+    d2 = ((z[:, None] - z[None]) ** 2).sum(-1) + np.eye(P) * 1e18
+    K = min(cfg.neighbours, P - 1)
+    nbr = np.argsort(d2, axis=1)[:, :K] if K > 0 else np.zeros((P, 0), dtype=np.int64)
+    src = np.repeat(np.arange(P), K)
+    dst = nbr.reshape(-1)
+    valid = np.ones(len(src), dtype=bool)
+    if len(src):
+        arm_pos = np.arange(len(arm_coords))  # arm joints come first in coords
+        direct = np.arange(len(arm_coords), len(coords))
+        cur = q[src].copy()
+        mask = solver.arm_mask
+        for k in range(1, cfg.validation_steps + 1):
+            a = np.full(len(src), smoothstep(k / cfg.validation_steps))
+            blend = _blend(pool_q[src], pool_q[dst], a, quats)
+            nxt = cur.copy()
+            nxt[:, np.asarray(coords)[direct]] = blend[:, direct]
+            if A:
+                target = tips[src] + (tips[dst] - tips[src]) * a[:, None, None] + root
+                nxt[:, arm_coords] = nxt[:, arm_coords] + cfg.posture_gain * (blend[:, arm_pos] - nxt[:, arm_coords])
+                for o in arm_quats:
+                    sl = slice(o, o + 4)
+                    nxt[:, np.asarray(arm_coords)[sl]] = nlerp(cur[:, np.asarray(arm_coords)[sl]],
+                                                             blend[:, arm_pos[sl]], a * 0 + cfg.posture_gain)
+                nxt, _ = solver.step(nxt, target, ee=ee, mask=mask, iterations=3)
+            step_ok, _ = check(nxt, 0.0)
+            valid &= step_ok
+            cur = nxt
+    graph = np.where(valid.reshape(P, K), nbr, -1) if K > 0 else np.full((P, 1), -1)
+    arm_q_off = tuple(int(o) for o in arm_quats)
+    direct = np.arange(len(arm_coords), len(coords))
+    return PosePool(
+        coords=np.asarray(coords, dtype=np.int64), quat_offsets=tuple(quats), q=pool_q, tips=tips, neighbours=graph,
+        arm_coords=np.asarray(arm_coords, dtype=np.int64), arm_quat_offsets=arm_q_off, direct=direct.astype(np.int64),
+        reach=np.array([arm.reach for arm in plan.arms]),
+        stats={"poses": int(P), "moves": int(valid.sum()),
+               "moves_tried": len(src)},
+    )
+
+
+def _blend(a: np.ndarray, b: np.ndarray, w: np.ndarray, quats: Sequence[int]) -> np.ndarray:
+    out = a + (b - a) * w[:, None]
+    for o in quats:
+        out[:, o:o + 4] = nlerp(a[:, o:o + 4], b[:, o:o + 4], w)
+    return out
+
+
+@dataclass
+class UpperBodyTrack:
+    """Per-frame upper-body plan of a batch: pool poses ``i0 -> i1`` blended by ``alpha``, plus arm waves."""
+
+    i0: np.ndarray
+    """[R, T] int."""
+    i1: np.ndarray
+    """[R, T] int."""
+    alpha: np.ndarray
+    """[R, T]."""
+    wave: np.ndarray
+    """[R, T, A, 3] wave offsets of the arm targets (root frame) [m]."""
+
+    def posture(self, pool: PosePool, t: int) -> np.ndarray:
+        """Blended pooled coordinates [R, D] at frame ``t``."""
+        return _blend(pool.q[self.i0[:, t]], pool.q[self.i1[:, t]], self.alpha[:, t], pool.quat_offsets)
+
+    def tips(self, pool: PosePool, t: int) -> np.ndarray:
+        """Arm targets in the root frame [R, A, 3] at frame ``t``."""
+        a = self.alpha[:, t][:, None, None]
+        t0, t1 = pool.tips[self.i0[:, t]], pool.tips[self.i1[:, t]]
+        return t0 + (t1 - t0) * a + self.wave[:, t]
+
+
+def draw_upper_body(rngs: Sequence[np.random.Generator], pool: PosePool, frames: int, fps: float,
+                    cfg: ArmConfig) -> UpperBodyTrack:
+    """Random walks on the pose graph, timing and waves for a batch of rollouts (each from its own generator)."""
+    R = len(rngs)
+    A = pool.arm_count
+    t = np.arange(frames) / fps
+    i0 = np.zeros((R, frames), dtype=np.int64)
+    i1 = np.zeros((R, frames), dtype=np.int64)
+    alpha = np.zeros((R, frames))
+    wave = np.zeros((R, frames, A, 3))
+    duration = frames / fps + 1.0
+    S = int(np.ceil(duration / max(cfg.move_seconds[0] + cfg.hold_seconds[0], 1e-3))) + 2
+    for r, rng in enumerate(rngs):
+        mv = rng.uniform(*cfg.move_seconds, S)
+        hd = rng.uniform(*cfg.hold_seconds, S)
+        steps = rng.random(S)
+        walk = np.zeros(S + 1, dtype=np.int64)
+        for s in range(S):
+            nb = pool.neighbours[walk[s]]
+            nb = nb[nb >= 0]
+            walk[s + 1] = nb[int(steps[s] * len(nb))] if len(nb) else walk[s]
+        starts = np.concatenate([[0.0], np.cumsum(mv + hd)[:-1]])
+        seg = np.clip(np.searchsorted(starts, t, side="right") - 1, 0, S - 1)
+        i0[r], i1[r] = walk[seg], walk[seg + 1]
+        alpha[r] = smoothstep((t - starts[seg]) / mv[seg])
+        if A:
+            waving = rng.random((S, A)) < cfg.wave_probability
+            amp = rng.uniform(*cfg.wave_amplitude, (S, A)) * pool.reach[None] * waving
+            hz = rng.uniform(*cfg.wave_hz, (S, A))
+            phase = rng.uniform(0, 2 * np.pi, (S, A))
+            d = rng.normal(size=(S, A, 3))
+            d /= np.linalg.norm(d, axis=-1, keepdims=True)
+            u = np.clip((t - starts[seg]) / (mv[seg] + hd[seg]), 0.0, 1.0)
+            env = np.sin(np.pi * u) ** 2
+            s_wave = amp[seg] * env[:, None] * np.sin(2 * np.pi * hz[seg] * t[:, None] + phase[seg])
+            wave[r] = s_wave[..., None] * d[seg]
+    return UpperBodyTrack(i0, i1, alpha, wave)

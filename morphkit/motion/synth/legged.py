@@ -1,0 +1,613 @@
+"""Legged locomotion: stance calibration from the graph, footstep planning and swing arcs.
+
+**Calibration** (:func:`calibrate_legs`, once per creature) turns the body plan into a stance:
+
+1. *Stance height*: feet stay where they are at rest in x and y (root frame); the body is lowered
+   (never raised) until no leg is stretched beyond ``stance_extension`` of its reach, so knees keep
+   room to bend both ways. Legs that are straight at rest are pre-bent first (knee forward for
+   upright legs), because a straight chain is singular and DLS cannot bend it.
+2. *Nominal posture*: DLS IK (:mod:`morphkit.motion.synth._ik`) puts the feet there.
+3. *Step region*: each foot may move within an axis-aligned ellipse about its nominal point, of
+   semi-axes $(a\\rho_l, b\\rho_l)$ fore-aft and sideways ($\\rho_l$ the leg's reach). $a$ then $b$
+   are found by bisection: the largest values for which IK reaches every foot on the ellipse
+   (within 2 mm, at every corner of the commanded body height, pitch and roll) and random feet
+   inside the ellipses make no self-collision. Crossing legs (a crab's, a biped's) therefore get
+   short strides in the direction they would collide.
+4. *Swing height*: ``swing_height`` of the reach, lowered until the raised foot is reachable.
+
+**Stepping** (:class:`LeggedController`, vectorised over rollouts and legs): the gait clock
+(:mod:`morphkit.motion.synth.gait`) says when a stance foot may lift; the cycle frequency is the
+creature's cadence $f_0 = c\\sqrt{g/h}/2\\pi$ or faster, so that each stance uses at most
+``stroke_usage`` of the ellipse, and at most $(1-\\beta)/T_{sw,min}$. A foot that nears the edge of
+its ellipse lifts regardless. While it swings, its touchdown point is re-planned each frame
+(Raibert's neutral point with velocity feed-forward, computed exactly): where its hip will be at
+the middle of the coming stance along the commanded root path — the path ramps from the current
+velocity to the target, so the plan uses both — clipped into the ellipse at touchdown. The swing
+moves vertically first and last (the foot is off the ground before it moves horizontally, so a
+lift-off never shows up as sliding), horizontally along a smoothstep, on a half-ellipse arc in
+height. A stance foot is a fixed world target until it lifts: zero sliding up to the IK residual.
+
+**Speed fraction**: a command needs foot $l$ to move relative to the body at
+$v_l = -(v + \\omega \\hat z \\times p_l)$, i.e. $|v_l| / 2r_l(\\hat v_l)$ strokes per second ($r_l$
+the ellipse's half-chord along $\\hat v_l$). At the fastest gait (duty $\\beta_{min}$) and shortest
+swing the stance lasts $T_{st,min} = \\beta_{min} T_{sw,min} / (1 - \\beta_{min})$, so the speed
+fraction $s = \\max_l (|v_l| / 2 r_l) T_{st,min} / u_{max}$ is 1 when the fastest gait uses
+``max_stroke_usage`` of the ellipse. Commands are scaled to $s \\le$ ``speed_fraction_limit``.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from morphkit.conventions import quat_multiply, quat_rotate
+from morphkit.graph import JointType, Morphology
+from morphkit.kernels import eval_fk
+from morphkit.kernels.contact import SelfCollisionPairs, eval_self_collision_distance, self_collision_pairs
+from morphkit.motion.synth._ik import LimbSolver
+from morphkit.motion.synth._util import quat_from_rpy_zyx, rotate2, smoothstep, wrap_angle
+from morphkit.motion.synth.analysis import BodyPlan
+from morphkit.motion.synth.gait import GaitBand, GaitClock, gait_bands
+
+__all__ = ["LegConfig", "LegRig", "LeggedController", "calibrate_legs"]
+
+GRAVITY = 9.81
+
+
+@dataclass(frozen=True)
+class LegConfig:
+    """Stance, stepping and calibration parameters (see the module docstring)."""
+
+    stance_extension: float | None = None
+    """Largest hip-to-foot distance at stance as a fraction of reach (None: 0.8, bipeds 0.88)."""
+    swing_height: float = 0.12
+    """Swing apex as a fraction of the mean leg reach (lowered if unreachable)."""
+    min_swing_seconds: float = 0.1
+    """Shortest swing [s] (also at least ``min_swing_frames``)."""
+    min_swing_frames: int = 4
+    """Shortest swing in frames (>= 3: lift frame, move, touchdown frame)."""
+    stroke_usage: float = 0.6
+    """Fraction of the step ellipse a stance uses at the preferred cadence."""
+    max_stroke_usage: float = 0.85
+    """Fraction of the step ellipse a stance may use at the highest step frequency."""
+    cadence: float = 1.7
+    """Preferred cycle frequency in units of $\\sqrt{g/h}/2\\pi$ (h: stance height)."""
+    speed_fraction_limit: float = 0.95
+    """Commands are scaled down to at most this speed fraction."""
+    lift_clearance: float = 0.03
+    """A swinging foot rises at least this high [m] (or to the swing height if lower) on its first
+    and last airborne frames, above the usual 2 cm contact threshold."""
+    touchdown_limit: float = 0.9
+    """Touchdown points are clipped to this fraction of the ellipse."""
+    emergency_limit: float = 0.97
+    """A stance foot this far out in its ellipse lifts off whatever its phase."""
+    ball_posture_gain: float = 0.1
+    """Per-frame pull of leg ball joints (which have no limits) toward the stance posture, before IK."""
+    calibration_random_poses: int = 64
+    """Random foot placements tested per candidate ellipse."""
+    calibration_iterations: int = 30
+    """IK iterations per calibration solve."""
+    reach_tolerance: float = 0.002
+    """IK residual [m] below which a calibration target counts as reached."""
+    collision_tolerance: float = 0.001
+    """Overlap [m] beyond which two shapes count as colliding."""
+    collision_rest_margin: float = 0.005
+    """Shape pairs closer than this at rest [m] touch by design (like neighbours across a joint) and
+    are not checked."""
+
+
+@dataclass(frozen=True, eq=False)
+class LegRig:
+    """A creature's calibrated stance and step geometry (from :func:`calibrate_legs`)."""
+
+    nominal_xy: np.ndarray
+    """Nominal foot positions in the root's heading frame [NL, 2] [m]."""
+    stance_height: float
+    """Root height above the ground at stance [m]."""
+    semi_axes: np.ndarray
+    """Step ellipse semi-axes (fore-aft, sideways) per leg [NL, 2] [m]."""
+    swing_height: float
+    """Swing apex [m]."""
+    q_nominal: np.ndarray
+    """Coordinates at stance [C] (root at (0, 0, stance_height), level)."""
+    cadence_hz: float
+    """Preferred cycle frequency $f_0$ [Hz]."""
+    bands: tuple[GaitBand, ...]
+    height_range: tuple[float, float]
+    """Body height offsets the stance allows [m]."""
+    pitch: float
+    """Body pitch the stance allows ±[rad]."""
+    roll: float
+    """Body roll the stance allows ±[rad]."""
+    extension: float
+    """Stance extension used."""
+    t_swing_min: float
+    """Shortest swing [s]."""
+    dt: float
+    """Frame time [s] the rig was calibrated for."""
+    stats: dict = field(default_factory=dict)
+    """Calibration figures (ellipse factors, residuals) for reports."""
+
+    @property
+    def leg_count(self) -> int:
+        """NL."""
+        return len(self.nominal_xy)
+
+    @property
+    def duty_min(self) -> float:
+        """Smallest duty factor of the creature's gaits."""
+        return min(g.duty for b in self.bands for g in b.gaits)
+
+    def stroke_rate(self, v: np.ndarray, w: np.ndarray) -> np.ndarray:
+        """Strokes per second each foot needs, ``|v_l| / 2 r_l`` [N, NL], for heading-frame velocity ``v``
+        [N, 2] [m/s] and yaw rate ``w`` [N] [rad/s]."""
+        p = self.nominal_xy
+        rel = -(v[:, None, :] + w[:, None, None] * np.stack([-p[:, 1], p[:, 0]], axis=-1)[None])
+        ax = self.semi_axes
+        # |v_l| / r(u) = sqrt((vx/rx)^2 + (vy/ry)^2)
+        return 0.5 * np.sqrt((rel[..., 0] / ax[:, 0]) ** 2 + (rel[..., 1] / ax[:, 1]) ** 2)
+
+    def stance_span(self, duty: float | np.ndarray) -> float | np.ndarray:
+        """Time [s] a foot spends moving relative to the body per stride at the shortest swing:
+        the stance, plus the first and last airborne frames (vertical only, while the body moves on)."""
+        return duty / (1.0 - duty) * self.t_swing_min + 2.0 * self.dt
+
+    def speed_fraction(self, v: np.ndarray, w: np.ndarray, max_usage: float) -> np.ndarray:
+        """Speed fraction [N] of commands (see the module docstring)."""
+        return self.stroke_rate(v, w).max(axis=1) * self.stance_span(self.duty_min) / max_usage
+
+    def clamp(self, cmd: np.ndarray, cfg: LegConfig) -> np.ndarray:
+        """Scale velocity commands [N, 3] (forward, lateral, yaw rate) to a speed fraction <= the limit."""
+        s = self.speed_fraction(cmd[:, :2], cmd[:, 2], cfg.max_stroke_usage)
+        k = np.where(s > cfg.speed_fraction_limit, cfg.speed_fraction_limit / np.maximum(s, 1e-12), 1.0)
+        return cmd * k[:, None]
+
+
+# ---------------------------------------------------------------------------------------------
+# calibration
+# ---------------------------------------------------------------------------------------------
+def _descendants(m: Morphology, links: set[str]) -> set[str]:
+    out = set(links)
+    for j in m.joints:  # topological order: parents first
+        if j.parent in out:
+            out.add(j.child)
+    return out
+
+
+def limb_links(m: Morphology, joints: tuple[str, ...]) -> set[str]:
+    """Links moved by a limb's joints (their children and everything below)."""
+    return _descendants(m, {m.joint(n).child for n in joints})
+
+
+class _Calibrator:
+    def __init__(self, m: Morphology, plan: BodyPlan, solver: LimbSolver, cfg: LegConfig) -> None:
+        self.m = m
+        self.plan = plan
+        self.solver = solver
+        self.cfg = cfg
+        self.model = solver.model
+        self.NL = len(plan.legs)
+        self.reach = np.array([leg.reach for leg in plan.legs])
+        links = set()
+        for leg in plan.legs:
+            links |= limb_links(m, leg.joints)
+        idx = {self.model.link_index(n) for n in links}
+        pairs = self.all_pairs = self_collision_pairs(self.model, rest_margin=cfg.collision_rest_margin)
+        keep = np.array([(int(a) in idx) or (int(b) in idx) for a, b in zip(pairs.link_a, pairs.link_b, strict=True)],
+                        dtype=bool)
+        self.pairs = _subset_pairs(pairs, keep)
+
+    def root_q(self, q: np.ndarray, z: np.ndarray, pitch: np.ndarray, roll: np.ndarray) -> np.ndarray:
+        q = q.copy()
+        q[:, 0:2] = 0.0
+        q[:, 2] = z
+        q[:, 3:7] = quat_from_rpy_zyx(roll, pitch, np.zeros_like(z))
+        return q
+
+    def solve(self, q: np.ndarray, feet: np.ndarray, iterations: int) -> tuple[np.ndarray, np.ndarray]:
+        """IK of the leg targets (foot points, world, level feet with yaw 0); returns q and final errors [B, NL]."""
+        B = q.shape[0]
+        yaw = np.zeros((B, self.NL))
+        ik_pts = feet - self.solver.ankle_offsets(yaw)
+        q = self.solver.constrain(q.copy())
+        q, _ = self.solver.step(q, ik_pts, ee=self.solver.leg_ee, mask=self.solver.leg_mask, iterations=iterations)
+        q = self.solver.level_ankles(q, yaw)
+        _, res = self.solver.step(q, ik_pts, ee=self.solver.leg_ee, mask=self.solver.leg_mask, iterations=1)
+        return q, np.linalg.norm(res, axis=-1)
+
+    def collisions(self, q: np.ndarray) -> np.ndarray:
+        """[B] bool: any leg shape pair overlapping by more than the tolerance."""
+        if self.pairs.pair_count == 0:
+            return np.zeros(q.shape[0], dtype=bool)
+        X = eval_fk(self.model, q, device="cpu")
+        d = eval_self_collision_distance(self.model, self.pairs, X).numpy()
+        return (d < -self.cfg.collision_tolerance).any(axis=1)
+
+
+def _subset_pairs(p: SelfCollisionPairs, keep: np.ndarray) -> SelfCollisionPairs:
+    return SelfCollisionPairs(
+        shape_a=p.shape_a[keep], shape_b=p.shape_b[keep], link_a=p.link_a[keep], link_b=p.link_b[keep],
+        rest_distance=p.rest_distance[keep], names=tuple(n for n, k in zip(p.names, keep, strict=True) if k),
+        skipped=dict(p.skipped),
+    )
+
+
+def _prebend(m: Morphology, solver: LimbSolver, q: np.ndarray, plan: BodyPlan) -> np.ndarray:
+    """Bend the knees of legs that are straight at rest (a straight chain is singular for DLS)."""
+    model = solver.model
+    q = q.copy()
+    for li, leg in enumerate(plan.legs):
+        ee = int(solver.leg_ee[li])
+        mov = [m.joint_index(n) for n in leg.joints
+               if m.joint(n).type != JointType.FIXED and m.joint(n).mimic is None]
+        if solver.ankles[li] is not None:
+            mov = mov[:-1]
+        if len(mov) < 2:
+            continue
+        X = eval_fk(model, q[None], device="cpu").numpy()[0]
+        mount = np.asarray(leg.mount_rest)
+        tip = _ee_point(model, X, ee)
+        pts = [mount] + [X[j + 1, :3] for j in mov[1:]] + [tip]
+        chain = sum(np.linalg.norm(b - a) for a, b in itertools.pairwise(pts))
+        if np.linalg.norm(tip - mount) < 0.97 * chain:
+            continue
+        v = tip - mount
+        upright = np.hypot(v[0], v[1]) < abs(v[2])
+        for ji in mov[1:]:
+            j = m.joints[ji]
+            s = m.joint_q_start[ji]
+            cands = []
+            for sign in (1.0, -1.0):
+                qc = q.copy()
+                if j.type == JointType.SPHERICAL:
+                    d0 = m.joint_qd_start[ji]
+                    axes = [a for a in range(3) if solver.leg_mask[d0 + a]]
+                    if not axes:
+                        continue
+                    e = np.zeros(3)
+                    e[axes[0]] = 1.0
+                    half = 0.25 * sign
+                    rot = np.array([*(e * np.sin(half)), np.cos(half)])
+                    qc[s:s + 4] = quat_multiply(q[s:s + 4], rot)
+                else:
+                    lo, hi = model.coordinate_lower[s], model.coordinate_upper[s]
+                    qc[s] = np.clip(q[s] + 0.5 * sign, lo, hi)
+                    if abs(qc[s] - q[s]) < 1e-6:
+                        continue
+                Xc = eval_fk(model, qc[None], device="cpu").numpy()[0]
+                moved = _ee_point(model, Xc, ee) - tip
+                score = -moved[0] if upright else -moved[2]
+                cands.append((score, qc))
+            if cands:
+                q = max(cands, key=lambda c: c[0])[1]
+    return q
+
+
+def _ee_point(model, X: np.ndarray, ee: int) -> np.ndarray:
+    T = X[int(model.ee_link[ee])]
+    return T[:3] + quat_rotate(T[3:], np.asarray(model.ee_offset[ee], dtype=float))
+
+
+def calibrate_legs(m: Morphology, plan: BodyPlan, solver: LimbSolver, cfg: LegConfig, *, fps: float,
+                   height_fraction: tuple[float, float], pitch: float, roll: float) -> LegRig:
+    """Stance height, nominal posture, step ellipses and swing height of a legged creature.
+
+    Args:
+        m: The creature (legs from ``plan``).
+        plan: Its body plan (at least one leg).
+        solver: The creature's limb IK.
+        cfg: Leg parameters.
+        fps: Frame rate the rig will step at.
+        height_fraction: Body height offsets commands will ask for, as fractions of the stance height.
+        pitch: Body pitch commands will ask for ±[rad].
+        roll: Body roll commands will ask for ±[rad].
+    """
+    cal = _Calibrator(m, plan, solver, cfg)
+    NL = cal.NL
+    model = solver.model
+    q_rest = m.rest_q()
+    feet_rest = np.array([leg.tip_rest for leg in plan.legs])
+    nominal_xy = feet_rest[:, :2].copy()
+    ext = cfg.stance_extension if cfg.stance_extension is not None else (0.88 if NL <= 2 else 0.8)
+
+    q0 = _prebend(m, solver, q_rest, plan)
+    # IK points at rest (foot, or ankle for levelled feet) and their chains' reach
+    yaw0 = np.zeros((1, NL))
+    ank = solver.ankle_offsets(yaw0)[0]  # foot - ik point at rest (level foot)
+    h_rest = plan.body_height
+    # Effective reach: how far each leg's IK point gets from its mount when stretched toward the
+    # rest direction (joint limits may stop it well short of the summed segment lengths).
+    q_far = cal.root_q(q0[None], np.zeros(1), np.zeros(1), np.zeros(1))
+    far = np.zeros((1, NL, 3))
+    for li, leg in enumerate(plan.legs):
+        mount = np.asarray(leg.mount_rest)
+        d = feet_rest[li] - ank[li] - mount
+        far[0, li] = mount + d / max(np.linalg.norm(d), 1e-9) * 1.5 * leg.reach
+    q_far, _ = solver.step(q_far, far, ee=solver.leg_ee, mask=solver.leg_mask, iterations=150,
+                           max_error=0.05 * float(cal.reach.mean()))
+    X = eval_fk(model, q_far, device="cpu").numpy()[0]
+    eff = np.array([np.linalg.norm(_ee_point(model, X, int(solver.leg_ee[li])) - np.asarray(leg.mount_rest))
+                    for li, leg in enumerate(plan.legs)])
+    h = h_rest
+    for li, leg in enumerate(plan.legs):
+        mount = np.asarray(leg.mount_rest)
+        target = feet_rest[li] - ank[li]  # ik point relative to the root at rest
+        dxy = np.hypot(*(target[:2] - mount[:2]))
+        lim = ext * eff[li]
+        if dxy < lim:
+            vertical = np.sqrt(lim**2 - dxy**2)
+            # at stance height hh the ik point is at z = -hh - ank_z (root frame): mount_z + hh + ank_z = vertical
+            hh = vertical - mount[2] - ank[li, 2]
+            h = min(h, hh)
+    h = max(h, 0.3 * h_rest)
+
+    def nominal(hh: float) -> tuple[np.ndarray, np.ndarray]:
+        q = q0.copy()[None]
+        q = cal.root_q(q, np.array([hh]), np.zeros(1), np.zeros(1))
+        feet = np.concatenate([nominal_xy, np.zeros((NL, 1))], axis=1)[None]
+        qs, err = cal.solve(q, feet, 150)
+        return qs[0], err[0]
+
+    q_nom, err = nominal(h)
+    tries = 0
+    while err.max() > 5e-4 and tries < 4:
+        tries += 1
+        h = h + 0.5 * (h_rest - h)
+        q_nom, err = nominal(h)
+    if err.max() > 5e-4:  # keep the rest pose: feet on the ground by construction
+        h = h_rest
+        q_nom = cal.root_q(q_rest[None], np.array([h]), np.zeros(1), np.zeros(1))[0]
+
+    hr = (height_fraction[0] * h, height_fraction[1] * h)
+    corners = np.array([*itertools.product(hr, (-pitch, pitch), (-roll, roll)), (0.0, 0.0, 0.0)])
+    rng = np.random.default_rng(12345)
+    rand_body = np.stack([
+        rng.uniform(hr[0], hr[1], cfg.calibration_random_poses),
+        rng.uniform(-pitch, pitch, cfg.calibration_random_poses),
+        rng.uniform(-roll, roll, cfg.calibration_random_poses),
+    ], axis=1)
+    rand_r = np.sqrt(rng.random((cfg.calibration_random_poses, NL)))
+    rand_t = rng.uniform(0, 2 * np.pi, (cfg.calibration_random_poses, NL))
+    angles = np.linspace(0, 2 * np.pi, 8, endpoint=False)
+    reach = cal.reach
+
+    # neighbouring legs (each leg's two nearest by nominal foot distance): tested at opposite extremes
+    dist = np.linalg.norm(nominal_xy[:, None] - nominal_xy[None], axis=-1) + np.eye(NL) * 1e9
+    pairs = sorted({tuple(sorted((i, int(j)))) for i in range(NL) for j in np.argsort(dist[i])[:min(2, NL - 1)]})
+    pair_angles = np.array([0.0, 0.5 * np.pi, np.pi, 1.5 * np.pi])
+    lift_test = 0.5 * cfg.swing_height * reach
+
+    def poses(a: float, b: float, lift: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, int]:
+        """Body poses [B, 3], foot offsets [B, NL, 2] and lifts [B, NL]; counts of boundary and pair poses."""
+        ax = np.stack([a * reach, b * reach], axis=1)  # [NL, 2]
+        # boundary poses: every corner x every angle, all legs at the same angle
+        body = [np.repeat(corners, len(angles), axis=0)]
+        th = np.tile(angles, len(corners))[:, None].repeat(NL, axis=1)
+        off = [np.stack([np.cos(th) * ax[:, 0], np.sin(th) * ax[:, 1]], axis=-1)]
+        up = [np.full((len(body[0]), NL), lift)]
+        nb = len(body[0])
+        # neighbouring pairs at opposite extremes, one of them lifted or not, body level or low and pitched
+        npair = 0
+        for i, j in pairs:
+            for t in pair_angles:
+                for lifted in (0.0, 1.0):
+                    for bp in ((0.0, 0.0, 0.0), (hr[0], pitch, 0.0)):
+                        o = np.zeros((NL, 2))
+                        o[i] = (np.cos(t) * ax[i, 0], np.sin(t) * ax[i, 1])
+                        o[j] = (-np.cos(t) * ax[j, 0], -np.sin(t) * ax[j, 1])
+                        u = np.full(NL, lift)
+                        u[i] = max(lift, lifted * lift_test[i])
+                        body.append(np.array([bp]))
+                        off.append(o[None])
+                        up.append(u[None])
+                        npair += 1
+        body.append(rand_body)
+        off.append(np.stack([rand_r * np.cos(rand_t) * ax[:, 0], rand_r * np.sin(rand_t) * ax[:, 1]], axis=-1))
+        up.append(np.full((len(rand_body), NL), lift))
+        return np.concatenate(body), np.concatenate(off), np.concatenate(up), nb, npair
+
+    def feasible(a: float, b: float, lift: float = 0.0) -> bool:
+        body, off, up, nb, npair = poses(a, b, lift)
+        B = len(body)
+        feet = np.concatenate([nominal_xy[None] + off, up[..., None]], axis=-1)
+        q = cal.root_q(np.repeat(q_nom[None], B, axis=0), h + body[:, 0], body[:, 1], body[:, 2])
+        q, err = cal.solve(q, feet, cfg.calibration_iterations)
+        if err.max() > cfg.reach_tolerance:
+            return False
+        hit = cal.collisions(q)
+        return not hit[:nb + npair].any() and hit[nb + npair:].mean() <= 0.01
+
+    def bisect(test, lo: float, hi: float, steps: int = 6) -> float:
+        if test(hi):
+            return hi
+        for _ in range(steps):
+            mid = 0.5 * (lo + hi)
+            if test(mid):
+                lo = mid
+            else:
+                hi = mid
+        return lo
+
+    small = 0.02
+    if not feasible(small, small):
+        # the commanded body poses are out of reach: shrink them until the stance works
+        for _ in range(4):
+            hr = (0.5 * hr[0], 0.5 * hr[1])
+            pitch *= 0.5
+            roll *= 0.5
+            corners = np.array([*itertools.product(hr, (-pitch, pitch), (-roll, roll)), (0.0, 0.0, 0.0)])
+            rand_body *= 0.5
+            if feasible(small, small):
+                break
+    a = bisect(lambda x: feasible(x, small), small, 0.6)
+    b = bisect(lambda y: feasible(a, y), small, 0.6)
+    a *= 0.95
+    b *= 0.95
+    H = cfg.swing_height * float(reach.mean())
+    for _ in range(8):
+        if feasible(0.3 * a, 0.3 * b, lift=H):
+            break
+        H *= 0.75
+    t_swing_min = max(cfg.min_swing_seconds, cfg.min_swing_frames / fps)
+    rig = LegRig(
+        nominal_xy=nominal_xy,
+        stance_height=float(h),
+        semi_axes=np.stack([a * reach, b * reach], axis=1),
+        swing_height=float(H),
+        q_nominal=q_nom,
+        cadence_hz=float(cfg.cadence * np.sqrt(GRAVITY / max(h, 1e-3)) / (2 * np.pi)),
+        bands=gait_bands(nominal_xy, 2.0 / (fps * t_swing_min)),
+        height_range=(float(hr[0]), float(hr[1])),
+        pitch=float(pitch),
+        roll=float(roll),
+        extension=float(ext),
+        t_swing_min=float(t_swing_min),
+        dt=1.0 / fps,
+        stats={"ellipse_factors": (float(a), float(b)), "nominal_residual_m": float(err.max()),
+               "effective_reach_m": eff.round(4).tolist()},
+    )
+    return rig
+
+
+# ---------------------------------------------------------------------------------------------
+# stepping
+# ---------------------------------------------------------------------------------------------
+class LeggedController:
+    """Footstep planning and swing arcs for R rollouts at once (see the module docstring).
+
+    Args:
+        rig: The creature's calibration.
+        cfg: Leg parameters.
+        fps: Frames per second.
+        xy0: Initial root positions [R, 2].
+        yaw0: Initial root yaw [R].
+    """
+
+    def __init__(self, rig: LegRig, cfg: LegConfig, fps: float, xy0: np.ndarray, yaw0: np.ndarray) -> None:
+        self.rig = rig
+        self.cfg = cfg
+        self.fps = fps
+        self.dt = 1.0 / fps
+        R, NL = len(xy0), rig.leg_count
+        self.t_swing_min = rig.t_swing_min
+        self.n_swing_min = max(3, int(np.ceil(self.t_swing_min * fps - 1e-9)))
+        self.span_min = rig.stance_span(rig.duty_min)
+        self.clock = GaitClock(rig.bands, R)
+        c, s = np.cos(yaw0), np.sin(yaw0)
+        self.foot_xy = xy0[:, None, :] + rotate2(c[:, None], s[:, None], rig.nominal_xy[None])
+        self.foot_z = np.zeros((R, NL))
+        self.foot_yaw = np.repeat(yaw0[:, None], NL, axis=1).astype(float)
+        self.stance = np.ones((R, NL), dtype=bool)
+        self.armed = np.zeros((R, NL), dtype=bool)
+        self.k = np.zeros((R, NL), dtype=np.int64)
+        self.nsw = np.full((R, NL), self.n_swing_min, dtype=np.int64)
+        self.lift_xy = self.foot_xy.copy()
+        self.lift_yaw = self.foot_yaw.copy()
+        self.td_xy = self.foot_xy.copy()
+        self.td_yaw = self.foot_yaw.copy()
+        self.emergencies = 0
+
+    def step(self, t: int, path_xy: np.ndarray, path_yaw: np.ndarray, v: np.ndarray, w: np.ndarray,
+             choice: np.ndarray) -> None:
+        """Advance one frame.
+
+        Args:
+            t: Frame index into the paths.
+            path_xy: Root path of the batch [R, T', 2] (with look-ahead beyond the last frame).
+            path_yaw: Root yaw path [R, T'].
+            v: Commanded heading-frame velocity at frame ``t`` [R, 2].
+            w: Commanded yaw rate at frame ``t`` [R].
+            choice: Segment random number [R] (gait alternatives).
+        """
+        rig, cfg = self.rig, self.cfg
+        p = rig.nominal_xy
+        ax = rig.semi_axes
+        rate_l = rig.stroke_rate(v, w)  # [R, NL] strokes per second
+        rate = rate_l.max(axis=1)
+        s = rate * self.span_min / cfg.max_stroke_usage
+        moving = rate > 1e-3 * rig.cadence_hz
+        tsw = self.t_swing_min
+        dt = self.dt
+        # normalised distance the body moves in one frame, per leg: the airborne frames' overshoot
+        frame_step = 2.0 * rate_l * dt
+
+        def frequency(duty: np.ndarray) -> np.ndarray:
+            # stance + two frames may use stroke_usage of the ellipse: rate (duty / f + 2 dt) <= usage
+            room = cfg.stroke_usage / np.maximum(rate, 1e-12) - 2.0 * dt
+            fmax = (1.0 - duty) / tsw
+            need = np.where(room > 0, duty / np.maximum(room, 1e-12), fmax)
+            return np.minimum(np.maximum(rig.cadence_hz, need), fmax)
+
+        psi = self.clock.advance(s, choice, frequency, self.dt)
+        duty = self.clock.duty
+        f = self.clock.frequency
+        root_xy = path_xy[:, t]
+        yaw = path_yaw[:, t]
+        c, sn = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
+
+        # where each stance foot is within its ellipse
+        rel = rotate2(c, -sn, self.foot_xy - root_xy[:, None, :]) - p[None]
+        rho = np.sqrt((rel[..., 0] / ax[:, 0]) ** 2 + (rel[..., 1] / ax[:, 1]) ** 2)
+        in_stance_phase = psi < duty[:, None]
+        self.armed |= self.stance & in_stance_phase
+        emergency = self.stance & (rho > cfg.emergency_limit - frame_step)
+        lift = self.stance & ((self.armed & ~in_stance_phase & (moving[:, None] | (rho > 0.12))) | emergency)
+        self.emergencies += int(emergency.sum())
+        if lift.any():
+            rows = np.nonzero(lift)[0]
+            n = np.maximum(self.n_swing_min, np.round((1.0 - duty) / f * self.fps)).astype(np.int64)
+            self.nsw[lift] = n[rows]
+            self.k[lift] = 0
+            self.stance[lift] = False
+            self.armed[lift] = False
+            self.lift_xy[lift] = self.foot_xy[lift]
+            self.lift_yaw[lift] = self.foot_yaw[lift]
+        swing = ~self.stance
+        if not swing.any():
+            return
+        self.k[swing] += 1
+        Tn = path_xy.shape[1]
+        plan = swing & (self.k <= self.nsw - 2)
+        if plan.any():
+            rows, legs = np.nonzero(plan)
+            n_td = self.nsw[rows, legs] - self.k[rows, legs]
+            half = np.round(0.5 * duty[rows] / f[rows] * self.fps).astype(np.int64)
+            i_td = np.minimum(t + n_td, Tn - 1)
+            i_mid = np.minimum(t + n_td + half, Tn - 1)
+            pl = p[legs]
+            ym = path_yaw[rows, i_mid]
+            tgt = path_xy[rows, i_mid] + rotate2(np.cos(ym), np.sin(ym), pl)
+            yt = path_yaw[rows, i_td]
+            ct, st = np.cos(yt), np.sin(yt)
+            body = path_xy[rows, i_td]
+            rel_td = rotate2(ct, -st, tgt - body) - pl
+            a_l = ax[legs]
+            r_td = np.sqrt((rel_td[:, 0] / a_l[:, 0]) ** 2 + (rel_td[:, 1] / a_l[:, 1]) ** 2)
+            lim = np.maximum(cfg.touchdown_limit - frame_step[rows, legs], 0.3)
+            k = np.where(r_td > lim, lim / np.maximum(r_td, 1e-12), 1.0)
+            self.td_xy[rows, legs] = body + rotate2(ct, st, pl + rel_td * k[:, None])
+            self.td_yaw[rows, legs] = ym
+        rows, legs = np.nonzero(swing)
+        k = self.k[rows, legs]
+        n = self.nsw[rows, legs]
+        hor = smoothstep((k - 1) / np.maximum(n - 2, 1))
+        frac = np.clip(k / n, 0.0, 1.0)
+        H = rig.swing_height
+        z = np.maximum(H * np.sqrt(np.clip(4.0 * frac * (1.0 - frac), 0.0, 1.0)), min(H, cfg.lift_clearance))
+        done = k >= n
+        lx = self.lift_xy[rows, legs]
+        self.foot_xy[rows, legs] = lx + (self.td_xy[rows, legs] - lx) * hor[:, None]
+        self.foot_z[rows, legs] = np.where(done, 0.0, z)
+        ly = self.lift_yaw[rows, legs]
+        self.foot_yaw[rows, legs] = ly + wrap_angle(self.td_yaw[rows, legs] - ly) * hor
+        if done.any():
+            dr, dl = rows[done], legs[done]
+            self.foot_xy[dr, dl] = self.td_xy[dr, dl]
+            self.foot_yaw[dr, dl] = self.td_yaw[dr, dl]
+            self.stance[dr, dl] = True
+
+    def feet(self) -> np.ndarray:
+        """Foot targets in world [R, NL, 3]."""
+        return np.concatenate([self.foot_xy, self.foot_z[..., None]], axis=-1)

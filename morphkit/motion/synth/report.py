@@ -1,0 +1,210 @@
+"""Quality report of synthesised (or any) motions, measured with the contact kernels.
+
+Figures (the ``morphkit synth --report --json`` keys first):
+
+- ``frames``, ``frames_per_s``: how much was generated and how fast (calibration included).
+- ``foot_sliding_cm_s``: mean horizontal speed of feet in contact (lower than ``height_threshold``
+  above the ground), by :func:`~morphkit.kernels.contact.eval_sliding_speed` (central differences).
+- ``penetration_mm``: deepest foot penetration below the ground
+  (:func:`~morphkit.kernels.contact.eval_penetration_depth`).
+- ``self_collision_frac``: fraction of frames where any candidate shape pair overlaps by more than
+  ``collision_tolerance`` (:func:`~morphkit.kernels.contact.eval_self_collision_distance`; pairs from
+  :func:`~morphkit.kernels.contact.self_collision_pairs` with ``rest_margin``: shapes that touch at
+  rest by design, like neighbours across a joint, are not counted).
+- ``limit_violation_frac``: fraction of frames with any 1-DoF coordinate outside its limits.
+- ``tracking_error``: mean relative error of the root's planar velocity (central differences, in
+  the heading frame) against the commanded target, over frames where the command has settled:
+  $\\lVert v - v^* \\rVert / \\max(\\lVert v^* \\rVert, v_{floor})$ (``None`` without commands or a moving base).
+
+Extra keys: ``yaw_rate_error`` (same for the yaw rate, floor 0.1 rad/s), ``foot_sliding_p95_cm_s``,
+``penetration_mean_mm``, ``swing_clearance_frac`` (fraction of airborne swing frames — not the lift-off
+and touchdown frames — with the foot above 1 cm), ``contact_frac``, ``gait_frac`` and the
+calibration summary.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from morphkit.model import compile_model
+from morphkit.motion.motion import Motion
+
+__all__ = ["REPORT_KEYS", "format_report", "quality_report"]
+
+REPORT_KEYS = ("frames", "frames_per_s", "foot_sliding_cm_s", "penetration_mm", "self_collision_frac",
+               "limit_violation_frac", "tracking_error")
+"""The keys ``morphkit synth --report --json`` always prints."""
+
+
+def _groups(motions: Sequence[Motion]) -> dict[int, list[int]]:
+    groups: dict[int, list[int]] = {}
+    for i, m in enumerate(motions):
+        groups.setdefault(m.frame_count, []).append(i)
+    return groups
+
+
+def quality_report(result: Any, *, height_threshold: float = 0.02, collision_tolerance: float = 0.001,
+                   rest_margin: float = 0.005, speed_floor: float | None = None) -> dict[str, Any]:
+    """Measure a :class:`~morphkit.motion.synth.SynthResult` (or any sequence of motions of one creature).
+
+    Args:
+        result: The motions (with commands and timing when a ``SynthResult``).
+        height_threshold: A foot lower than this is in contact [m].
+        collision_tolerance: Overlap [m] beyond which a shape pair collides.
+        rest_margin: Shape pairs closer than this at rest [m] are not checked.
+        speed_floor: Smallest commanded speed the relative tracking error divides by [m/s]
+            (default 0.1 m/s times the creature's size scale).
+
+    Returns:
+        A JSON-friendly dict (see the module docstring).
+    """
+    from morphkit.kernels import eval_end_effectors, eval_fk, eval_wheel_angles
+    from morphkit.kernels.contact import (
+        eval_foot_heights,
+        eval_penetration_depth,
+        eval_self_collision_distance,
+        eval_sliding_speed,
+        foot_indices,
+        self_collision_pairs,
+    )
+
+    motions: list[Motion] = list(result)
+    if not motions:
+        return dict.fromkeys(REPORT_KEYS, 0)
+    m = motions[0].morphology
+    fps = motions[0].fps
+    model = compile_model(m, device="cpu")
+    feet = foot_indices(model)
+    pairs = self_collision_pairs(model, rest_margin=rest_margin)
+    lower, upper = m.coordinate_limits
+    finite = np.isfinite(lower) | np.isfinite(upper)
+    slide_sum = 0.0
+    slide_n = 0
+    slides: list[np.ndarray] = []
+    pen_max = 0.0
+    pen_sum = 0.0
+    pen_n = 0
+    coll_frames = 0
+    limit_frames = 0
+    frames = 0
+    heights_all: list[np.ndarray | None] = [None] * len(motions)
+    for T, idx in _groups(motions).items():
+        q = np.stack([motions[i].q for i in idx])  # [N, T, C]
+        frames += q.shape[0] * T
+        bad = ((q[..., finite] < lower[finite] - 1e-6) | (q[..., finite] > upper[finite] + 1e-6)).any(axis=-1)
+        limit_frames += int(bad.sum())
+        wheel_q = eval_wheel_angles(model, q) if model.wheel_count else None
+        X = eval_fk(model, q, wheel_q=wheel_q, device="cpu")
+        if len(feet):
+            pos, _ = eval_end_effectors(model, q, Ts_world_link=X)
+            h = eval_foot_heights(pos, feet=feet).numpy()  # [N, T, F]
+            sl = eval_sliding_speed(pos, fps, feet=feet, height_threshold=height_threshold).numpy()
+            contact = h < height_threshold
+            slide_sum += float(sl[contact].sum())
+            slide_n += int(contact.sum())
+            slides.append(sl[contact])
+            pen = eval_penetration_depth(pos, feet=feet).numpy()
+            pen_max = max(pen_max, float(pen.max()))
+            pen_sum += float(pen.sum())
+            pen_n += pen.size
+            for k, i in enumerate(idx):
+                heights_all[i] = h[k]
+        if pairs.pair_count:
+            d = eval_self_collision_distance(model, pairs, X).numpy()
+            coll_frames += int((d < -collision_tolerance).any(axis=-1).sum())
+    out: dict[str, Any] = {
+        "frames": int(frames),
+        "frames_per_s": round(float(result.frames_per_s), 1) if hasattr(result, "frames_per_s") else None,
+        "foot_sliding_cm_s": round(100.0 * slide_sum / slide_n, 4) if slide_n else 0.0,
+        "penetration_mm": round(1000.0 * pen_max, 4),
+        "self_collision_frac": round(coll_frames / frames, 6),
+        "limit_violation_frac": round(limit_frames / frames, 6),
+        "tracking_error": None,
+        "foot_sliding_p95_cm_s": round(100.0 * float(np.percentile(np.concatenate(slides), 95)), 4)
+        if slide_n else 0.0,
+        "penetration_mean_mm": round(1000.0 * pen_sum / pen_n, 4) if pen_n else 0.0,
+    }
+    if hasattr(result, "target") and m.base_coordinate_count:
+        from morphkit.motion.motion import base_pose_from_q
+        from morphkit.motion.synth.commands import CMD_VX, CMD_VY, CMD_WZ
+
+        scale = getattr(getattr(result, "rig", None), "scale", 1.0)
+        floor = 0.1 * scale if speed_floor is None else speed_floor
+        lin_err, yaw_err = [], []
+        for i, mo in enumerate(motions):
+            if mo.frame_count < 3:
+                continue
+            pose = base_pose_from_q(m, mo.q)
+            fwd = np.stack([1 - 2 * (pose[:, 4] ** 2 + pose[:, 5] ** 2),
+                            2 * (pose[:, 3] * pose[:, 4] + pose[:, 5] * pose[:, 6])], axis=1)
+            yaw = np.unwrap(np.arctan2(fwd[:, 1], fwd[:, 0]))
+            vw = np.gradient(pose[:, :2], axis=0) * fps
+            c, s = np.cos(yaw), np.sin(yaw)
+            v = np.stack([c * vw[:, 0] + s * vw[:, 1], -s * vw[:, 0] + c * vw[:, 1]], axis=1)
+            w = np.gradient(yaw) * fps
+            tgt = result.target[i]
+            ok = result.settled[i].copy()
+            ok[0] = ok[-1] = False
+            vt = tgt[:, [CMD_VX, CMD_VY]]
+            lin_err.append((np.linalg.norm(v - vt, axis=1) / np.maximum(np.linalg.norm(vt, axis=1), floor))[ok])
+            yaw_err.append((np.abs(w - tgt[:, CMD_WZ]) / np.maximum(np.abs(tgt[:, CMD_WZ]), 0.1))[ok])
+        le = np.concatenate(lin_err) if lin_err else np.zeros(0)
+        ye = np.concatenate(yaw_err) if yaw_err else np.zeros(0)
+        out["tracking_error"] = round(float(le.mean()), 6) if le.size else None
+        out["yaw_rate_error"] = round(float(ye.mean()), 6) if ye.size else None
+        out["settled_frac"] = round(float(le.size / frames), 4)
+    if hasattr(result, "contact") and len(feet) and result.contact and result.contact[0].shape[1] == len(feet):
+        swing_ok, swing_n, contact_n = 0, 0, 0
+        legs = result.rig.plan.legs
+        order = [list(model.ee_names).index(leg.end_effector) for leg in legs]
+        fidx = [list(feet).index(o) for o in order]
+        for i, h in enumerate(heights_all):
+            if h is None:
+                continue
+            c = result.contact[i]
+            contact_n += int(c.sum())
+            airborne = ~c
+            airborne[1:] &= ~c[:-1]
+            airborne[:-1] &= ~c[1:]
+            hh = h[:, fidx]
+            swing_ok += int((hh[airborne] > 0.01).sum())
+            swing_n += int(airborne.sum())
+        out["swing_clearance_frac"] = round(swing_ok / swing_n, 6) if swing_n else None
+        out["contact_frac"] = round(contact_n / (frames * len(feet)), 4)
+    if hasattr(result, "gait") and getattr(result, "gait_names", ()):
+        g = np.concatenate(result.gait)
+        out["gait_frac"] = {n: round(float((g == k).mean()), 4) for k, n in enumerate(result.gait_names)}
+    if hasattr(result, "rig"):
+        out["calibration"] = result.rig.summary()
+        if hasattr(result, "clamped_frac"):
+            out["command_clamped_frac"] = result.clamped_frac
+    return out
+
+
+def format_report(r: dict[str, Any]) -> str:
+    """Human-readable lines of a :func:`quality_report` dict."""
+    def fmt(v: Any) -> str:
+        return "n/a" if v is None else (f"{v:.4g}" if isinstance(v, float) else str(v))
+
+    lines = [
+        f"frames                 {r['frames']}"
+        + (f"  ({fmt(r['frames_per_s'])} frames/s)" if r.get("frames_per_s") else ""),
+        f"foot sliding           {fmt(r['foot_sliding_cm_s'])} cm/s mean in contact"
+        f" (p95 {fmt(r.get('foot_sliding_p95_cm_s'))})",
+        f"penetration            {fmt(r['penetration_mm'])} mm max (mean {fmt(r.get('penetration_mean_mm'))})",
+        f"self-collision         {fmt(r['self_collision_frac'])} of frames",
+        f"limit violations       {fmt(r['limit_violation_frac'])} of frames",
+        f"tracking error         {fmt(r['tracking_error'])} (relative, settled commands;"
+        f" yaw {fmt(r.get('yaw_rate_error'))})",
+    ]
+    if r.get("swing_clearance_frac") is not None:
+        lines.append(f"swing clearance        {fmt(r['swing_clearance_frac'])} of airborne frames above 1 cm")
+    if r.get("gait_frac"):
+        lines.append("gaits                  " + ", ".join(f"{k} {v:.0%}" for k, v in r["gait_frac"].items()))
+    if r.get("calibration"):
+        c = r["calibration"]
+        lines.append("calibration            " + ", ".join(f"{k}={v}" for k, v in c.items()))
+    return "\n".join(lines)
