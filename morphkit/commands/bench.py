@@ -646,7 +646,8 @@ def markdown_report(result: BenchResult) -> str:
     cfg = result.config
     impls = [i for i in cfg.impls if any(r["impl"] == i for r in result.records)]
     lines = [
-        f"FK throughput, poses/s (float32 unless noted; {cfg.threads} threads; best of {cfg.repeats}); "
+        f"FK throughput, poses/s (float32 unless noted; {cfg.threads} threads, "
+        f"OMP_WAIT_POLICY={os.environ.get('OMP_WAIT_POLICY', 'unset')}; best of {cfg.repeats}); "
         "`(×N)` = morphkit is N× faster than that implementation.",
         "",
         f"Machine: {platform.platform()}, {platform.processor() or platform.machine()}, {os.cpu_count()} CPUs; "
@@ -782,6 +783,12 @@ def config_from_args(args: argparse.Namespace) -> BenchConfig:
 def run(args: argparse.Namespace) -> int:
     """Run ``morphkit bench fk``: the markdown report on stdout (or records as JSON, report on stderr)."""
     config = config_from_args(args)
+    if "torch" not in sys.modules:
+        # GNU OpenMP's default busy-wait keeps torch's idle worker threads spinning after every op; on a
+        # machine with other work on its 2 cores that stole the CPU from whatever ran next (small torch
+        # ops took milliseconds, and morphkit's launches slowed 3×). Passive waiting keeps the timings
+        # honest on a shared machine; export OMP_WAIT_POLICY=ACTIVE to measure the default instead.
+        os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
     def log(line: str) -> None:
         sys.stderr.write(line + "\n")
