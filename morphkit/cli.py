@@ -24,6 +24,7 @@ COMMANDS = [
     "bench",
     "render",
     "map",
+    "synth",
 ]
 """Subcommand modules under ``morphkit.commands``, in help order."""
 

@@ -417,10 +417,6 @@ def synthesize(morphology: Morphology, *, frames: int, fps: float = 30.0, seed: 
     count = int(np.ceil(frames / per))
     lengths = [per] * count
     lengths[-1] = frames - per * (count - 1)
-    if lengths[-1] < 2 and count > 1:  # a 1-frame tail joins the previous clip's length budget
-        lengths[-2] += lengths[-1]
-        lengths.pop()
-        count -= 1
     seeds = np.random.SeedSequence(seed).spawn(count)
     nbatch = int(np.ceil(count / config.batch))
     size = int(np.ceil(count / nbatch))

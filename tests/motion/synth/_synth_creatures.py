@@ -1,0 +1,100 @@
+"""Creatures written in YAML only for the synth tests: a three-legged one with one telescoping arm and an
+eight-legged one, plus readers for them and the shipped creatures."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from morphkit.graph import Morphology
+
+SYNTH_FRAMES = 1200
+"""Frames per creature in the shared datasets (four 10-second rollouts at 30 fps)."""
+
+
+def _sprawled_leg(n: str, x: float, y: float, yaw: float, femur: float, tibia: float, swing: float) -> tuple:
+    links = [
+        f"  {n}_coxa: {{shapes: [{{type: capsule, radius: 0.02, length: 0.04, "
+        f"origin: {{xyz: [0.02, 0, 0], rpy: [0, 1.5708, 0]}}}}]}}",
+        f"  {n}_femur: {{shapes: [{{type: capsule, radius: 0.018, length: {femur}, "
+        f"origin: {{xyz: [{femur / 2}, 0, 0], rpy: [0, 1.5708, 0]}}}}]}}",
+        f"  {n}_tibia: {{shapes: [{{type: capsule, radius: 0.015, length: {tibia}, "
+        f"origin: {{xyz: [{tibia / 2}, 0, 0], rpy: [0, 1.5708, 0]}}}}]}}",
+    ]
+    joints = [
+        f"  {n}_swing: {{type: revolute, parent: body, child: {n}_coxa, axis: [0, 0, 1], "
+        f"origin: {{xyz: [{x}, {y}, 0], rpy: [0, 0, {yaw:.5f}]}}, limit: {{lower: {-swing}, upper: {swing}}}}}",
+        f"  {n}_lift: {{type: revolute, parent: {n}_coxa, child: {n}_femur, axis: [0, -1, 0], "
+        f"origin: {{xyz: [0.04, 0, 0], rpy: [0, -0.5, 0]}}, limit: {{lower: -0.8, upper: 1.0}}}}",
+        f"  {n}_knee: {{type: revolute, parent: {n}_femur, child: {n}_tibia, axis: [0, -1, 0], "
+        f"origin: {{xyz: [{femur}, 0, 0], rpy: [0, 1.72, 0]}}, limit: {{lower: -0.9, upper: 0.9}}}}",
+    ]
+    ee = [f"  {n}_foot: {{link: {n}_tibia, offset: [{tibia}, 0, 0], role: foot}}"]
+    return links, joints, ee
+
+
+def tripod_yaml() -> str:
+    """Three legs (front left, front right, back) and one arm with a telescoping (prismatic) forearm."""
+    links = ["  body: {shapes: [{type: sphere, radius: 0.14}]}"]
+    joints: list[str] = []
+    ees: list[str] = []
+    for n, x, y, yaw in (("a", 0.12, 0.1, math.pi / 3), ("b", 0.12, -0.1, -math.pi / 3), ("c", -0.16, 0.0, math.pi)):
+        lk, jt, ee = _sprawled_leg(n, x, y, yaw, 0.2, 0.3, 0.7)
+        links += lk
+        joints += jt
+        ees += ee
+    links += [
+        "  arm_base: {shapes: [{type: cylinder, radius: 0.03, length: 0.06, origin: {xyz: [0, 0, 0.03]}}]}",
+        "  arm_upper: {shapes: [{type: capsule, radius: 0.02, length: 0.2, "
+        "origin: {xyz: [0.1, 0, 0], rpy: [0, 1.5708, 0]}}]}",
+        "  arm_slide: {shapes: [{type: capsule, radius: 0.015, length: 0.15, "
+        "origin: {xyz: [0.075, 0, 0], rpy: [0, 1.5708, 0]}}]}",
+    ]
+    joints += [
+        "  arm_yaw: {type: revolute, parent: body, child: arm_base, origin: {xyz: [0, 0, 0.14]}, axis: [0, 0, 1], "
+        "limit: {lower: -2.5, upper: 2.5}}",
+        "  arm_pitch: {type: revolute, parent: arm_base, child: arm_upper, origin: {xyz: [0, 0, 0.06]}, "
+        "axis: [0, -1, 0], limit: {lower: -0.3, upper: 1.3}}",
+        "  arm_extend: {type: prismatic, parent: arm_upper, child: arm_slide, origin: {xyz: [0.2, 0, 0]}, "
+        "axis: [1, 0, 0], limit: {lower: 0.0, upper: 0.12}}",
+    ]
+    ees.append("  claw: {link: arm_slide, offset: [0.15, 0, 0], role: hand}")
+    return ("name: tripod\nbase: floating\nroot: body\nlinks:\n" + "\n".join(links) + "\njoints:\n"
+            + "\n".join(joints) + "\nend_effectors:\n" + "\n".join(ees) + "\n")
+
+
+def spider_yaml() -> str:
+    """Eight sprawled legs, four a side, and a head point on the body."""
+    links = ["  body: {shapes: [{type: box, size: [0.5, 0.26, 0.1]}]}"]
+    joints: list[str] = []
+    ees: list[str] = []
+    for side, sgn in (("l", 1.0), ("r", -1.0)):
+        for i, (x, spread) in enumerate(zip((0.18, 0.06, -0.06, -0.18), (0.7, 0.25, -0.25, -0.7), strict=True), 1):
+            lk, jt, ee = _sprawled_leg(f"{side}{i}", x, sgn * 0.13, sgn * (math.pi / 2 - spread), 0.16, 0.2, 0.4)
+            links += lk
+            joints += jt
+            ees += ee
+    ees.append("  head: {link: body, offset: [0.25, 0, 0.03], role: head}")
+    return ("name: spider\nbase: floating\nroot: body\nlinks:\n" + "\n".join(links) + "\njoints:\n"
+            + "\n".join(joints) + "\nend_effectors:\n" + "\n".join(ees) + "\n")
+
+
+def read_creature(name: str, tmp_dir: Path) -> Morphology:
+    """A shipped creature by name, or ``tripod`` / ``spider`` written to ``tmp_dir`` and read back."""
+    from morphkit.io import read_morphology
+    from morphkit.io.shipped import resolve_morphology
+
+    if name == "tripod":
+        p = tmp_dir / "tripod.yaml"
+        p.write_text(tripod_yaml())
+        return read_morphology(p)
+    if name == "spider":
+        p = tmp_dir / "spider.yaml"
+        p.write_text(spider_yaml())
+        return read_morphology(p)
+    return read_morphology(resolve_morphology(name))
+
+
+CREATURES = ("spot", "crab", "stretch", "human", "tripod", "spider")
+
+

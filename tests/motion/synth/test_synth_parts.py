@@ -1,0 +1,256 @@
+"""Synthesis building blocks against analytic truths: gaits, commands, root integration, body plans,
+IK projections; and the dataset's determinism and storage through the motion data layer."""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from morphkit.errors import ConfigError
+from morphkit.motion.synth import SynthConfig, analyse, synthesize
+from morphkit.motion.synth.commands import CommandConfig, CommandLimits, draw_commands, integrate_root
+from morphkit.motion.synth.gait import GaitClock, gait_bands, leg_layout
+
+# ---- gaits -----------------------------------------------------------------------------------
+QUAD = np.array([[0.3, 0.15], [0.3, -0.15], [-0.3, 0.15], [-0.3, -0.15]])  # LF RF LH RH
+HEX = np.array([[0.2, 0.3], [0.0, 0.35], [-0.2, 0.3], [0.2, -0.3], [0.0, -0.35], [-0.2, -0.3]])
+
+
+def _gait(bands, name):
+    return next(g for b in bands for g in b.gaits if g.name == name)
+
+
+def test_quadruped_gaits_pair_the_right_legs():
+    bands = gait_bands(QUAD)
+    LF, RF, LH, RH = range(4)
+    trot, pace, bound = _gait(bands, "trot"), _gait(bands, "pace"), _gait(bands, "bound")
+    assert trot.touchdown[LF] == trot.touchdown[RH] and trot.touchdown[RF] == trot.touchdown[LH]
+    assert abs(trot.touchdown[LF] - trot.touchdown[RF]) == pytest.approx(0.5)
+    assert pace.touchdown[LF] == pace.touchdown[LH] and pace.touchdown[RF] == pace.touchdown[RH]
+    assert bound.touchdown[LF] == bound.touchdown[RF] and bound.touchdown[LH] == bound.touchdown[RH]
+    walk = _gait(bands, "walk")
+    assert sorted(walk.touchdown) == [0.0, 0.25, 0.5, 0.75]  # one foot at a time
+    duties = [max(g.duty for g in b.gaits) for b in bands]
+    assert duties == sorted(duties, reverse=True)  # slower bands keep feet down longer
+    assert [b.upper for b in bands] == sorted(b.upper for b in bands)
+
+
+def test_hexapod_tripod_alternates_triangles():
+    tripod = _gait(gait_bands(HEX), "tripod")
+    lay = leg_layout(HEX)
+    l1, l2, l3 = lay["left"]
+    r1, r2, r3 = lay["right"]
+    a = {tripod.touchdown[i] for i in (l1, r2, l3)}
+    b = {tripod.touchdown[i] for i in (r1, l2, r3)}
+    assert len(a) == 1 and len(b) == 1 and abs(a.pop() - b.pop()) == pytest.approx(0.5)
+    wave = _gait(gait_bands(HEX), "wave")
+    assert wave.duty == pytest.approx(5 / 6)
+    assert len(set(wave.touchdown)) == 6
+
+
+@pytest.mark.parametrize("n", [3, 5, 8])
+def test_other_leg_counts_get_a_wave_and_a_fast_gait(n):
+    angle = np.linspace(0, 2 * np.pi, n, endpoint=False) + 0.1
+    feet = np.stack([np.cos(angle), np.sin(angle)], axis=1)
+    bands = gait_bands(feet)
+    wave = bands[0].gaits[0]
+    assert wave.name == "wave" and wave.duty == pytest.approx(1 - 1 / n)
+    assert sorted(np.round(wave.touchdown, 9)) == sorted(np.round(np.arange(n) / n, 9))
+    # with duty 1 - 1/n and evenly spaced touchdowns, never more than one foot is in the air
+    phase = ((np.arange(1000) + 0.5) / 1000)[:, None]  # off the exact switching phases
+    airborne = ((phase - np.array(wave.touchdown)) % 1.0 >= wave.duty).sum(axis=1)
+    assert airborne.max() <= 1
+    fast = bands[-1].gaits[0]
+    assert fast.duty == 0.5
+    if n % 2 == 0:
+        ring = leg_layout(feet)["ring"]
+        phases = [fast.touchdown[i] for i in ring]
+        assert all(abs(a - b) == pytest.approx(0.5) for a, b in itertools.pairwise(phases))
+
+
+def test_gait_clock_blends_and_advances():
+    bands = gait_bands(QUAD)
+    clock = GaitClock(bands, 3)
+    s = np.array([0.0, 0.2, 0.9])
+    for _ in range(85):
+        psi = clock.advance(s, np.zeros(3), lambda duty: np.full(3, 2.0), 1 / 30)
+    names = [clock.gaits[i].name for i in clock.current]
+    assert names == ["walk", "trot", "gallop"]
+    for r, name in enumerate(names):  # after ~3 s the blend has reached the target gait
+        np.testing.assert_allclose(clock.touchdown[r], _gait(bands, name).touchdown, atol=1e-9)
+        assert clock.duty[r] == pytest.approx(_gait(bands, name).duty)
+    assert clock.phase == pytest.approx(np.full(3, (85 * 2.0 / 30) % 1.0))
+    assert psi.shape == (3, 4)
+
+
+# ---- commands --------------------------------------------------------------------------------
+LIMITS = CommandLimits(forward=(-1.0, 3.0), lateral=(-0.5, 0.5), yaw=(-1.0, 1.0), height=(-0.05, 0.02),
+                       pitch=0.1, roll=0.05, acceleration=2.0, yaw_acceleration=2.0)
+
+
+def test_commands_stay_in_range_and_respect_acceleration():
+    rngs = [np.random.default_rng(i) for i in range(8)]
+    cfg = CommandConfig()
+    fps = 30.0
+    track = draw_commands(rngs, 900, fps, cfg, LIMITS)
+    c = track.command
+    assert c.shape == (8, 900, 6)
+    assert (c[..., 0] >= -1.0 - 1e-12).all() and (c[..., 0] <= 3.0 + 1e-12).all()
+    assert (np.abs(c[..., 1]) <= 0.5 + 1e-12).all() and (np.abs(c[..., 2]) <= 1.0 + 1e-12).all()
+    assert (c[..., 3] >= -0.05 - 1e-12).all() and (c[..., 3] <= 0.02 + 1e-12).all()
+    acc = np.abs(np.diff(c[..., :2], axis=1)) * fps
+    assert acc.max() <= 2.0 * 1.05  # smoothstep ramps sized to the acceleration limit
+    assert (np.abs(np.diff(c[..., 2], axis=1)) * fps).max() <= 2.0 * 1.05
+    # settled frames: the command equals its target
+    np.testing.assert_allclose(c[track.settled], track.target[track.settled], atol=1e-12)
+    assert track.settled.mean() > 0.3
+    np.testing.assert_array_equal(c[:, 0], 0.0)  # rollouts start standing
+
+
+def test_commands_depend_only_on_their_generator():
+    cfg = CommandConfig()
+    a = draw_commands([np.random.default_rng(5)], 300, 30.0, cfg, LIMITS).command[0]
+    b = draw_commands([np.random.default_rng(1), np.random.default_rng(5)], 300, 30.0, cfg, LIMITS).command[1]
+    np.testing.assert_array_equal(a, b)
+
+
+def test_feasibility_clamp_scales_targets():
+    lim = replace(LIMITS, clamp=lambda v: v * 0.5)
+    track = draw_commands([np.random.default_rng(0)], 900, 30.0, CommandConfig(), lim)
+    assert np.abs(track.target[..., 0]).max() <= 1.5 + 1e-12
+    assert track.clamped.any()
+
+
+def test_integrate_root_follows_a_circle():
+    fps, v, w = 60.0, 1.2, 0.5
+    T = 600
+    cmd = np.zeros((1, T, 6))
+    cmd[..., 0], cmd[..., 2] = v, w
+    xy, yaw = integrate_root(cmd, fps, np.array([0.3]))
+    t = np.arange(T) / fps
+    np.testing.assert_allclose(yaw[0], 0.3 + w * t, atol=1e-12)
+    r = v / w
+    centre = np.array([-r * np.sin(0.3), r * np.cos(0.3)])
+    np.testing.assert_allclose(np.linalg.norm(xy[0] - centre, axis=1), r, rtol=1e-4)
+
+
+# ---- body plans and IK -------------------------------------------------------------------------
+def test_yaml_creatures_body_plans(synth_creature):
+    tri = analyse(synth_creature("tripod"))
+    assert len(tri.legs) == 3 and len(tri.arms) == 1
+    assert tri.arms[0].joints == ("arm_yaw", "arm_pitch", "arm_extend")
+    spider = analyse(synth_creature("spider"))
+    assert len(spider.legs) == 8 and not spider.arms and spider.head == "head"
+    assert spider.leg_reach == pytest.approx(0.04 + 0.16 + 0.2, rel=1e-6)
+
+
+def test_ball_joint_projection_keeps_hinges_and_removes_hip_twist(synth_creature):
+    from morphkit.conventions import quat_from_axis_angle, quat_multiply
+    from morphkit.motion.synth._ik import LimbSolver
+
+    m = synth_creature("human")
+    solver = LimbSolver(m, analyse(m))
+    kinds = {k for _, _, k in solver.ball_constraints}
+    assert -2 in kinds and any(k >= 0 for k in kinds)  # knees and hips
+    rng = np.random.default_rng(0)
+    q = np.repeat(m.rest_q()[None], 16, axis=0)
+    for s, _axis, _kind in solver.ball_constraints:
+        q[:, s:s + 4] = quat_multiply(quat_from_axis_angle(rng.normal(size=(16, 3)) /
+                                                           np.sqrt(3), rng.uniform(-1, 1, 16)), q[:, s:s + 4])
+        q[:, s:s + 4] /= np.linalg.norm(q[:, s:s + 4], axis=1, keepdims=True)
+    p = solver.constrain(q.copy())
+    for s, axis, kind in solver.ball_constraints:
+        quat = p[:, s:s + 4]
+        np.testing.assert_allclose(np.linalg.norm(quat, axis=1), 1.0, atol=1e-12)
+        if kind == -2:  # knee: a rotation about its hinge axis only
+            others = [a for a in range(3) if a != axis]
+            np.testing.assert_allclose(quat[:, others], 0.0, atol=1e-12)
+        else:  # hip: projecting twice changes nothing, and the bone still points the same way
+            np.testing.assert_allclose(solver.constrain(p.copy())[:, s:s + 4], quat, atol=1e-9)
+            from morphkit.conventions import quat_rotate
+
+            e = np.zeros(3)
+            e[axis] = 1.0
+            np.testing.assert_allclose(quat_rotate(quat, e), quat_rotate(q[:, s:s + 4], e), atol=1e-9)
+
+
+# ---- datasets -----------------------------------------------------------------------------------
+def test_same_seed_same_motions_whatever_the_batch(synth_creature):
+    m = synth_creature("crab")
+    cfg = replace(SynthConfig(), rollout_seconds=3.0)
+    a = synthesize(m, frames=270, seed=3, config=cfg, progress=False)
+    b = synthesize(m, frames=270, seed=3, config=replace(cfg, batch=1), progress=False)
+    c = synthesize(m, frames=270, seed=4, config=cfg, progress=False)
+    assert [len(x) for x in a] == [90, 90, 90]
+    for x, y in zip(a, b, strict=True):
+        np.testing.assert_array_equal(x.q, y.q)
+        assert x.name == y.name
+    assert not np.allclose(a[0].q, c[0].q)
+
+
+def test_last_rollout_is_shortened_to_the_frame_count(synth_creature):
+    m = synth_creature("stretch")
+    res = synthesize(m, frames=100, seed=0, config=replace(SynthConfig(), rollout_seconds=1.0), progress=False)
+    assert [x.frame_count for x in res] == [30, 30, 30, 10]
+    assert res.frame_count == 100
+
+
+def test_saved_folder_reads_back_through_the_data_layer(synthesized, tmp_path):
+    from morphkit.motion import read_motion
+    from morphkit.motion.datasets import load_motions
+    from morphkit.motion.io_npz import read_npz_motion_with_extra
+    from morphkit.motion.states import character_state_from_motion
+
+    m, res = synthesized("tripod")
+    paths = res.save(tmp_path / "tripod_data")
+    assert len(paths) == len(res)
+    loaded = load_motions(tmp_path / "tripod_data", cache_dir=None)
+    assert [x.name for x in loaded] == [x.name for x in res]
+    for a, b in zip(loaded, res, strict=True):
+        np.testing.assert_array_equal(a.q, b.q)
+        assert a.fps == b.fps and a.morphology.coordinate_names == m.coordinate_names
+    _, extra = read_npz_motion_with_extra(paths[0])
+    assert extra["command"].shape == (res[0].frame_count, 6)
+    assert extra["contact"].shape == (res[0].frame_count, 3)
+    assert list(extra["gait_names"]) == list(res.gait_names)
+    states = character_state_from_motion(read_motion(paths[0]))
+    assert states.shape[0] == res[0].frame_count and np.isfinite(states).all()
+
+
+def test_saved_single_file_concatenates_with_clip_starts(synthesized, tmp_path):
+    from morphkit.motion.io_npz import read_npz_motion_with_extra
+
+    _, res = synthesized("stretch")
+    (path,) = res.save(tmp_path / "all.npz")
+    motion, extra = read_npz_motion_with_extra(path)
+    assert motion.frame_count == res.frame_count
+    starts = extra["clip_starts"]
+    np.testing.assert_array_equal(starts, np.cumsum([0, *[x.frame_count for x in res][:-1]]))
+    for s, x in zip(starts, res, strict=True):
+        np.testing.assert_array_equal(motion.q[s:s + x.frame_count], x.q)
+
+
+def test_bad_arguments_raise_config_errors(synth_creature):
+    m = synth_creature("crab")
+    with pytest.raises(ConfigError):
+        synthesize(m, frames=0, progress=False)
+    with pytest.raises(ConfigError):
+        synthesize(m, frames=10, fps=0.0, progress=False)
+    with pytest.raises(ConfigError):
+        synthesize(m, frames=10, config=replace(SynthConfig(), batch=0), progress=False)
+
+
+def test_report_keys_and_figures(synthesized):
+    from morphkit.motion.synth.report import REPORT_KEYS, format_report, quality_report
+
+    _, res = synthesized("spot")
+    r = quality_report(res)
+    assert set(REPORT_KEYS) <= set(r)
+    assert r["frames"] == res.frame_count and r["frames_per_s"] > 0
+    assert r["foot_sliding_cm_s"] < 1.0 and r["penetration_mm"] < 5.0
+    assert r["limit_violation_frac"] == 0.0 and r["self_collision_frac"] < 0.01
+    assert r["tracking_error"] < 0.1
+    assert "foot sliding" in format_report(r)
