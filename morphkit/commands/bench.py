@@ -650,7 +650,7 @@ def markdown_report(result: BenchResult) -> str:
         f"OMP_WAIT_POLICY={os.environ.get('OMP_WAIT_POLICY', 'unset')}; best of {cfg.repeats}); "
         "`(×N)` = morphkit is N× faster than that implementation.",
         "",
-        f"Machine: {platform.platform()}, {platform.processor() or platform.machine()}, {os.cpu_count()} CPUs; "
+        f"Machine: {platform.platform()}, {_cpu_name()}, {os.cpu_count()} CPUs; "
         f"date {time.strftime('%Y-%m-%d')}"
         + (f"; load average {result.load[0]:.1f} at start, {result.load[-1]:.1f} at end." if result.load else "."),
         "",
@@ -717,6 +717,16 @@ def markdown_report(result: BenchResult) -> str:
     for what, why in result.skipped.items():
         lines.append(f"Skipped {what}: {why}")
     return "\n".join(lines).rstrip() + "\n"
+
+
+def _cpu_name() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
 
 
 def _fmt_margin(margin: float) -> str:
