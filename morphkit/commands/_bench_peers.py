@@ -260,7 +260,8 @@ class PinocchioFK:
         self.frame_ids = []
         for link in m.links:
             pj, placement = owner[link.name]
-            frame = pin.Frame(f"{link.name}__link", pj, placement, pin.FrameType.OP_FRAME)
+            # (name, parent joint, parent frame, placement, type): the form Pinocchio 2.x and 3.x+ both accept.
+            frame = pin.Frame(f"{link.name}__link", pj, 0, placement, pin.FrameType.OP_FRAME)
             self.frame_ids.append(model.addFrame(frame))
         if model.nq != m.coordinate_count:
             raise ConfigError(f"{m.name}: Pinocchio model has nq={model.nq}, morphkit {m.coordinate_count}")
