@@ -12,8 +12,9 @@ Measures poses per second for every (creature, implementation, mode, batch size)
 
 Every implementation is built from the same :class:`~morphkit.graph.Morphology` and checked against
 the reference FK at random poses before it is timed. Inputs are prepared outside the timed region;
-each measurement is warmed up, then the best of a few repeats is kept. Python-loop peers time at most
-``loop_poses`` poses per call (their rate does not depend on the batch size).
+each implementation is warmed up, then timed in rounds interleaved with the others and the best round
+kept. Python-loop peers time at most ``loop_poses`` poses per call (their rate does not depend on the
+batch size). The command sets ``OMP_WAIT_POLICY=PASSIVE`` unless it is set (see ``benchmarks/README.md``).
 
 ``benchmarks/fk.py`` is a thin wrapper around :func:`main`; ``benchmarks/README.md`` holds results.
 This module imports torch, Warp and the peers inside functions only, so ``morphkit --help`` stays light.
@@ -57,6 +58,7 @@ __all__ = [
     "random_q",
     "run",
     "run_fk_benchmark",
+    "time_calls",
 ]
 
 IMPLS: tuple[str, ...] = ("morphkit", "morphkit_torch", "pytorch_kinematics", "pinocchio", "mujoco", "torch")
