@@ -104,7 +104,7 @@ class SynthRig:
                 "step_semi_axes_m": np.round(lr.semi_axes.mean(axis=0), 4).tolist(),
                 "swing_height_m": round(lr.swing_height, 4),
                 "cadence_hz": round(lr.cadence_hz, 4),
-                "gaits": [g.name for b in lr.bands for g in b.gaits],
+                "gaits": list(dict.fromkeys(g.name for b in lr.bands for g in b.gaits)),
                 "max_forward_speed_m_s": round(float(self.max_speed(np.array([1.0, 0.0]))), 3),
                 "max_lateral_speed_m_s": round(float(self.max_speed(np.array([0.0, 1.0]))), 3),
             })
@@ -191,6 +191,8 @@ class SynthResult(Sequence[Motion]):
     gait: list[np.ndarray]
     """Per motion: [T] int8 index into ``gait_names`` of the gait in use (-1 without legs)."""
     gait_names: tuple[str, ...]
+    clamped: list[np.ndarray]
+    """Per motion: [T] bool, the segment's velocity target was scaled down to what the creature can do."""
     seconds: float
     """Wall time of the generation [s] (calibration included)."""
     rig: SynthRig = field(repr=False)
@@ -211,7 +213,7 @@ class SynthResult(Sequence[Motion]):
 
     @property
     def frames_per_s(self) -> float:
-        """Generation speed [frames/s]."""
+        """Generation speed [frames/s] (calibration included unless the creature was :func:`prepare`-d before)."""
         return self.frame_count / max(self.seconds, 1e-9)
 
     def extras(self, i: int) -> dict[str, np.ndarray]:
@@ -378,6 +380,7 @@ def _run_batch(rig: SynthRig, seeds: Sequence[np.random.SeedSequence], lengths: 
         "settled": cmds.settled[:, :frames],
         "contact": contact,
         "gait": gait,
+        "clamped": cmds.clamped[:, :frames],
     }
 
 
@@ -431,7 +434,7 @@ def synthesize(morphology: Morphology, *, frames: int, fps: float = 30.0, seed: 
             bar.update(n)
 
     motions: list[Motion] = []
-    res: dict[str, list[np.ndarray]] = {k: [] for k in ("command", "target", "settled", "contact", "gait")}
+    res: dict[str, list[np.ndarray]] = {k: [] for k in ("command", "target", "settled", "contact", "gait", "clamped")}
     try:
         for b in range(nbatch):
             idx = list(range(b * size, min(count, (b + 1) * size)))
@@ -446,4 +449,4 @@ def synthesize(morphology: Morphology, *, frames: int, fps: float = 30.0, seed: 
             bar.close()
     gait_names = (rig.legs and tuple(dict.fromkeys(g.name for b in rig.legs.bands for g in b.gaits))) or ()
     return SynthResult(motions, res["command"], res["target"], res["settled"], res["contact"], res["gait"],
-                       gait_names, time.perf_counter() - start, rig)
+                       gait_names, res["clamped"], time.perf_counter() - start, rig)
