@@ -47,7 +47,7 @@ class ArmConfig:
     """Random upper-body poses drawn (before filtering)."""
     neighbours: int = 8
     """Links per pose in the pose graph (before validation)."""
-    validation_steps: int = 6
+    validation_steps: int = 8
     """Points checked along each link."""
     joint_range: float = 0.7
     """Fraction of each arm joint's span (about rest, within limits) that poses are drawn from."""
@@ -212,16 +212,25 @@ def calibrate_arms(m: Morphology, plan: BodyPlan, solver: LimbSolver, q_stance: 
             need = np.minimum(margin, 0.5 * pairs.rest_distance)
             ok &= (eval_self_collision_distance(model, pairs, Xw).numpy() > need).all(axis=1)
         if uidx.size:
-            ok &= (X[:, uidx, 2] > cfg.ground_clearance).all(axis=1)
+            ok &= (X[:, uidx, 2] > floor[0]).all(axis=1)
         tips = np.zeros((len(qs), A, 3))
         for a in range(A):
             e = int(ee[a])
             T = X[:, int(model.ee_link[e])]
             tips[:, a] = T[:, :3] + quat_rotate(T[:, 3:], np.asarray(model.ee_offset[e], dtype=float)) - root
         if A:
-            ok &= (tips[:, :, 2] + root[2] > cfg.ground_clearance).all(axis=1)
+            ok &= (tips[:, :, 2] + root[2] > floor[0]).all(axis=1)
         return ok, tips
 
+    # the ground limit: ground_clearance, or lower where the stance itself reaches lower (a fixed base
+    # mounted at the origin hangs its arms below z = 0)
+    floor = [-np.inf]
+    _, tips0 = check(q_stance[None], -np.inf)
+    X0 = eval_fk(model, q_stance[None], device="cpu").numpy()[0]
+    lowest = min([float(X0[uidx, 2].min())] if uidx.size else [np.inf])
+    if A:
+        lowest = min(lowest, float(tips0[0, :, 2].min() + root[2]))
+    floor[0] = min(cfg.ground_clearance, lowest - 0.01)
     # draw until the pool is full (poses that collide are dropped), at most four rounds
     kept_q = [q_stance[None]]
     for _ in range(4):
@@ -255,6 +264,10 @@ def calibrate_arms(m: Morphology, plan: BodyPlan, solver: LimbSolver, q_stance: 
         direct = np.arange(len(arm_coords), len(coords))
         cur = q[src].copy()
         mask = solver.arm_mask
+        # rollouts pull toward the blend every frame: over the frames one check stands for (a move of
+        # mean length at 30 fps) the pull compounds to gain_eff
+        frames_per_step = 30.0 * 0.5 * (cfg.move_seconds[0] + cfg.move_seconds[1]) / cfg.validation_steps
+        gain_eff = 1.0 - (1.0 - cfg.posture_gain) ** max(frames_per_step, 1.0)
         for k in range(1, cfg.validation_steps + 1):
             a = np.full(len(src), smoothstep(k / cfg.validation_steps))
             blend = _blend(pool_q[src], pool_q[dst], a, quats)
@@ -262,11 +275,11 @@ def calibrate_arms(m: Morphology, plan: BodyPlan, solver: LimbSolver, q_stance: 
             nxt[:, np.asarray(coords)[direct]] = blend[:, direct]
             if A:
                 target = tips[src] + (tips[dst] - tips[src]) * a[:, None, None] + root
-                nxt[:, arm_coords] = nxt[:, arm_coords] + cfg.posture_gain * (blend[:, arm_pos] - nxt[:, arm_coords])
+                nxt[:, arm_coords] = nxt[:, arm_coords] + gain_eff * (blend[:, arm_pos] - nxt[:, arm_coords])
                 for o in arm_quats:
                     sl = slice(o, o + 4)
                     nxt[:, np.asarray(arm_coords)[sl]] = nlerp(cur[:, np.asarray(arm_coords)[sl]],
-                                                             blend[:, arm_pos[sl]], a * 0 + cfg.posture_gain)
+                                                             blend[:, arm_pos[sl]], a * 0 + gain_eff)
                 nxt, _ = solver.step(nxt, target, ee=ee, mask=mask, iterations=3)
             step_ok, _ = check(nxt, 0.0)
             valid &= step_ok

@@ -287,6 +287,8 @@ def _run_batch(rig: SynthRig, seeds: Sequence[np.random.SeedSequence], lengths: 
     rngs = [np.random.default_rng(s) for s in seeds]
     R = len(rngs)
     yaw0 = np.array([rng.uniform(-np.pi, np.pi) for rng in rngs])
+    if rig.locomotion == Locomotion.FIXED:
+        yaw0[:] = 0.0  # a fixed base stays where its description put it
     pad = int(np.ceil(cfg.look_ahead_seconds * fps))
     cmds = draw_commands(rngs, drawn + pad, fps, cfg.commands, rig.limits)
     path_xy, path_yaw = integrate_root(cmds.command, fps, yaw0)

@@ -4,7 +4,8 @@ Figures (the ``morphkit synth --report --json`` keys first):
 
 - ``frames``, ``frames_per_s``: how much was generated and how fast (calibration included).
 - ``foot_sliding_cm_s``: mean horizontal speed of feet in contact (lower than ``height_threshold``
-  above the ground), by :func:`~morphkit.kernels.contact.eval_sliding_speed` (central differences).
+  above the ground; the feet of the legs that carry the body, or every ``foot`` end-effector of plain
+  motions), by :func:`~morphkit.kernels.contact.eval_sliding_speed` (central differences).
 - ``penetration_mm``: deepest foot penetration below the ground
   (:func:`~morphkit.kernels.contact.eval_penetration_depth`).
 - ``self_collision_frac``: fraction of frames where any candidate shape pair overlaps by more than
@@ -81,7 +82,12 @@ def quality_report(result: Any, *, height_threshold: float = 0.02, collision_tol
     m = motions[0].morphology
     fps = motions[0].fps
     model = compile_model(m, device="cpu")
-    feet = foot_indices(model)
+    rig = getattr(result, "rig", None)
+    if rig is not None:
+        # only feet that carry the body: a wheeled or fixed base moves foot end-effectors like arms
+        feet = np.array([model.ee_index(leg.end_effector) for leg in rig.plan.legs], dtype=np.int32)
+    else:
+        feet = foot_indices(model)
     pairs = self_collision_pairs(model, rest_margin=rest_margin)
     lower, upper = m.coordinate_limits
     finite = np.isfinite(lower) | np.isfinite(upper)
@@ -160,11 +166,9 @@ def quality_report(result: Any, *, height_threshold: float = 0.02, collision_tol
         out["tracking_error"] = round(float(le.mean()), 6) if le.size else None
         out["yaw_rate_error"] = round(float(ye.mean()), 6) if ye.size else None
         out["settled_frac"] = round(float(le.size / frames), 4)
-    if hasattr(result, "contact") and len(feet) and result.contact and result.contact[0].shape[1] == len(feet):
+    if rig is not None and len(feet) and result.contact and result.contact[0].shape[1] == len(feet):
         swing_ok, swing_n, contact_n = 0, 0, 0
-        legs = result.rig.plan.legs
-        order = [list(model.ee_names).index(leg.end_effector) for leg in legs]
-        fidx = [list(feet).index(o) for o in order]
+        fidx = list(range(len(feet)))  # feet are the legs in body-plan order here
         for i, h in enumerate(heights_all):
             if h is None:
                 continue

@@ -254,3 +254,46 @@ def test_report_keys_and_figures(synthesized):
     assert r["limit_violation_frac"] == 0.0 and r["self_collision_frac"] < 0.01
     assert r["tracking_error"] < 0.1
     assert "foot sliding" in format_report(r)
+
+
+def _arm_creature(base: str):
+    from morphkit.graph import Limit, MorphologyBuilder, Shape, ShapeType, Transform
+
+    b = MorphologyBuilder(f"arm_on_{base}")
+    b.set_base(base)
+    for n in ("torso", "upper", "fore"):
+        b.add_link(n)
+    b.add_shape("torso", Shape(ShapeType.BOX, size=(0.3, 0.3, 0.2), origin=Transform((0, 0, 0.1))))
+    b.add_shape("upper", Shape(ShapeType.CAPSULE, radius=0.03, length=0.3, origin=Transform.from_xyz_rpy(
+        (0.15, 0, 0), (0, 1.5708, 0))))
+    b.add_shape("fore", Shape(ShapeType.CAPSULE, radius=0.025, length=0.25, origin=Transform.from_xyz_rpy(
+        (0.125, 0, 0), (0, 1.5708, 0))))
+    b.add_joint_revolute("yaw", "torso", "upper", origin=Transform((0, 0, 0.3)), axis=(0, 0, 1),
+                         limit=Limit(-2.0, 2.0))
+    b.add_joint_revolute("elbow", "upper", "fore", origin=Transform((0.3, 0, 0)), axis=(0, -1, 0),
+                         limit=Limit(-0.5, 1.5))
+    b.add_end_effector("tip", "fore", offset=(0.25, 0, 0), role="hand")
+    return b.build()
+
+
+def test_fixed_base_arm_stays_mounted_and_moves():
+    m = _arm_creature("fixed")
+    res = synthesize(m, frames=300, seed=0, config=replace(SynthConfig(), rollout_seconds=5.0), progress=False)
+    assert res.rig.locomotion.value == "fixed"
+    np.testing.assert_allclose(res[0].q[0], m.rest_q(), atol=1e-12)  # starts at rest, not turned
+    tips = np.concatenate([x.end_effector_positions()[:, 0] for x in res])
+    assert tips.std(axis=0).max() > 0.02
+    lower, upper = m.coordinate_limits
+    q = np.concatenate([x.q for x in res])
+    assert (q >= lower - 1e-9).all() and (q <= upper + 1e-9).all()
+
+
+def test_legless_floating_creature_glides_on_the_ground():
+    m = _arm_creature("floating")
+    res = synthesize(m, frames=300, seed=0, config=replace(SynthConfig(), rollout_seconds=5.0), progress=False)
+    assert res.rig.locomotion.value == "glide"
+    for x in res:
+        np.testing.assert_allclose(x.q[:, 2], x.q[0, 2])  # constant height: lowest rest point on the ground
+        assert abs(m.rest_points()[:, 2].min() + x.q[0, 2]) < 1e-9
+    travelled = np.linalg.norm(res[-1].q[-1, :2] - res[-1].q[0, :2])
+    assert travelled > 0.1
