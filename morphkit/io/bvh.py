@@ -25,23 +25,30 @@ Skeletons (:func:`read_bvh_skeleton`, :func:`skeleton_from_bvh`) become a
   at +X. :data:`BVH_TO_MORPHKIT` is the proper rotation ``v_morphkit = BVH_TO_MORPHKIT @ v_bvh``
   that maps BVH +Y (up) to morphkit +Z, BVH +Z (facing) to morphkit +X (forward) and BVH +X
   (left) to morphkit +Y (left). :func:`bvh_frame_rotation` gives the matrix for files that
-  face another direction (the dog clips face +X).
+  face another direction; by default (``facing="auto"``) :func:`detect_bvh_facing` finds it
+  from the motion: +Z for every skeleton with hands (the humans), -X for the dog (whose rest
+  pose points its head along +X, but whose root frame has the head along -X once it stands),
+  +X for the elephants.
 - Units: file units times a scale to metres; by default :func:`detect_bvh_scale` (1 when the
   rest skeleton's largest extent is at most 10 file units, else centimetres, 0.01). The real
   files behind this rule (largest rest extent in file units): CMU (AMASS) 1.58 (metres), CMU
-  Daz 152.7 and Bandai Namco 184-457 (centimetres), dog 87 (cm), crab 1.1 and elephants 2.84
+  Daz 152.7 and Bandai Namco 184-194 (centimetres), dog 87 (cm), crab 1.1 and elephants 2.84
   (metres). Inches cannot be told from centimetres by size alone: pass ``scale=0.0254``.
 - Rest poses: the skeleton's rest pose is the BVH's (all channels zero). CMU and Daz rest in a
   standing T-pose; the Bandai Namco and dog rigs put every bone along its local x, so their
   rest pose is not upright (their motion rotations make it so), and a rest-pose height is
   meaningless for them. Note also that the CMU (AMASS) clips are Z-up in their motion (the root
   rotation stands the Y-up skeleton up along Z), whereas Daz, Bandai Namco and the dog are Y-up.
-- Links and joints: one link per BVH joint, named after it, in BVH order (``links[i]`` is BVH
-  joint ``i``); the root joint is the root link of a floating base (its ``OFFSET`` is ignored:
-  the motion places the root). Every other joint is a joint of the same name: spherical when
-  it has any rotation channel, fixed otherwise; its origin is its ``OFFSET`` (converted, no
-  rotation). Position channels of non-root joints have no counterpart in the morphology
-  (their rest value is the ``OFFSET``).
+- Static roots: a root that never rotates over the clip and has a single child with
+  translation channels (Bandai Namco's ``joint_Root`` above ``Hips``) is folded away first
+  (:func:`fold_static_root`): the child becomes the root. The motion reader folds the same
+  root, so :func:`read_bvh_skeleton` and the motion's morphology agree.
+- Links and joints: one link per BVH joint (after folding), named after it, in BVH order
+  (``links[i]`` is joint ``i`` of the folded file); the root joint is the root link of a
+  floating base (its ``OFFSET`` is ignored: the motion places the root). Every other joint
+  is a joint of the same name: spherical when it has any rotation channel, fixed otherwise;
+  its origin is its ``OFFSET`` (converted, no rotation). Position channels of non-root
+  joints have no counterpart in the morphology (their rest value is the ``OFFSET``).
 - Shapes: each link gets a capsule from its origin to each child joint and End Site (radius
   8% of the bone length, at least 1 cm); a link with no bone gets a sphere of its incoming
   bone's radius, so renders and self-collision queries work on any BVH skeleton.
@@ -49,6 +56,8 @@ Skeletons (:func:`read_bvh_skeleton`, :func:`skeleton_from_bvh`) become a
   keywords in joint names, one per limb, at the limb's End Site (named ``<joint>_end``) or,
   where a limb ends in several End Sites (fingers, eyes), at the limb's topmost keyword joint
   (named after that joint, zero offset). Unnamed End Sites become ``tool`` end-effectors.
+  Quadrupeds' front paws named hands become feet when they are as long as the legs and move
+  at the feet's height; human hands never do (their arms are 67-75% of their legs).
 """
 
 from __future__ import annotations
@@ -57,9 +66,11 @@ import math
 import os
 import re
 import warnings
-from collections.abc import Sequence
-from dataclasses import dataclass
+import weakref
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -84,8 +95,11 @@ __all__ = [
     "BvhFile",
     "bvh_frame_rotation",
     "bvh_joint_positions",
+    "detect_bvh_facing",
     "detect_bvh_scale",
+    "detect_bvh_up",
     "dump_bvh",
+    "fold_static_root",
     "parse_bvh",
     "read_bvh",
     "read_bvh_skeleton",
@@ -703,17 +717,10 @@ def _axis_rotations(axis: str, deg: np.ndarray) -> np.ndarray:
     return np.stack([np.stack(r, axis=-1) for r in m], axis=-2)
 
 
-def bvh_joint_positions(bvh: BvhFile, frames: slice | Sequence[int] | np.ndarray | None = None) -> np.ndarray:
-    """World positions of every joint and End Site, in file units and axes (vectorised over frames).
-
-    Args:
-        bvh: A parsed file.
-        frames: Which frames (default all). With a file of zero frames, the rest pose is used.
-
-    Returns:
-        Positions, shape [frames, joint_count + end_site_count, 3]: joints in file order, then
-        End Sites in file order.
-    """
+def _joint_frames(
+    bvh: BvhFile, frames: slice | Sequence[int] | np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """World positions [F, J + E, 3] of joints then End Sites, and joint rotations [F, J, 3, 3] (file axes)."""
     values = bvh.motion if bvh.frame_count else np.zeros((1, bvh.channel_count))
     if frames is not None and bvh.frame_count:
         values = values[frames]
@@ -740,7 +747,21 @@ def bvh_joint_positions(bvh: BvhFile, frames: slice | Sequence[int] | np.ndarray
     for e, site in enumerate(bvh.end_sites):
         p = site.parent
         pos[bvh.joint_count + e] = pos[p] + rot[p] @ np.asarray(site.offset)
-    return np.moveaxis(pos, 0, 1)
+    return np.moveaxis(pos, 0, 1), np.moveaxis(rot, 0, 1)
+
+
+def bvh_joint_positions(bvh: BvhFile, frames: slice | Sequence[int] | np.ndarray | None = None) -> np.ndarray:
+    """World positions of every joint and End Site, in file units and axes (vectorised over frames).
+
+    Args:
+        bvh: A parsed file.
+        frames: Which frames (default all). With a file of zero frames, the rest pose is used.
+
+    Returns:
+        Positions, shape [frames, joint_count + end_site_count, 3]: joints in file order, then
+        End Sites in file order.
+    """
+    return _joint_frames(bvh, frames)[0]
 
 
 def _rest_positions(bvh: BvhFile) -> np.ndarray:
@@ -766,6 +787,82 @@ def detect_bvh_scale(bvh: BvhFile) -> float:
 
 
 # ---------------------------------------------------------------------------------------------
+# Static roots
+# ---------------------------------------------------------------------------------------------
+_STILL_DEGREES = 1e-6
+"""Rotation channels within this many degrees of zero in every frame count as never rotating."""
+
+
+def fold_static_root(bvh: BvhFile) -> BvhFile:
+    """Remove a root that never rotates when its single child carries translation channels.
+
+    Bandai Namco's ``joint_Root`` is such a root: it never rotates and either stays put or
+    carries the clip's travel, while ``Hips`` below it carries the body's own translation. With
+    an identity root rotation the two translations simply add, so the child becomes the root with
+    their sum (in its position channels, and in its ``OFFSET`` from the root's first frame) and
+    every world position is unchanged. Repeated while the new root qualifies too.
+
+    Both :func:`skeleton_from_bvh` and the motion reader (:func:`morphkit.motion.bvh_to_motion`)
+    fold, so a file's skeleton is the same whichever reads it. Needs the ``MOTION`` section: a
+    file without frames is returned unchanged, as is a root with End Sites, several children or a
+    child without translation channels.
+
+    Args:
+        bvh: A parsed file.
+
+    Returns:
+        The folded file (``bvh`` itself when nothing folds). Joint indices shift down by one per
+        removed root; frame lines and the motion's line numbers are kept.
+    """
+    while bvh.joint_count >= 2 and bvh.frame_count > 0:
+        children = bvh.children(0)
+        if len(children) != 1 or any(s.parent == 0 for s in bvh.end_sites):
+            break
+        child = children[0]
+        child_pos = _position_columns(bvh, child)
+        if not child_pos:
+            break
+        rot_cols = [c for c, ch in _channel_columns(bvh, 0) if ch.endswith("rotation")]
+        if np.abs(bvh.motion[:, rot_cols]).max(initial=0.0) > _STILL_DEGREES:
+            break
+        root_pos = np.broadcast_to(np.asarray(bvh.joint_offsets[0], dtype=float), (bvh.frame_count, 3)).copy()
+        for axis, col in _position_columns(bvh, 0).items():
+            root_pos[:, axis] = bvh.motion[:, col]
+        shift = bvh.joint_channel_start[1]  # the child's columns start at 0 in the new array
+        motion = bvh.motion[:, shift:].copy()
+        for axis, col in child_pos.items():
+            motion[:, col - shift] += root_pos[:, axis]
+        offsets = bvh.joint_offsets[1:].copy()
+        offsets[0] += root_pos[0]
+        bvh = BvhFile(
+            joint_names=bvh.joint_names[1:],
+            joint_parents=tuple(p - 1 for p in bvh.joint_parents[1:]),
+            joint_offsets=offsets,
+            joint_channels=bvh.joint_channels[1:],
+            end_sites=tuple(BvhEndSite(s.joint, s.parent - 1, s.offset, s.line) for s in bvh.end_sites),
+            frame_time=bvh.frame_time,
+            motion=motion,
+            source=bvh.source,
+            joint_lines=bvh.joint_lines[1:],
+            motion_line=bvh.motion_line,
+            frame_time_line=bvh.frame_time_line,
+            frame_lines=bvh.frame_lines,
+        )
+    return bvh
+
+
+def _channel_columns(bvh: BvhFile, j: int) -> list[tuple[int, str]]:
+    """``(column, channel)`` of joint ``j``'s channels in :attr:`BvhFile.motion`."""
+    start = bvh.joint_channel_start[j]
+    return [(start + k, ch) for k, ch in enumerate(bvh.joint_channels[j])]
+
+
+def _position_columns(bvh: BvhFile, j: int) -> dict[int, int]:
+    """``{axis: column}`` of joint ``j``'s position channels."""
+    return {"XYZ".index(ch[0]): c for c, ch in _channel_columns(bvh, j) if ch.endswith("position")}
+
+
+# ---------------------------------------------------------------------------------------------
 # Skeleton -> Morphology
 # ---------------------------------------------------------------------------------------------
 _STRONG = (
@@ -787,6 +884,24 @@ _WEAK = (
 _MIN_RADIUS = 0.01
 _RADIUS_FRACTION = 0.08
 _FRONT_PAW_FRACTION = 0.35
+"""A leg-long "hand" whose median height above the feet is below this fraction of the hips' is a paw."""
+_FRONT_PAW_LIMB_RATIO = 0.9
+"""A "hand" can be a front paw only if its limb is at least this fraction of the legs' mean length."""
+
+
+@dataclass(frozen=True)
+class _PlannedEndEffector:
+    """An end-effector chosen from a :class:`BvhFile`, before axes and units are applied."""
+
+    name: str
+    joint: int
+    """BVH joint (link) it sits on."""
+    site: int | None
+    """End Site it sits at, or ``None`` for the joint's origin."""
+    role: EndEffectorRole
+    line: int | None
+    column: int
+    """Its point's index in :func:`bvh_joint_positions`' second axis."""
 
 
 def _keyword_role(name: str, table: tuple[tuple[EndEffectorRole, tuple[str, ...]], ...]) -> EndEffectorRole | None:
@@ -829,11 +944,15 @@ def skeleton_from_bvh(
     bvh: BvhFile,
     *,
     scale: float | None = None,
-    facing: str = "+z",
+    facing: str = "auto",
     name: str | None = None,
     detect_front_paws: bool = True,
+    share: bool = False,
 ) -> Morphology:
     """Build a :class:`~morphkit.graph.Morphology` from a parsed BVH skeleton.
+
+    A static root is folded away first (:func:`fold_static_root`), so Bandai Namco's skeletons
+    are rooted at ``Hips``, as in their motions.
 
     End-effectors are chosen from names:
 
@@ -850,20 +969,30 @@ def skeleton_from_bvh(
        unchanged; clashing names get a numeric suffix.) A limb with a strong keyword but no End
        Site at all (some exporters omit them) gets an end-effector at its tip joint (followed
        down while the limb does not branch), zero offset, named after that joint.
-    3. With ``detect_front_paws``, a "hand" that moves at the feet's height is a front foot
-       (quadruped rigs call their front paws hands) and becomes a foot: its median height above
-       the feet over the clip is below 35% of the hips' (the joint where the feet's chains
-       meet). On the real data the dog's paws give at most 0.21 and humans at least 0.46,
-       except CMU 111_03 (crawling, 0.05) and 144_32 (sun salutation, 0.2), whose hands become
-       feet too; pass ``detect_front_paws=False`` where a dataset needs the same roles for
-       every clip.
+    3. With ``detect_front_paws``, a "hand" is a front foot (quadruped rigs call their front
+       paws hands) when both hold:
+
+       - its limb is as long as a leg: the bone path from the end-effector up to the joint
+         where the limb branches off the body is at least 90% of the legs' mean (the same path
+         for the feet). Bone lengths do not depend on the clip. Humans measure 0.67-0.75 (CMU,
+         Daz, Bandai Namco), the dog 1.24, the elephants 1.18, so a human's hands stay hands
+         whatever the clip (crawling, a sun salutation);
+       - the motion keeps it at the feet's height: its median height above the feet over the
+         clip is below 35% of the hips' (the joint where the feet's chains meet). The dog's
+         paws give at most 0.21; the crab's claws, as long as its legs, are held up.
+
+       A file without frames keeps its hands.
 
     Args:
         bvh: A parsed file (:func:`parse_bvh`).
         scale: File units to metres; ``None`` detects it (:func:`detect_bvh_scale`).
-        facing: The BVH axis the character faces (:func:`bvh_frame_rotation`).
+        facing: The BVH axis the character faces (:func:`bvh_frame_rotation`), or ``"auto"``
+            to detect it from the motion (:func:`detect_bvh_facing`).
         name: Morphology name (default: the file's stem, or ``"bvh"``).
-        detect_front_paws: Turn hands that move at the feet's height into feet (rule 3).
+        detect_front_paws: Turn leg-long hands that move at the feet's height into feet (rule 3).
+        share: Return one object for every file with the same skeleton (hierarchy and offsets,
+            options, end-effectors), e.g. all clips of a subject, so that it compiles once. Its
+            ``name`` and ``source`` are those of the first such file.
 
     Raises:
         ConfigError: ``scale`` is not a positive finite number, or ``facing`` is unknown.
@@ -872,11 +1001,23 @@ def skeleton_from_bvh(
     """
     # Absurd offsets (1e308) overflow to inf here; the builder then rejects them with a GraphError.
     with np.errstate(over="ignore", invalid="ignore"):
-        return _skeleton_from_bvh(bvh, scale, facing, name, detect_front_paws)
+        return _skeleton_from_bvh(fold_static_root(bvh), scale, facing, name, detect_front_paws, share)
+
+
+_shared: dict[tuple, Morphology] = {}
+"""Skeletons by everything they depend on, for ``share=True`` (cleared beyond 256 entries)."""
+
+
+def _check_facing(facing: str) -> str:
+    """``facing`` normalised (``"auto"`` or one of :func:`bvh_frame_rotation`'s axes)."""
+    if isinstance(facing, str) and facing.strip().lower() == "auto":
+        return "auto"
+    bvh_frame_rotation(facing)  # raises ConfigError for anything else
+    return facing.strip().lower()
 
 
 def _skeleton_from_bvh(
-    bvh: BvhFile, scale: float | None, facing: str, name: str | None, detect_front_paws: bool
+    bvh: BvhFile, scale: float | None, facing: str, name: str | None, detect_front_paws: bool, share: bool
 ) -> Morphology:
     if scale is not None:
         if isinstance(scale, bool) or not isinstance(scale, (int, float)) or not math.isfinite(scale) or scale <= 0:
@@ -884,6 +1025,25 @@ def _skeleton_from_bvh(
         s = float(scale)
     else:
         s = detect_bvh_scale(bvh)
+    plan = _plan_end_effectors(bvh, detect_front_paws)
+    facing = _check_facing(facing)
+    if facing == "auto":
+        facing = detect_bvh_facing(bvh, detect_front_paws=detect_front_paws)
+    key = None
+    if share:
+        # The root's OFFSET does not enter the skeleton (the motion places the root).
+        key = (
+            bvh.joint_names,
+            bvh.joint_parents,
+            bvh.joint_offsets[1:].tobytes(),
+            bvh.joint_channels,
+            tuple((e.parent, e.offset) for e in bvh.end_sites),
+            s,
+            facing,
+            tuple((c.name, c.joint, c.site, c.role) for c in plan),
+        )
+        if key in _shared:
+            return _shared[key]
     R = bvh_frame_rotation(facing)
     src = bvh.source
     if name is None:
@@ -915,15 +1075,38 @@ def _skeleton_from_bvh(
             origin=Transform(tuple(float(v) for v in offsets[j])),  # type: ignore[arg-type]
             location=bvh.location(line_of(j)),
         )
-    for ee_name, joint, offset, role, line in _choose_end_effectors(bvh, end_offsets, detect_front_paws):
-        b.add_end_effector(ee_name, bvh.joint_names[joint], offset=offset, role=role, location=bvh.location(line))
-    return b.build()
+    for ee in plan:
+        offset = _tuple3(end_offsets[ee.site]) if ee.site is not None else (0.0, 0.0, 0.0)
+        b.add_end_effector(
+            ee.name, bvh.joint_names[ee.joint], offset=offset, role=ee.role, location=bvh.location(ee.line)
+        )
+    m = b.build()
+    if key is not None:
+        if len(_shared) >= 256:
+            _shared.clear()
+        _shared[key] = m
+    return m
 
 
-def _choose_end_effectors(
-    bvh: BvhFile, end_offsets: list[np.ndarray], detect_front_paws: bool
-) -> list[tuple[str, int, tuple[float, float, float], EndEffectorRole, int | None]]:
-    """End-effectors as (name, joint index, offset [m], role, line); see :func:`skeleton_from_bvh`."""
+_analyses: weakref.WeakKeyDictionary[BvhFile, dict[tuple[str, bool], Any]] = weakref.WeakKeyDictionary()
+"""Per parsed file: its end-effector plan, up axis and facing, computed once (the skeleton reader
+and the motion reader both ask, and the front paws and the facing need forward kinematics)."""
+
+
+def _memo(bvh: BvhFile, what: str, detect_front_paws: bool, compute: Callable[[], Any]) -> Any:
+    entry = _analyses.setdefault(bvh, {})
+    key = (what, bool(detect_front_paws))
+    if key not in entry:
+        entry[key] = compute()
+    return entry[key]
+
+
+def _plan_end_effectors(bvh: BvhFile, detect_front_paws: bool) -> tuple[_PlannedEndEffector, ...]:
+    """End-effectors of ``bvh`` in file terms (see :func:`skeleton_from_bvh`, rules 1-3)."""
+    return _memo(bvh, "plan", detect_front_paws, lambda: tuple(_plan(bvh, detect_front_paws)))
+
+
+def _plan(bvh: BvhFile, detect_front_paws: bool) -> list[_PlannedEndEffector]:
     J = bvh.joint_count
     parents = bvh.joint_parents
     strong = [_keyword_role(n, _STRONG) for n in bvh.joint_names]
@@ -955,20 +1138,18 @@ def _choose_end_effectors(
             top = parents[top]
         limbs.setdefault((role, top), []).append(e)
 
-    # (name, joint, offset, role, line, column in bvh_joint_positions)
-    chosen: list[tuple[str, int, tuple[float, float, float], EndEffectorRole, int | None, int]] = []
-    for (role, top), ends in limbs.items():
-        if len(ends) == 1:
-            e = ends[0]
-            site = bvh.end_sites[e]
-            chosen.append((_end_name(site.joint), site.parent, _tuple3(end_offsets[e]), role, site.line, J + e))
-        else:
-            chosen.append((bvh.joint_names[top], top, (0.0, 0.0, 0.0), role, joint_line(top), top))
-    for e in tools:
+    chosen: list[_PlannedEndEffector] = []
+
+    def at_site(e: int, role: EndEffectorRole) -> _PlannedEndEffector:
         site = bvh.end_sites[e]
-        chosen.append(
-            (_end_name(site.joint), site.parent, _tuple3(end_offsets[e]), EndEffectorRole.TOOL, site.line, J + e)
-        )
+        return _PlannedEndEffector(_end_name(site.joint), site.parent, e, role, site.line, J + e)
+
+    def at_joint(j: int, role: EndEffectorRole) -> _PlannedEndEffector:
+        return _PlannedEndEffector(bvh.joint_names[j], j, None, role, joint_line(j), j)
+
+    for (role, top), ends in limbs.items():
+        chosen.append(at_site(ends[0], role) if len(ends) == 1 else at_joint(top, role))
+    chosen.extend(at_site(e, EndEffectorRole.TOOL) for e in tools)
     # Limbs that end without any End Site (some exporters omit them): the limb's joint itself.
     ends_below = set()
     for site in bvh.end_sites:
@@ -985,27 +1166,59 @@ def _choose_end_effectors(
         tip = j
         while len(children[tip]) == 1 and strong[children[tip][0]] == role:
             tip = children[tip][0]
-        chosen.append((bvh.joint_names[tip], tip, (0.0, 0.0, 0.0), role, joint_line(tip), tip))
+        chosen.append(at_joint(tip, role))
 
-    # Quadruped rigs name their front paws "hands": a hand that moves at the feet's height is a foot.
-    hands = [i for i, c in enumerate(chosen) if c[3] == EndEffectorRole.HAND]
-    feet = [c[5] for c in chosen if c[3] == EndEffectorRole.FOOT]
-    if detect_front_paws and hands and feet and bvh.frame_count:
-        heights = _heights_over_hips(bvh, [chosen[i][5] for i in hands], feet)
-        for i, h in zip(hands, heights, strict=True):
-            if h < _FRONT_PAW_FRACTION:
-                n, j, off, _, line, col = chosen[i]
-                chosen[i] = (n, j, off, EndEffectorRole.FOOT, line, col)
+    if detect_front_paws:
+        paws = set(_front_paws(bvh, chosen))
+        chosen = [replace(c, role=EndEffectorRole.FOOT) if i in paws else c for i, c in enumerate(chosen)]
 
     used: set[str] = set()
     out = []
-    for n, j, off, role, line, _ in chosen:
-        name, k = n, 2
+    for c in chosen:
+        name, k = c.name, 2
         while name in used:
-            name, k = f"{n}{k}", k + 1
+            name, k = f"{c.name}{k}", k + 1
         used.add(name)
-        out.append((name, j, off, role, line))
+        out.append(replace(c, name=name))
     return out
+
+
+def _front_paws(bvh: BvhFile, chosen: list[_PlannedEndEffector]) -> list[int]:
+    """Indices into ``chosen`` of the hands that are front paws (rule 3 of :func:`skeleton_from_bvh`)."""
+    hands = [i for i, c in enumerate(chosen) if c.role == EndEffectorRole.HAND]
+    feet = [c for c in chosen if c.role == EndEffectorRole.FOOT]
+    if not hands or not feet or bvh.frame_count == 0:
+        return []
+    branches = _branch_counts(bvh)
+    leg = float(np.mean([_limb_length(bvh, c, branches) for c in feet]))
+    # Bone lengths first: they do not depend on the clip, and they rule humans out.
+    long = [i for i in hands if _limb_length(bvh, chosen[i], branches) >= _FRONT_PAW_LIMB_RATIO * leg]
+    if not long:
+        return []
+    heights = _heights_over_hips(bvh, [chosen[i].column for i in long], [c.column for c in feet])
+    return [i for i, h in zip(long, heights, strict=True) if h < _FRONT_PAW_FRACTION]
+
+
+def _branch_counts(bvh: BvhFile) -> list[int]:
+    """Children (joints and End Sites) of every joint, shape [joint_count]."""
+    counts = [0] * bvh.joint_count
+    for p in bvh.joint_parents[1:]:
+        counts[p] += 1
+    for site in bvh.end_sites:
+        counts[site.parent] += 1
+    return counts
+
+
+def _limb_length(bvh: BvhFile, ee: _PlannedEndEffector, branches: list[int]) -> float:
+    """Bone path length [file units] from ``ee`` up to the joint where its limb branches off the body."""
+    length = float(np.linalg.norm(bvh.end_sites[ee.site].offset)) if ee.site is not None else 0.0
+    j = ee.joint
+    while bvh.joint_parents[j] >= 0:
+        length += float(np.linalg.norm(bvh.joint_offsets[j]))
+        j = bvh.joint_parents[j]
+        if branches[j] >= 2:
+            break
+    return length
 
 
 def _end_name(joint: str) -> str:
@@ -1015,6 +1228,11 @@ def _end_name(joint: str) -> str:
 
 def _tuple3(v: np.ndarray) -> tuple[float, float, float]:
     return (float(v[0]), float(v[1]), float(v[2]))
+
+
+def _sample_frames(bvh: BvhFile, count: int) -> slice:
+    """At most about ``count`` evenly spaced frames: plenty for medians and means, cheap for long clips."""
+    return slice(None, None, max(1, bvh.frame_count // count))
 
 
 def _heights_over_hips(bvh: BvhFile, columns: list[int], feet: list[int]) -> np.ndarray:
@@ -1033,9 +1251,7 @@ def _heights_over_hips(bvh: BvhFile, columns: list[int], feet: list[int]) -> np.
     Returns:
         One ratio per column, shape [len(columns)] (``inf`` where the hips are not above the feet).
     """
-    # At most ~200 evenly spaced frames: plenty for a median, cheap for long clips.
-    step = max(1, bvh.frame_count // 200)
-    pos = bvh_joint_positions(bvh, slice(None, None, step))  # [F, J + E, 3], file units
+    pos = bvh_joint_positions(bvh, _sample_frames(bvh, 200))  # [F, J + E, 3], file units
     # The joint where the legs meet (the hips) stands above the feet; the rig's root may not.
     J = bvh.joint_count
     chains = []
@@ -1062,22 +1278,159 @@ def _heights_over_hips(bvh: BvhFile, columns: list[int], feet: list[int]) -> np.
     return np.median(rel, axis=0) / hip
 
 
+# ---------------------------------------------------------------------------------------------
+# Up axis and facing of the motion
+# ---------------------------------------------------------------------------------------------
+_AXES = {"+x": (1.0, 0.0, 0.0), "-x": (-1.0, 0.0, 0.0), "+z": (0.0, 0.0, 1.0), "-z": (0.0, 0.0, -1.0)}
+"""Candidate facings: the skeleton's horizontal axes (BVH skeletons are Y-up)."""
+_LEVEL_TRUNK = 0.7
+"""A frame's trunk is level when its horizontal part is at least this fraction of its length (within ~45 deg)."""
+_LEVEL_FRAMES = 0.1
+"""Posture decides the facing only when at least this fraction of the frames has a level trunk."""
+_FACING_SCORE = 0.25
+"""The winning axis must score at least this (a mean cosine) ..."""
+_FACING_MARGIN = 2.0
+"""... and this many times the score of the axes across it."""
+
+
+def detect_bvh_up(bvh: BvhFile, *, detect_front_paws: bool = True) -> str:
+    """The file axis the motion's world is up along: ``"+y"`` or ``"+z"``.
+
+    With feet (:func:`skeleton_from_bvh`'s foot end-effectors), each axis scores how far the
+    root stays above its *highest* foot joint along it (mean over up to 64 frames): along the
+    vertical every foot is below the root, while along a horizontal axis feet lie on both sides
+    of it (strides, front and hind legs). Without feet, the direction the root's rest up (+Y)
+    points to on average decides. Most files are Y-up; the CMU (AMASS) clips move their Y-up
+    skeleton in a Z-up world.
+
+    Args:
+        bvh: A parsed file (folded with :func:`fold_static_root` first).
+        detect_front_paws: As in :func:`skeleton_from_bvh` (front paws count as feet).
+    """
+    return _memo(bvh, "up", detect_front_paws, lambda: _detect_up(bvh, _plan_end_effectors(bvh, detect_front_paws)))
+
+
+def _detect_up(bvh: BvhFile, plan: Sequence[_PlannedEndEffector]) -> str:
+    feet = [c.joint for c in plan if c.role == EndEffectorRole.FOOT]
+    frames = _sample_frames(bvh, 64)
+    if feet:
+        pos = bvh_joint_positions(bvh, frames)[:, : bvh.joint_count]
+        score = (pos[:, 0] - pos[:, feet].max(axis=1)).mean(axis=0)  # [3]
+        return "+z" if score[2] > score[1] else "+y"
+    up = _joint_frames(bvh, frames)[1][:, 0, :, 1].mean(axis=0)  # the root's +Y in the world, averaged
+    return "+z" if up[2] > up[1] else "+y"
+
+
+def detect_bvh_facing(bvh: BvhFile, *, detect_front_paws: bool = True) -> str:
+    """The skeleton axis the creature faces, for ``facing="auto"``: ``"+z"``, ``"-z"``, ``"+x"`` or ``"-x"``.
+
+    BVH has no facing convention for creatures. Humanoid exports (CMU, Daz, Bandai Namco,
+    Mixamo) face +Z, but the MANN dog's root frame has its head along -X once it stands, and
+    the elephants' along +X. The candidates are the skeleton's horizontal axes, taken in the
+    root's frame and followed through the clip:
+
+    1. A skeleton with hand end-effectors (arms, not front paws) follows the humanoid
+       convention, ``"+z"``: human clips never change with the motion. (A human's trunk lies
+       level when crawling or bowing, and Bandai Namco's root frame has its +X along the spine,
+       so posture would mislead.)
+    2. Posture: the *trunk* runs from the root to the joint where the head's chain branches off
+       (the dog's ``Spine1``; the head end-effector itself where nothing branches). Over the
+       frames where the trunk is level (its horizontal part at least 70% of its length; a
+       sitting dog's is not), each axis scores the mean of ``h(R a) . h(t) / |t|`` (``R`` the
+       root's rotation, ``t`` the trunk, ``h`` the horizontal part). Used when at least 10% of
+       the frames are level and the best axis scores at least 0.25 and twice the axes across
+       it. On the 24 dog clips: ``"-x"`` every time, with scores 0.36-0.97 against at most 0.2.
+    3. Travel, when the root moves at least one body size: each axis scores
+       ``sum h(R a) . v / sum |v|`` over the root's horizontal velocity ``v``, with a threshold
+       of 0.5 and the same margin. Only for creatures whose posture does not tell: travel is
+       not facing for a clip walking backwards or sideways.
+    4. Otherwise ``"+z"`` (also for a file without frames).
+
+    Args:
+        bvh: A parsed file (folded with :func:`fold_static_root` first).
+        detect_front_paws: As in :func:`skeleton_from_bvh` (front paws are not hands).
+    """
+    return _memo(bvh, "facing", detect_front_paws, lambda: _detect_facing(bvh, detect_front_paws))
+
+
+def _detect_facing(bvh: BvhFile, detect_front_paws: bool) -> str:
+    plan = _plan_end_effectors(bvh, detect_front_paws)
+    roles = [c.role for c in plan]
+    if EndEffectorRole.HAND in roles or bvh.frame_count < 2:
+        return "+z"
+    frames = _sample_frames(bvh, 200)
+    pos, rot = _joint_frames(bvh, frames)  # [F, J + E, 3], [F, J, 3, 3]
+    up = np.zeros(3)
+    up["xyz".index(detect_bvh_up(bvh, detect_front_paws=detect_front_paws)[1])] = 1.0
+
+    def horizontal(v: np.ndarray) -> np.ndarray:
+        return v - (v @ up)[..., None] * up
+
+    axes = {k: horizontal(rot[:, 0] @ np.asarray(a)) for k, a in _AXES.items()}  # [F, 3] each, world
+    head = next((c for c in plan if c.role == EndEffectorRole.HEAD), None)
+    if head is not None:
+        trunk = pos[:, _trunk_end(bvh, head)] - pos[:, 0]  # [F, 3]
+        level = horizontal(trunk)
+        length = np.linalg.norm(trunk, axis=-1)
+        keep = np.linalg.norm(level, axis=-1) >= _LEVEL_TRUNK * np.maximum(length, 1e-12)
+        if keep.mean() >= _LEVEL_FRAMES:
+            cosines = {k: np.einsum("fi,fi->f", a[keep], level[keep]) / length[keep] for k, a in axes.items()}
+            scores = {k: float(c.mean()) for k, c in cosines.items()}
+            best = _clear_winner(scores, _FACING_SCORE)
+            if best is not None:
+                return best
+    velocity = np.diff(pos[:, 0], axis=0)  # [F - 1, 3] per sampled step
+    v = horizontal(velocity)
+    travel = float(np.linalg.norm(v, axis=-1).sum())
+    size = float(np.ptp(_rest_positions(bvh), axis=0).max())
+    if travel > 1e-12 and travel >= size:
+        scores = {k: float(np.einsum("fi,fi->", a[:-1], v)) / travel for k, a in axes.items()}
+        best = _clear_winner(scores, 2.0 * _FACING_SCORE)
+        if best is not None:
+            return best
+    return "+z"
+
+
+def _clear_winner(scores: dict[str, float], threshold: float) -> str | None:
+    """The best-scoring axis if it reaches ``threshold`` and ``_FACING_MARGIN`` times the axes across it."""
+    best = max(scores, key=scores.__getitem__)
+    across = ("+z", "-z") if best[1] == "x" else ("+x", "-x")
+    rival = max(abs(scores[k]) for k in across)
+    if scores[best] >= threshold and scores[best] >= _FACING_MARGIN * rival:
+        return best
+    return None
+
+
+def _trunk_end(bvh: BvhFile, head: _PlannedEndEffector) -> int:
+    """Point index of the trunk's front end: where the head's chain branches off, or the head itself."""
+    branches = _branch_counts(bvh)
+    j = head.joint
+    while bvh.joint_parents[j] > 0:
+        j = bvh.joint_parents[j]
+        if branches[j] >= 2:
+            return j
+    return head.column
+
+
 def read_bvh_skeleton(
     path: str | os.PathLike[str],
     *,
     scale: float | None = None,
-    facing: str = "+z",
+    facing: str = "auto",
     detect_front_paws: bool = True,
 ) -> Morphology:
     """Read a BVH file's skeleton as a :class:`~morphkit.graph.Morphology` (metres, z up, x forward).
 
-    The whole file is parsed and checked, motion included. See :func:`skeleton_from_bvh`.
+    The whole file is parsed and checked, motion included; the motion folds a static root away
+    and decides front paws and the facing. The skeleton equals the one
+    :func:`morphkit.motion.read_bvh_motion` gives the file's motion with the same options. See
+    :func:`skeleton_from_bvh`.
 
     Args:
         path: BVH file.
         scale: File units to metres; ``None`` detects centimetres vs metres.
-        facing: The BVH axis the character faces at rest (default ``"+z"``).
-        detect_front_paws: Turn hands that move at the feet's height into feet.
+        facing: The BVH axis the character faces at rest, or ``"auto"`` (:func:`detect_bvh_facing`).
+        detect_front_paws: Turn leg-long hands that move at the feet's height into feet.
 
     Raises:
         DescriptionError: bad file or hierarchy. MotionFormatError: bad MOTION section.

@@ -17,8 +17,13 @@ Reading (:func:`read_bvh_motion`):
   writes them for every joint) are dropped silently; ones that move cannot be expressed by a
   rigid skeleton and are dropped with a :class:`UserWarning` naming the joints and how far they
   move. A root that never rotates, with one child that has translation channels — Bandai
-  Namco's ``joint_Root`` above ``Hips`` — is removed first (the two translations add up), so
-  the pelvis becomes the root, as ACE's states want.
+  Namco's ``joint_Root`` above ``Hips`` — is removed first (the two translations add up,
+  :func:`~morphkit.io.bvh.fold_static_root`), so the pelvis becomes the root, as ACE's states
+  want; :func:`~morphkit.io.bvh.read_bvh_skeleton` folds it too, so the motion's morphology is
+  the file's skeleton.
+- **Facing**: ``facing="auto"`` (the default) detects the skeleton axis the creature faces
+  (:func:`~morphkit.io.bvh.detect_bvh_facing`): ``+Z`` for skeletons with hands (humans, as
+  before), the axis along the level trunk for quadrupeds (the dog's ``-X``, the elephants' ``+X``).
 - **Frame rate**: ``1 / Frame Time``, snapped to the nearest integer when within 0.01 fps
   (``Frame Time: 0.033333`` is 30 fps); ``fps=`` resamples (slerp for rotations).
 - **Ground**: with ``ground=True`` the root is shifted vertically so that the lowest foot
@@ -48,7 +53,10 @@ from morphkit.io.bvh import (
     BvhFile,
     bvh_frame_rotation,
     bvh_joint_positions,
+    detect_bvh_facing,
     detect_bvh_scale,
+    detect_bvh_up,
+    fold_static_root,
     read_bvh,
     skeleton_from_bvh,
     write_bvh,
@@ -74,6 +82,18 @@ _STATIC_TOL = 1e-3
 # ---------------------------------------------------------------------------------------------
 # reading
 # ---------------------------------------------------------------------------------------------
+def _is_auto(option: str) -> bool:
+    return isinstance(option, str) and option.strip().lower() == "auto"
+
+
+def _facing(facing: str, bvh: BvhFile) -> str:
+    """``facing``, detected from the (folded) file when ``"auto"``; unknown values raise ConfigError."""
+    if _is_auto(facing):
+        return detect_bvh_facing(bvh)
+    bvh_frame_rotation(facing)  # validates
+    return facing
+
+
 def _snap_fps(fps: float) -> float:
     r = round(fps)
     return float(r) if r > 0 and abs(fps - r) <= 0.01 else fps
@@ -102,52 +122,6 @@ def _position_columns(bvh: BvhFile, j: int) -> dict[int, int]:
     return {"XYZ".index(ch[0]): start + k for k, ch in enumerate(bvh.joint_channels[j]) if ch.endswith("position")}
 
 
-def _collapse_translating_root(bvh: BvhFile) -> BvhFile:
-    """Drop a root that only translates when its single child carries translation channels too.
-
-    Bandai Namco's ``joint_Root`` never rotates and either stays put or carries the clip's travel,
-    while ``Hips`` below it carries the body's own translation: with an identity root rotation
-    the two translations simply add, so the child becomes the root with their sum.
-    """
-    if bvh.joint_count < 2 or bvh.frame_count == 0:
-        return bvh
-    children = bvh.children(0)
-    if len(children) != 1 or any(s.parent == 0 for s in bvh.end_sites):
-        return bvh
-    child = children[0]
-    child_pos = _position_columns(bvh, child)
-    if not child_pos:
-        return bvh
-    rot_cols, _ = _rotation_columns(bvh, 0)
-    if np.abs(bvh.motion[:, rot_cols]).max(initial=0.0) > 1e-6:
-        return bvh
-    root_pos = np.broadcast_to(np.asarray(bvh.joint_offsets[0], dtype=float), (bvh.frame_count, 3)).copy()
-    for axis, col in _position_columns(bvh, 0).items():
-        root_pos[:, axis] = bvh.motion[:, col]
-    keep = range(1, bvh.joint_count)
-    cols = [c for j in keep for c in range(bvh.joint_channel_start[j], bvh.joint_channel_start[j + 1])]
-    motion = bvh.motion[:, cols].copy()
-    shift = bvh.joint_channel_start[1]  # the child's columns start at 0 in the new array
-    for axis, col in child_pos.items():
-        motion[:, col - shift] += root_pos[:, axis]
-    offsets = bvh.joint_offsets[1:].copy()
-    offsets[0] += root_pos[0]
-    return BvhFile(
-        joint_names=bvh.joint_names[1:],
-        joint_parents=tuple(p - 1 for p in bvh.joint_parents[1:]),
-        joint_offsets=offsets,
-        joint_channels=bvh.joint_channels[1:],
-        end_sites=tuple(BvhEndSite(s.joint, s.parent - 1, s.offset, s.line) for s in bvh.end_sites),
-        frame_time=bvh.frame_time,
-        motion=motion,
-        source=bvh.source,
-        joint_lines=bvh.joint_lines[1:],
-        motion_line=bvh.motion_line,
-        frame_time_line=bvh.frame_time_line,
-        frame_lines=bvh.frame_lines,
-    )
-
-
 def _file_rotations(bvh: BvhFile) -> np.ndarray:
     """Every joint's rotation in its parent, in file axes: xyzw quaternions [T, J, 4]."""
     T, J = bvh.frame_count, bvh.joint_count
@@ -166,33 +140,11 @@ def _file_rotations(bvh: BvhFile) -> np.ndarray:
     return quats
 
 
-def _detect_up(bvh: BvhFile, skeleton: Morphology | None, root_rotations: np.ndarray) -> str:
-    """``"+y"`` or ``"+z"``: the file axis along which the body stands.
-
-    With feet in the skeleton, each axis scores how far the root stays above its *highest* foot
-    along it (mean over up to 64 frames): along the vertical every foot is below the root, while
-    along a horizontal axis feet lie on both sides of it (strides, front and hind legs). Without
-    feet, the direction the root's rest up (+Y) points to on average decides.
-    """
-    feet = [] if skeleton is None else [e.link for e in skeleton.end_effectors if e.role == EndEffectorRole.FOOT]
-    if feet:
-        low = [bvh.joint_names.index(n) for n in feet]
-        step = max(1, bvh.frame_count // 64)
-        pos = bvh_joint_positions(bvh, slice(None, None, step))[:, : bvh.joint_count]
-        score = (pos[:, 0] - pos[:, low].max(axis=1)).mean(axis=0)  # [3]
-        return "+z" if score[2] > score[1] else "+y"
-    up = quat_rotate(root_rotations, np.broadcast_to([0.0, 1.0, 0.0], (*root_rotations.shape[:-1], 3)))
-    up = up.mean(axis=0)
-    return "+z" if up[2] > up[1] else "+y"
-
-
-def _world_rotation(
-    up: str, facing: str, bvh: BvhFile, skeleton: Morphology | None, root_rotations: np.ndarray
-) -> np.ndarray:
+def _world_rotation(up: str, facing: str, bvh: BvhFile) -> np.ndarray:
     """``R_w`` with ``p_morphkit = R_w @ p_file`` for world positions."""
     key = up.strip().lower() if isinstance(up, str) else up
     if key == "auto":
-        key = _detect_up(bvh, skeleton, root_rotations)
+        key = detect_bvh_up(bvh)
     if key == "+y":
         return bvh_frame_rotation(facing)
     if key == "+z":
@@ -239,35 +191,11 @@ def _warn_moving_translations(bvh: BvhFile, translations: np.ndarray) -> None:
         )
 
 
-_skeletons: dict[tuple, Morphology] = {}
-"""Skeletons by hierarchy: clips of one subject share one Morphology object (and its compiled model)."""
-
-
-def _shared_skeleton(bvh: BvhFile, scale: float, facing: str, name: str) -> Morphology:
-    # The root's OFFSET does not enter the skeleton (the motion places the root).
-    key = (
-        bvh.joint_names,
-        bvh.joint_parents,
-        bvh.joint_offsets[1:].tobytes(),
-        bvh.joint_channels,
-        tuple((e.parent, e.offset) for e in bvh.end_sites),
-        scale,
-        facing,
-    )
-    skeleton = _skeletons.get(key)
-    if skeleton is None:
-        skeleton = skeleton_from_bvh(bvh, scale=scale, facing=facing, name=name)
-        if len(_skeletons) > 256:
-            _skeletons.clear()
-        _skeletons[key] = skeleton
-    return skeleton
-
-
 def bvh_to_motion(
     bvh: BvhFile,
     *,
     scale: float | None = None,
-    facing: str = "+z",
+    facing: str = "auto",
     up: str = "auto",
     fps: float | None = None,
     ground: bool = True,
@@ -279,8 +207,11 @@ def bvh_to_motion(
     Args:
         bvh: From :func:`~morphkit.io.bvh.parse_bvh` / :func:`~morphkit.io.bvh.read_bvh`.
         scale: File units to metres (``None``: detected from the skeleton's size).
-        facing: The BVH axis the skeleton faces at rest (``"+z"`` for CMU, Daz, Bandai Namco;
-            ``"-x"`` for the MANN dog clips, whose root frame's -X points to the head).
+        facing: The BVH axis the skeleton faces: ``"+z"`` (CMU, Daz, Bandai Namco), ``"-z"``,
+            ``"+x"``, ``"-x"`` (the MANN dog clips, whose root frame's -X points to the head), or
+            ``"auto"``: detected from the motion (:func:`~morphkit.io.bvh.detect_bvh_facing`;
+            ``"+z"`` for every skeleton with hands, the dog's ``"-x"`` from its level trunk).
+            With ``morphology=``, ``"auto"`` is ``"+z"``, :func:`write_bvh_motion`'s default.
         up: The world's up axis in the file's motion: ``"+y"``, ``"+z"`` or ``"auto"`` (the axis
             along which the root stays above every foot). The skeleton's rest pose is always
             taken as Y-up; the CMU (AMASS) clips have a Y-up skeleton moving in a Z-up world.
@@ -302,14 +233,17 @@ def bvh_to_motion(
         name = os.path.splitext(os.path.basename(bvh.source))[0] if bvh.source else "bvh"
     if morphology is not None:
         return _bvh_into_morphology(bvh, morphology, scale=scale, facing=facing, up=up, fps=fps, name=name)
-    bvh = _collapse_translating_root(bvh)
+    # The skeleton reader folds the same static root, so both see the same joints.
+    bvh = fold_static_root(bvh)
     if scale is not None and (isinstance(scale, bool) or not math.isfinite(scale) or scale <= 0):
         raise ConfigError(f"BVH scale must be a positive number, got {scale!r}")
     s = float(scale) if scale is not None else detect_bvh_scale(bvh)
-    skeleton = _shared_skeleton(bvh, s, facing, name)
+    facing = _facing(facing, bvh)
+    # Clips of one subject share one skeleton object (one compiled FK kernel).
+    skeleton = skeleton_from_bvh(bvh, scale=s, facing=facing, name=name, share=True)
     R_skel = bvh_frame_rotation(facing)
     file_rotations = _file_rotations(bvh)  # [T, J, 4]
-    R_world = _world_rotation(up, facing, bvh, skeleton, file_rotations[:, 0])
+    R_world = _world_rotation(up, facing, bvh)
     rotations = _to_morphkit_rotations(file_rotations, R_skel, R_world)
     translations = _joint_translations(bvh)  # [T, J, 3]
     _warn_moving_translations(bvh, translations)
@@ -381,6 +315,8 @@ def ground_motion(motion: Motion) -> Motion:
 def _bvh_into_morphology(
     bvh: BvhFile, m: Morphology, *, scale: float | None, facing: str, up: str, fps: float | None, name: str
 ) -> Motion:
+    # write_bvh_motion faces +Z by default; "auto" means that here.
+    facing = "+z" if _is_auto(facing) else facing
     R = bvh_frame_rotation(facing)
     s = 1.0 if scale is None else float(scale)
     index = {n: i for i, n in enumerate(bvh.joint_names)}
@@ -393,7 +329,7 @@ def _bvh_into_morphology(
         )
     file_rotations = _file_rotations(bvh)
     # Files written by write_bvh_motion are Y-up; "auto" means that here.
-    R_world = _world_rotation("+y" if up == "auto" else up, facing, bvh, None, file_rotations[:, 0])
+    R_world = _world_rotation("+y" if up == "auto" else up, facing, bvh)
     rotations = _to_morphkit_rotations(file_rotations, R, R_world)
     translations = (_joint_translations(bvh) @ R.T) * s
     translations[:, 0] = (_joint_translations(bvh)[:, 0] @ R_world.T) * s
@@ -435,7 +371,7 @@ def read_bvh_motion(
     path: str | os.PathLike[str],
     *,
     scale: float | None = None,
-    facing: str = "+z",
+    facing: str = "auto",
     up: str = "auto",
     fps: float | None = None,
     ground: bool = True,

@@ -22,8 +22,11 @@ from morphkit.io.bvh import (
     BvhFile,
     bvh_frame_rotation,
     bvh_joint_positions,
+    detect_bvh_facing,
     detect_bvh_scale,
+    detect_bvh_up,
     dump_bvh,
+    fold_static_root,
     parse_bvh,
     read_bvh,
     read_bvh_skeleton,
@@ -430,6 +433,214 @@ def test_front_paws_named_hands_become_feet() -> None:
     assert roles["LeftHand_end"] == EndEffectorRole.HAND
 
 
+def test_front_paws_need_legs_as_long_as_the_legs() -> None:
+    """Hands at the feet's height on arms shorter than the legs (a crawling human) stay hands."""
+    crawler = _creature_bvh(fore="Hand", fore_length=25.0, frames=4)
+    roles = sorted(e.role.name for e in skeleton_from_bvh(parse_bvh(crawler)).end_effectors)
+    assert roles == ["FOOT", "FOOT", "HAND", "HAND", "HEAD"]
+    quadruped = _creature_bvh(fore="Hand", fore_length=40.0, frames=4)
+    roles = sorted(e.role.name for e in skeleton_from_bvh(parse_bvh(quadruped)).end_effectors)
+    assert roles == ["FOOT", "FOOT", "FOOT", "FOOT", "HEAD"]
+    # Without frames nothing shows where the hands move: they stay hands.
+    still = skeleton_from_bvh(parse_bvh(_creature_bvh(fore="Hand", fore_length=40.0, frames=0)))
+    assert sorted(e.role.name for e in still.end_effectors).count("HAND") == 2
+
+
+# ---- static roots ------------------------------------------------------------------------------
+STATIC_ROOTS = """HIERARCHY
+ROOT world
+{
+  OFFSET 1 2 3
+  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation
+  JOINT anchor
+  {
+    OFFSET 0 0 0
+    CHANNELS 3 Xposition Yposition Zposition
+    JOINT hips
+    {
+      OFFSET 5 90 -40
+      CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation
+      JOINT spine
+      {
+        OFFSET 0 20 0
+        CHANNELS 3 Zrotation Xrotation Yrotation
+        End Site
+        {
+          OFFSET 0 10 0
+        }
+      }
+      JOINT leftfoot
+      {
+        OFFSET 10 -80 0
+        CHANNELS 3 Zrotation Xrotation Yrotation
+        End Site
+        {
+          OFFSET 0 -5 10
+        }
+      }
+    }
+  }
+}
+MOTION
+Frames: 3
+Frame Time: 0.04
+0 0 0 0 0 0 0 0 0 1 90 2 0 0 0 0 0 0 0 0 0
+10 0 -5 0 0 0 1 2 3 3 91 4 10 20 30 5 0 0 0 0 0
+20 1 -10 0 0 0 2 4 6 5 92 6 -10 0 45 0 15 0 0 0 -20
+"""
+
+
+def test_static_roots_fold_away_keeping_world_positions() -> None:
+    b = parse_bvh(STATIC_ROOTS, source="static.bvh")
+    folded = fold_static_root(b)
+    # Two roots that never rotate above a translating child: both go, hips is the root.
+    assert folded.joint_names == ("hips", "spine", "leftfoot")
+    assert folded.joint_parents == (-1, 0, 0)
+    assert [s.parent for s in folded.end_sites] == [1, 2]
+    assert folded.joint_lines == b.joint_lines[2:] and folded.motion_line == b.motion_line
+    # Every joint and End Site stays where it was (the folded roots' translations add up).
+    before = bvh_joint_positions(b)
+    np.testing.assert_allclose(bvh_joint_positions(folded), before[:, 2:], atol=1e-12)
+    np.testing.assert_allclose(folded.motion[:, :3], [[1, 90, 2], [14, 93, 2], [27, 97, 2]], atol=1e-12)
+    assert fold_static_root(folded) is folded  # idempotent
+    # The skeleton reader folds too: its root is hips.
+    m = skeleton_from_bvh(b)
+    assert m.root == "hips" and m.link_names == folded.joint_names
+    assert m.coordinate_names == skeleton_from_bvh(folded).coordinate_names
+    # Nothing folds when the root rotates once, or when no frame tells.
+    turning = parse_bvh(STATIC_ROOTS.replace("20 1 -10 0 0 0", "20 1 -10 0 0 0.5"))
+    assert fold_static_root(turning) is turning
+    lines = STATIC_ROOTS.split("\n")
+    cut = "\n".join(lines[: lines.index("Frames: 3")]) + "\nFrames: 0\nFrame Time: 0.04\n"
+    empty = parse_bvh(cut)
+    assert fold_static_root(empty) is empty
+
+
+# ---- facing ------------------------------------------------------------------------------------
+_AXIS = {
+    "+x": np.array([1.0, 0, 0]),
+    "-x": np.array([-1.0, 0, 0]),
+    "+z": np.array([0, 0, 1.0]),
+    "-z": np.array([0, 0, -1.0]),
+}
+
+
+def _creature_bvh(
+    *,
+    head: str = "+z",
+    fore: str = "ForeFoot",
+    fore_length: float = 40.0,
+    frames: int = 40,
+    speed: float = 30.0,
+    head_names: tuple[str, str] = ("Neck", "Head"),
+) -> str:
+    """A Y-up quadruped (centimetres) whose trunk and head point along root-local ``head``; it
+    walks at ``speed`` [cm/frame] (negative: backwards) while turning 60 degrees about Y.
+
+    Front legs are called ``Left<fore>``/``Right<fore>`` and are ``fore_length`` long (the hind
+    legs 40); all feet hang straight down and touch the ground.
+    """
+    a = _AXIS[head]
+    left = np.cross([0.0, 1.0, 0.0], a)
+
+    def v(x: np.ndarray) -> str:
+        return " ".join(f"{c:g}" for c in x)
+
+    def leg(name: str, lateral: np.ndarray, length: float, pad: str) -> str:
+        return f"""{pad}JOINT {name}_top
+{pad}{{
+{pad}  OFFSET {v(lateral)}
+{pad}  CHANNELS 3 Zrotation Xrotation Yrotation
+{pad}  JOINT {name}
+{pad}  {{
+{pad}    OFFSET 0 {-length:g} 0
+{pad}    CHANNELS 3 Zrotation Xrotation Yrotation
+{pad}    End Site
+{pad}    {{
+{pad}      OFFSET 0 -5 0
+{pad}    }}
+{pad}  }}
+{pad}}}
+"""
+
+    neck, head_joint = head_names
+    text = f"""HIERARCHY
+ROOT Hips
+{{
+  OFFSET 0 0 0
+  CHANNELS 6 Xposition Yposition Zposition Yrotation Xrotation Zrotation
+  JOINT Chest
+  {{
+    OFFSET {v(40 * a)}
+    CHANNELS 3 Zrotation Xrotation Yrotation
+    JOINT {neck}
+    {{
+      OFFSET {v(10 * a + [0, 10, 0])}
+      CHANNELS 3 Zrotation Xrotation Yrotation
+      JOINT {head_joint}
+      {{
+        OFFSET {v(10 * a)}
+        CHANNELS 3 Zrotation Xrotation Yrotation
+        End Site
+        {{
+          OFFSET {v(10 * a)}
+        }}
+      }}
+    }}
+{leg("Left" + fore, 8 * left, fore_length, "    ")}{leg("Right" + fore, -8 * left, fore_length, "    ")}  }}
+{leg("LeftHindFoot", 8 * left, 40.0, "  ")}{leg("RightHindFoot", -8 * left, 40.0, "  ")}}}
+MOTION
+Frames: {frames}
+Frame Time: 0.0333333
+"""
+    joints = 1 + 3 + 4 + 4
+    rows = []
+    position = np.array([0.0, 45.0, 0.0])
+    for t in range(frames):
+        yaw = 60.0 * t / max(frames - 1, 1)
+        c, s = math.cos(math.radians(yaw)), math.sin(math.radians(yaw))
+        heading = np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]]) @ a  # Ry(yaw) a
+        rows.append(" ".join([v(position), f"{yaw:g} 0 0", *["0 0 0"] * (joints - 1)]))
+        position = position + speed * heading
+    return text + "\n".join(rows) + "\n"
+
+
+@pytest.mark.parametrize("head", ["+x", "-x", "+z", "-z"])
+def test_facing_follows_the_level_trunk(head: str) -> None:
+    b = parse_bvh(_creature_bvh(head=head))
+    assert detect_bvh_facing(b) == head
+    assert detect_bvh_up(b) == "+y"
+    # Walking backwards does not fool it: posture comes before travel.
+    assert detect_bvh_facing(parse_bvh(_creature_bvh(head=head, speed=-30.0))) == head
+    # The skeleton then points its trunk and head along morphkit's +x (forward), feet down.
+    m = skeleton_from_bvh(b)
+    np.testing.assert_allclose(m.joint("Chest").origin.xyz, [0.4, 0.0, 0.0], atol=1e-12)
+    np.testing.assert_allclose(m.joint("LeftHindFoot_top").origin.xyz, [0.0, 0.08, 0.0], atol=1e-12)
+    assert m.joint("LeftHindFoot").origin.xyz == pytest.approx((0.0, 0.0, -0.4))
+    # An explicit facing wins.
+    assert skeleton_from_bvh(b, facing="+z").joint("Chest").origin.xyz == pytest.approx(
+        tuple(BVH_TO_MORPHKIT @ (0.4 * _AXIS[head]))
+    )
+
+
+def test_facing_fallbacks() -> None:
+    # Front legs named hands but as long as the legs and on the ground: paws, so still detected.
+    assert detect_bvh_facing(parse_bvh(_creature_bvh(head="-x", fore="Hand"))) == "-x"
+    # Skeletons with hands follow the humanoid convention whatever their posture.
+    assert detect_bvh_facing(parse_bvh(_creature_bvh(head="-x", fore="Hand", fore_length=25.0))) == "+z"
+    assert detect_bvh_facing(parse_bvh(_creature_bvh(head="-x", fore="Hand")), detect_front_paws=False) == "+z"
+    # No head: the direction of travel, when the clip travels.
+    headless = {"head_names": ("Crest", "Snout")}
+    assert detect_bvh_facing(parse_bvh(_creature_bvh(head="+x", **headless))) == "+x"
+    assert detect_bvh_facing(parse_bvh(_creature_bvh(head="+x", speed=-30.0, **headless))) == "-x"
+    assert detect_bvh_facing(parse_bvh(_creature_bvh(head="+x", speed=0.1, **headless))) == "+z"  # stays put
+    # Too few frames, or an upright body that does not travel: the BVH convention.
+    assert detect_bvh_facing(parse_bvh(_creature_bvh(head="-x", frames=1))) == "+z"
+    assert detect_bvh_facing(read_bvh(TINY)) == "+z"
+    with pytest.raises(ConfigError, match="unknown BVH facing"):
+        skeleton_from_bvh(read_bvh(TINY), facing="up")
+
+
 # ---- bad input -------------------------------------------------------------------------------
 def _cut_after(pattern: str) -> str:
     lines = TINY_TEXT.split("\n")
@@ -764,13 +975,18 @@ CREATURE_FILES = _data_files("creatures")
 
 @pytest.mark.skipif(not HUMAN_FILES, reason="MORPHKIT_DATA is not set (or has no human BVH files)")
 def test_every_human_bvh_builds_a_plausible_human() -> None:
+    """Every human clip, crawling (CMU 111_03) and sun salutation (144_32) included, has two
+    hands, two feet and a head (front-paw detection is on), and Bandai Namco's static
+    ``joint_Root`` is folded away."""
     failures = []
     for path in HUMAN_FILES:
         try:
-            m = read_bvh_skeleton(path, detect_front_paws=False)
+            m = read_bvh_skeleton(path)
         except MorphkitError as exc:  # collect, to report every broken file at once
             failures.append(f"{path}: {exc}")
             continue
+        if m.root == "joint_Root":
+            failures.append(f"{path}: the static joint_Root was not folded away")
         roles = [e.role for e in m.end_effectors]
         counts = {r: roles.count(r) for r in EndEffectorRole}
         if (counts[EndEffectorRole.HAND], counts[EndEffectorRole.FOOT], counts[EndEffectorRole.HEAD]) != (2, 2, 1):
@@ -797,10 +1013,34 @@ def test_every_creature_bvh_builds() -> None:
         except MorphkitError as exc:
             failures.append(f"{path}: {exc}")
             continue
-        if m.link_names != b.joint_names or b.frame_count == 0:
+        if m.link_names != fold_static_root(b).joint_names or b.frame_count == 0:
             failures.append(f"{path}: links differ from BVH joints or no frames")
         if not 0.05 <= m.characteristic_length <= 10.0:
             failures.append(f"{path}: implausible size {m.characteristic_length:.3f} m")
-        if not m.ee_by_role(EndEffectorRole.FOOT):
+        roles = [e.role for e in m.end_effectors]
+        counts = (roles.count(EndEffectorRole.HAND), roles.count(EndEffectorRole.FOOT))
+        if "dog" in path.name or "elephant" in path.name:
+            if counts != (0, 4):  # front paws named hands are feet
+                failures.append(f"{path}: (hands, feet) {counts}, expected (0, 4)")
+        elif not counts[1]:
             failures.append(f"{path}: no feet among {[e.name for e in m.end_effectors]}")
     assert not failures, "\n".join(failures[:20])
+
+
+@pytest.mark.skipif(
+    not [p for p in HUMAN_FILES if p.parent.name == "second_skeleton"],
+    reason="MORPHKIT_DATA is not set (or has no human/second_skeleton)",
+)
+def test_info_roots_bandai_namco_skeletons_at_the_hips(capsys: pytest.CaptureFixture[str]) -> None:
+    import json
+
+    from morphkit.cli import main
+
+    path = next(p for p in HUMAN_FILES if p.parent.name == "second_skeleton")
+    assert main(["info", str(path), "--json"]) == 0
+    s = json.loads(capsys.readouterr().out)
+    assert s["root"] == "Hips"
+    assert "joint_Root" not in {e["link"] for e in s["end_effectors"]}
+    assert sorted(e["role"] for e in s["end_effectors"]) == ["foot", "foot", "hand", "hand", "head"]
+    assert main(["info", str(path)]) == 0
+    assert "root link Hips" in capsys.readouterr().out

@@ -153,7 +153,7 @@ MOTION
 Frames: 2
 Frame Time: 0.0333333
 0 0 0 0 0 0 1 90 2 0 0 0 0 20 0 0 0 0
-0 0 0 0 0 0 3 91 4 0 0 0 0 20.000001 0 0 0 0
+0 0 0 0 0 0 3 91 4 0 0 10 0 20.000001 0 0 0 0
 """
     with warnings.catch_warnings():
         warnings.simplefilter("error")
