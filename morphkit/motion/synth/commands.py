@@ -10,8 +10,10 @@ Default ranges follow the ACE paper (§7.1): linear −1.5 … 5 m/s and angular
 speeds and accelerations scale with the creature's size, ``scale = leg_reach / 0.769`` (0.769 m is
 Spot's leg reach from :func:`~morphkit.motion.synth.analysis.analyse`, the creature the paper's
 ranges were tuned on); creatures without legs keep the paper's ranges (``scale = 1``), as the
-paper does for Stretch. A creature-specific feasibility clamp (how fast its legs can step, see
-:mod:`morphkit.motion.synth.legged`) then scales each drawn velocity target down where needed.
+paper does for Stretch. Legged creatures cannot always step that fast (at 30 fps Spot's legs
+manage about 2.6 m/s): the forward and lateral ranges are shrunk to the creature's top speeds
+(``fit_range_to_creature``), and a feasibility clamp (:mod:`morphkit.motion.synth.legged`) scales
+down any drawn target that still exceeds them, e.g. fast running combined with turning.
 """
 
 from __future__ import annotations
@@ -61,6 +63,9 @@ class CommandConfig:
     """Leg reach [m] at which the speed ranges apply as given."""
     scale_by_size: bool = True
     """Scale linear speeds and accelerations by ``leg_reach / reference_leg_reach`` (legged creatures)."""
+    fit_range_to_creature: bool = True
+    """Shrink forward and lateral ranges to the fastest the creature can step (legged creatures), so
+    speeds spread over what it can do; False draws from the full ranges and scales each command down."""
     stand_probability: float = 0.1
     """Probability that a segment commands standing still."""
     lateral_probability: float = 0.4

@@ -95,6 +95,7 @@ class SynthRig:
             "arms": len(self.plan.arms),
             "size_scale": round(self.scale, 4),
             "forward_speed_range": [round(v, 4) for v in self.limits.forward],
+            "lateral_speed_range": [round(v, 4) for v in self.limits.lateral],
             "yaw_rate_range": [round(v, 4) for v in self.limits.yaw],
         }
         if self.legs is not None:
@@ -158,9 +159,20 @@ def prepare(m: Morphology, *, fps: float = 30.0, config: SynthConfig | None = No
         def clamp(cmd: np.ndarray) -> np.ndarray:
             return leg_rig.clamp(cmd, leg_cfg)
 
+    forward = tuple(v * scale * moving for v in cc.forward_speed)
+    lateral = tuple(v * scale * moving for v in lat)
+    if clamp is not None and cc.fit_range_to_creature:
+        # shrink a range the legs cannot step (straight, without turning) to what they can, so that
+        # speeds stay spread over what the creature does instead of piling up at its top speed
+        def top(d: tuple[float, float]) -> float:
+            v = np.array([[d[0], d[1], 0.0]]) * 1e3
+            return float(np.linalg.norm(clamp(v)[0, :2]))
+
+        forward = (max(forward[0], -top((-1.0, 0.0))), min(forward[1], top((1.0, 0.0))))
+        lateral = (max(lateral[0], -top((0.0, -1.0))), min(lateral[1], top((0.0, 1.0))))
     limits = CommandLimits(
-        forward=tuple(v * scale * moving for v in cc.forward_speed),  # type: ignore[arg-type]
-        lateral=tuple(v * scale * moving for v in lat),  # type: ignore[arg-type]
+        forward=forward,  # type: ignore[arg-type]
+        lateral=lateral,  # type: ignore[arg-type]
         yaw=tuple(v * moving for v in cc.yaw_rate),  # type: ignore[arg-type]
         height=legs.height_range if legs is not None else (0.0, 0.0),
         pitch=legs.pitch if legs is not None else 0.0,
