@@ -24,15 +24,18 @@ its ellipse lifts regardless. While it swings, its touchdown point is re-planned
 the middle of the coming stance along the commanded root path — the path ramps from the current
 velocity to the target, so the plan uses both — clipped into the ellipse at touchdown. The swing
 moves vertically first and last (the foot is off the ground before it moves horizontally, so a
-lift-off never shows up as sliding), horizontally along a smoothstep, on a half-ellipse arc in
+lift-off never shows up as sliding), horizontally along a smoothstep, on a parabolic arc in
 height. A stance foot is a fixed world target until it lifts: zero sliding up to the IK residual.
 
 **Speed fraction**: a command needs foot $l$ to move relative to the body at
 $v_l = -(v + \\omega \\hat z \\times p_l)$, i.e. $|v_l| / 2r_l(\\hat v_l)$ strokes per second ($r_l$
-the ellipse's half-chord along $\\hat v_l$). At the fastest gait (duty $\\beta_{min}$) and shortest
-swing the stance lasts $T_{st,min} = \\beta_{min} T_{sw,min} / (1 - \\beta_{min})$, so the speed
-fraction $s = \\max_l (|v_l| / 2 r_l) T_{st,min} / u_{max}$ is 1 when the fastest gait uses
-``max_stroke_usage`` of the ellipse. Commands are scaled to $s \\le$ ``speed_fraction_limit``.
+the ellipse's half-chord along $\\hat v_l$). Per stride a foot moves relative to the body during its
+stance and during its first and last airborne frames (vertical only, while the body moves on):
+$T_{span} = T_{st} + 2\\Delta t$. At the fastest gait (duty $\\beta_{min}$) and shortest swing
+$T_{st} = \\beta_{min} T_{sw,min} / (1 - \\beta_{min})$, so the speed fraction
+$s = \\max_l (|v_l| / 2 r_l) T_{span,min} / u_{max}$ is 1 when the fastest gait uses ``max_stroke_usage``
+of the ellipse. Commands are scaled to $s \\le$ ``speed_fraction_limit``; the cadence and the touchdown
+and emergency limits leave room for the two airborne frames, so a foot never leaves its ellipse.
 """
 
 from __future__ import annotations
@@ -595,7 +598,7 @@ class LeggedController:
         hor = smoothstep((k - 1) / np.maximum(n - 2, 1))
         frac = np.clip(k / n, 0.0, 1.0)
         H = rig.swing_height
-        z = np.maximum(H * np.sqrt(np.clip(4.0 * frac * (1.0 - frac), 0.0, 1.0)), min(H, cfg.lift_clearance))
+        z = np.maximum(4.0 * H * frac * (1.0 - frac), min(H, cfg.lift_clearance))  # parabola, lifted clear
         done = k >= n
         lx = self.lift_xy[rows, legs]
         self.foot_xy[rows, legs] = lx + (self.td_xy[rows, legs] - lx) * hor[:, None]
