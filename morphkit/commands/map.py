@@ -28,8 +28,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true", help='print {"mapping": {...}, "kl": {...}} as JSON')
     p.add_argument("--max-frames", type=int, default=300, metavar="N",
                    help="use at most N evenly spaced frames per clip (default 300)")
-    p.add_argument("--human-facing", default="+z", help="BVH axis the human skeletons face (default +z)")
-    p.add_argument("--creature-facing", default="+z", help="BVH axis the creature skeletons face (default +z)")
+    p.add_argument("--human-facing", default="auto",
+                   help="BVH axis the human skeletons face: +z, -z, +x, -x or auto (default: auto, +z for humans)")
+    p.add_argument("--creature-facing", default="auto",
+                   help="BVH axis the creature skeletons face (default: auto, detected from the motion)")
     p.add_argument("--human-length", type=float, metavar="M",
                    help="body length [m] to normalise human positions by (default: the skeleton's rest height)")
     p.add_argument("--creature-length", type=float, metavar="M",

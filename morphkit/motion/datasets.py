@@ -39,7 +39,7 @@ from morphkit.motion.states import (
 
 __all__ = ["CACHE_VERSION", "MotionDataset", "default_cache_dir", "expand_motion_paths", "load_motions"]
 
-CACHE_VERSION = 1
+CACHE_VERSION = 2
 """Bumped whenever the conversion or the state definitions change (part of every cache key)."""
 
 _SUFFIXES = (".bvh", ".npz", ".usd", ".usda", ".usdc")

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _bvh_creature import AXES, creature_bvh
 
 from morphkit.errors import ConfigError, DescriptionError, MorphkitError, MotionFormatError
 from morphkit.graph import EndEffectorRole, JointType, Morphology, ShapeType
@@ -435,14 +436,14 @@ def test_front_paws_named_hands_become_feet() -> None:
 
 def test_front_paws_need_legs_as_long_as_the_legs() -> None:
     """Hands at the feet's height on arms shorter than the legs (a crawling human) stay hands."""
-    crawler = _creature_bvh(fore="Hand", fore_length=25.0, frames=4)
+    crawler = creature_bvh(fore="Hand", fore_length=25.0, frames=4)
     roles = sorted(e.role.name for e in skeleton_from_bvh(parse_bvh(crawler)).end_effectors)
     assert roles == ["FOOT", "FOOT", "HAND", "HAND", "HEAD"]
-    quadruped = _creature_bvh(fore="Hand", fore_length=40.0, frames=4)
+    quadruped = creature_bvh(fore="Hand", fore_length=40.0, frames=4)
     roles = sorted(e.role.name for e in skeleton_from_bvh(parse_bvh(quadruped)).end_effectors)
     assert roles == ["FOOT", "FOOT", "FOOT", "FOOT", "HEAD"]
     # Without frames nothing shows where the hands move: they stay hands.
-    still = skeleton_from_bvh(parse_bvh(_creature_bvh(fore="Hand", fore_length=40.0, frames=0)))
+    still = skeleton_from_bvh(parse_bvh(creature_bvh(fore="Hand", fore_length=40.0, frames=0)))
     assert sorted(e.role.name for e in still.end_effectors).count("HAND") == 2
 
 
@@ -517,101 +518,13 @@ def test_static_roots_fold_away_keeping_world_positions() -> None:
 
 
 # ---- facing ------------------------------------------------------------------------------------
-_AXIS = {
-    "+x": np.array([1.0, 0, 0]),
-    "-x": np.array([-1.0, 0, 0]),
-    "+z": np.array([0, 0, 1.0]),
-    "-z": np.array([0, 0, -1.0]),
-}
-
-
-def _creature_bvh(
-    *,
-    head: str = "+z",
-    fore: str = "ForeFoot",
-    fore_length: float = 40.0,
-    frames: int = 40,
-    speed: float = 30.0,
-    head_names: tuple[str, str] = ("Neck", "Head"),
-) -> str:
-    """A Y-up quadruped (centimetres) whose trunk and head point along root-local ``head``; it
-    walks at ``speed`` [cm/frame] (negative: backwards) while turning 60 degrees about Y.
-
-    Front legs are called ``Left<fore>``/``Right<fore>`` and are ``fore_length`` long (the hind
-    legs 40); all feet hang straight down and touch the ground.
-    """
-    a = _AXIS[head]
-    left = np.cross([0.0, 1.0, 0.0], a)
-
-    def v(x: np.ndarray) -> str:
-        return " ".join(f"{c:g}" for c in x)
-
-    def leg(name: str, lateral: np.ndarray, length: float, pad: str) -> str:
-        return f"""{pad}JOINT {name}_top
-{pad}{{
-{pad}  OFFSET {v(lateral)}
-{pad}  CHANNELS 3 Zrotation Xrotation Yrotation
-{pad}  JOINT {name}
-{pad}  {{
-{pad}    OFFSET 0 {-length:g} 0
-{pad}    CHANNELS 3 Zrotation Xrotation Yrotation
-{pad}    End Site
-{pad}    {{
-{pad}      OFFSET 0 -5 0
-{pad}    }}
-{pad}  }}
-{pad}}}
-"""
-
-    neck, head_joint = head_names
-    text = f"""HIERARCHY
-ROOT Hips
-{{
-  OFFSET 0 0 0
-  CHANNELS 6 Xposition Yposition Zposition Yrotation Xrotation Zrotation
-  JOINT Chest
-  {{
-    OFFSET {v(40 * a)}
-    CHANNELS 3 Zrotation Xrotation Yrotation
-    JOINT {neck}
-    {{
-      OFFSET {v(10 * a + [0, 10, 0])}
-      CHANNELS 3 Zrotation Xrotation Yrotation
-      JOINT {head_joint}
-      {{
-        OFFSET {v(10 * a)}
-        CHANNELS 3 Zrotation Xrotation Yrotation
-        End Site
-        {{
-          OFFSET {v(10 * a)}
-        }}
-      }}
-    }}
-{leg("Left" + fore, 8 * left, fore_length, "    ")}{leg("Right" + fore, -8 * left, fore_length, "    ")}  }}
-{leg("LeftHindFoot", 8 * left, 40.0, "  ")}{leg("RightHindFoot", -8 * left, 40.0, "  ")}}}
-MOTION
-Frames: {frames}
-Frame Time: 0.0333333
-"""
-    joints = 1 + 3 + 4 + 4
-    rows = []
-    position = np.array([0.0, 45.0, 0.0])
-    for t in range(frames):
-        yaw = 60.0 * t / max(frames - 1, 1)
-        c, s = math.cos(math.radians(yaw)), math.sin(math.radians(yaw))
-        heading = np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]]) @ a  # Ry(yaw) a
-        rows.append(" ".join([v(position), f"{yaw:g} 0 0", *["0 0 0"] * (joints - 1)]))
-        position = position + speed * heading
-    return text + "\n".join(rows) + "\n"
-
-
 @pytest.mark.parametrize("head", ["+x", "-x", "+z", "-z"])
 def test_facing_follows_the_level_trunk(head: str) -> None:
-    b = parse_bvh(_creature_bvh(head=head))
+    b = parse_bvh(creature_bvh(head=head))
     assert detect_bvh_facing(b) == head
     assert detect_bvh_up(b) == "+y"
     # Walking backwards does not fool it: posture comes before travel.
-    assert detect_bvh_facing(parse_bvh(_creature_bvh(head=head, speed=-30.0))) == head
+    assert detect_bvh_facing(parse_bvh(creature_bvh(head=head, speed=-30.0))) == head
     # The skeleton then points its trunk and head along morphkit's +x (forward), feet down.
     m = skeleton_from_bvh(b)
     np.testing.assert_allclose(m.joint("Chest").origin.xyz, [0.4, 0.0, 0.0], atol=1e-12)
@@ -619,23 +532,23 @@ def test_facing_follows_the_level_trunk(head: str) -> None:
     assert m.joint("LeftHindFoot").origin.xyz == pytest.approx((0.0, 0.0, -0.4))
     # An explicit facing wins.
     assert skeleton_from_bvh(b, facing="+z").joint("Chest").origin.xyz == pytest.approx(
-        tuple(BVH_TO_MORPHKIT @ (0.4 * _AXIS[head]))
+        tuple(BVH_TO_MORPHKIT @ (0.4 * AXES[head]))
     )
 
 
 def test_facing_fallbacks() -> None:
     # Front legs named hands but as long as the legs and on the ground: paws, so still detected.
-    assert detect_bvh_facing(parse_bvh(_creature_bvh(head="-x", fore="Hand"))) == "-x"
+    assert detect_bvh_facing(parse_bvh(creature_bvh(head="-x", fore="Hand"))) == "-x"
     # Skeletons with hands follow the humanoid convention whatever their posture.
-    assert detect_bvh_facing(parse_bvh(_creature_bvh(head="-x", fore="Hand", fore_length=25.0))) == "+z"
-    assert detect_bvh_facing(parse_bvh(_creature_bvh(head="-x", fore="Hand")), detect_front_paws=False) == "+z"
+    assert detect_bvh_facing(parse_bvh(creature_bvh(head="-x", fore="Hand", fore_length=25.0))) == "+z"
+    assert detect_bvh_facing(parse_bvh(creature_bvh(head="-x", fore="Hand")), detect_front_paws=False) == "+z"
     # No head: the direction of travel, when the clip travels.
     headless = {"head_names": ("Crest", "Snout")}
-    assert detect_bvh_facing(parse_bvh(_creature_bvh(head="+x", **headless))) == "+x"
-    assert detect_bvh_facing(parse_bvh(_creature_bvh(head="+x", speed=-30.0, **headless))) == "-x"
-    assert detect_bvh_facing(parse_bvh(_creature_bvh(head="+x", speed=0.1, **headless))) == "+z"  # stays put
+    assert detect_bvh_facing(parse_bvh(creature_bvh(head="+x", **headless))) == "+x"
+    assert detect_bvh_facing(parse_bvh(creature_bvh(head="+x", speed=-30.0, **headless))) == "-x"
+    assert detect_bvh_facing(parse_bvh(creature_bvh(head="+x", speed=0.1, **headless))) == "+z"  # stays put
     # Too few frames, or an upright body that does not travel: the BVH convention.
-    assert detect_bvh_facing(parse_bvh(_creature_bvh(head="-x", frames=1))) == "+z"
+    assert detect_bvh_facing(parse_bvh(creature_bvh(head="-x", frames=1))) == "+z"
     assert detect_bvh_facing(read_bvh(TINY)) == "+z"
     with pytest.raises(ConfigError, match="unknown BVH facing"):
         skeleton_from_bvh(read_bvh(TINY), facing="up")

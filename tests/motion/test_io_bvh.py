@@ -8,10 +8,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _bvh_creature import creature_bvh
 from _motion_compare import assert_q_close, reference_link_positions
 from conftest import TEST_CREATURES, random_q
 
-from morphkit.conventions import quat_from_axis_angle, quat_multiply
+from morphkit.conventions import quat_from_axis_angle, quat_multiply, quat_rotate
 from morphkit.errors import MotionFormatError
 from morphkit.graph import JointType
 from morphkit.io.bvh import parse_bvh
@@ -212,3 +213,22 @@ def test_bvh_text_is_standard(tmp_path: Path) -> None:
     assert "\nMOTION\nFrames: 3\nFrame Time: 0.03333333333" in text
     assert text.count("{") == text.count("}")
     assert isinstance(read_motion(path, morphology=m), Motion)
+
+
+@pytest.mark.parametrize("head", ["+x", "-x", "+z", "-z"])
+@pytest.mark.parametrize("speed", [30.0, -30.0])
+def test_auto_facing_puts_the_head_forward(head: str, speed: float) -> None:
+    """Whatever root-local axis a quadruped's trunk lies along, ``facing="auto"`` makes it the
+    root's +x: the chest is straight ahead in the heading frame, and the root moves forwards (or
+    backwards, for a clip walking backwards) along it."""
+    motion = bvh_to_motion(parse_bvh(creature_bvh(head=head, speed=speed)), ground=False)
+    m = motion.morphology
+    pos = reference_link_positions(motion)  # [T, L, 3]
+    x_axis = quat_rotate(motion.q[:, 3:7], np.broadcast_to([1.0, 0.0, 0.0], (motion.frame_count, 3)))
+    np.testing.assert_allclose(x_axis[:, 2], 0.0, atol=1e-12)  # level, so the heading is the root's x
+    chest = pos[:, m.link_index("Chest")] - pos[:, 0]
+    np.testing.assert_allclose(chest, 0.4 * x_axis, atol=1e-9)
+    feet = [e.name for e in m.end_effectors if e.role.name == "FOOT"]
+    assert len(feet) == 4 and pos[:, m.link_index("LeftHindFoot"), 2].max() < pos[:, 0, 2].min()  # z up
+    step = np.diff(motion.q[:, :3], axis=0)  # [T - 1, 3] world [m]
+    np.testing.assert_allclose(step, 0.01 * speed * x_axis[:-1], atol=1e-9)

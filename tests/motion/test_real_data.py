@@ -17,6 +17,7 @@ import pytest
 from _motion_compare import reference_link_positions
 
 from morphkit.graph import EndEffectorRole
+from morphkit.io.bvh import read_bvh_skeleton
 from morphkit.motion import (
     Motion,
     ee_distributions,
@@ -30,7 +31,7 @@ from morphkit.motion._rotations import quat_from_yaw
 DATA = Path(os.environ["MORPHKIT_DATA"]) if os.environ.get("MORPHKIT_DATA") else None
 FOLDERS = {"cmu": "human/cmu", "cmu_daz": "human/cmu_daz", "second_skeleton": "human/second_skeleton",
            "dog": "creatures/dog"}
-FACING = {"dog": "-x"}  # the dog root frame's -X points to the head
+HUMANS = ("cmu", "cmu_daz", "second_skeleton")
 
 pytestmark = pytest.mark.skipif(
     DATA is None or not (DATA / "human" / "cmu").is_dir(), reason="MORPHKIT_DATA is not set (or has no human/cmu)"
@@ -42,11 +43,16 @@ _cache: dict[str, list[Motion]] = {}
 def _load(key: str) -> list[Motion]:
     if key not in _cache:
         assert DATA is not None
-        files = sorted((DATA / FOLDERS[key]).glob("*.bvh"))
+        files = _files(key)
         if not files:
             pytest.skip(f"no BVH files in {DATA / FOLDERS[key]}")
-        _cache[key] = [read_bvh_motion(f, facing=FACING.get(key, "+z")) for f in files]
+        _cache[key] = [read_bvh_motion(f) for f in files]  # facing="auto": the dog's is -x
     return _cache[key]
+
+
+def _files(key: str) -> list[Path]:
+    assert DATA is not None
+    return sorted((DATA / FOLDERS[key]).glob("*.bvh"))
 
 
 def _manifest(key: str) -> dict[str, dict[str, str]]:
@@ -72,7 +78,10 @@ def test_every_clip_loads(key: str) -> None:
         if row is not None:
             assert m.frame_count == int(row["frames"]), m.name
             assert m.fps == pytest.approx(float(row["fps"]), rel=1e-3), m.name
-        assert len(_ee(m, EndEffectorRole.FOOT)) >= 2, m.name
+        counts = tuple(len(_ee(m, r)) for r in (EndEffectorRole.HAND, EndEffectorRole.FOOT, EndEffectorRole.HEAD))
+        # Humans keep their hands whatever the clip (crawling, sun salutation); the dog's front
+        # paws, named hands, are feet.
+        assert counts == ((2, 2, 1) if key in HUMANS else (0, 4, 1)), (m.name, counts)
     # Grounded: the lowest foot touches z = 0 (every clip through the FK kernels for CMU; for the
     # other sets a subset through the reference FK, so no kernel is generated for their skeletons).
     for m in motions if key == "cmu" else motions[::8]:
@@ -131,6 +140,63 @@ def test_other_humans_and_dogs_stand_upright() -> None:
         if "stepup" not in m.name:  # those end on a raised step
             lowest = _reference_ee(m)[standing][:, feet, 2].min(axis=1)
             assert np.median(lowest) < 0.1, m.name
+
+
+@pytest.mark.parametrize("key", list(FOLDERS))
+def test_skeleton_reader_and_motion_reader_agree(key: str) -> None:
+    """``read_bvh_skeleton(p)`` is the morphology of ``read_motion(p)`` for every clip: same
+    links (Bandai Namco's static root folded away by both), coordinates, joint origins and
+    end-effectors (front paws and facing decided the same way)."""
+    motions = _load(key)
+    for path, motion in zip(_files(key), motions, strict=True):
+        skeleton, m = read_bvh_skeleton(path), motion.morphology
+        assert skeleton.coordinate_names == m.coordinate_names, path.name
+        assert skeleton.link_names == m.link_names, path.name
+        for a, b in zip(skeleton.joints, m.joints, strict=True):
+            np.testing.assert_allclose(a.origin.xyz, b.origin.xyz, atol=1e-12, err_msg=path.name)
+        assert [(e.name, e.link, e.role) for e in skeleton.end_effectors] == [
+            (e.name, e.link, e.role) for e in m.end_effectors
+        ], path.name
+        np.testing.assert_allclose(
+            [e.offset for e in skeleton.end_effectors], [e.offset for e in m.end_effectors], atol=1e-12
+        )
+    if key == "second_skeleton":
+        assert {m.morphology.root for m in motions} == {"Hips"}
+
+
+def test_auto_facing_leaves_humans_unchanged() -> None:
+    """Every human skeleton is read facing +z, as before ``facing="auto"``; CMU clips' q is identical."""
+    for key in HUMANS:
+        # Clips share skeleton objects: checking each distinct one covers every clip.
+        for m in {id(x.morphology): x.morphology for x in _load(key)}.values():
+            plus_z = read_bvh_skeleton(m.source, facing="+z")
+            for a, b in zip(m.joints, plus_z.joints, strict=True):
+                np.testing.assert_allclose(a.origin.xyz, b.origin.xyz, atol=1e-12, err_msg=m.source)
+    for path, motion in list(zip(_files("cmu"), _load("cmu"), strict=True))[::16]:
+        np.testing.assert_array_equal(read_bvh_motion(path, facing="+z").q, motion.q, err_msg=path.name)
+
+
+def test_auto_facing_turns_the_dog_head_first() -> None:
+    """The dog's head ends up ahead of its root along the root's +x, and its walks and runs move
+    forwards, in every clip (``facing="auto"`` detects the root frame's -X; +X would walk it
+    backwards)."""
+    from morphkit.conventions import quat_rotate
+
+    for m in _load("dog"):
+        links = reference_link_positions(m)
+        x_axis = quat_rotate(m.q[:, 3:7], np.broadcast_to([1.0, 0.0, 0.0], (m.frame_count, 3)))
+        level = np.abs(x_axis[:, 2]) < 0.5  # sitting, the root's x points up and no heading exists
+        heading = x_axis[:, :2] / np.linalg.norm(x_axis[:, :2], axis=1, keepdims=True)
+        head = links[:, m.morphology.link_index("Head"), :2] - m.q[:, :2]
+        ahead = np.einsum("fi,fi->f", head, heading)[level]
+        assert (ahead > 0.15).mean() > 0.95 and np.median(ahead) > 0.3, m.name  # [m]
+        if "walk" in m.name or "run" in m.name:
+            step = np.diff(m.q[:, :2], axis=0)  # [T - 1, 2] world [m]
+            moving = level[:-1] & (np.linalg.norm(step, axis=1) * m.fps > 0.3)
+            forward = np.einsum("fi,fi->f", step[moving], heading[:-1][moving])
+            # Mostly forwards: turning walks also sway sideways (dog_walk13: 79% of the path ahead).
+            assert (forward > 0).mean() > 0.9, m.name
+            assert forward.sum() > 0.75 * np.linalg.norm(step[moving], axis=1).sum(), m.name
 
 
 def test_real_clip_round_trips(tmp_path: Path) -> None:
