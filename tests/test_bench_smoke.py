@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 import pytest
-from conftest import every_joint
+from morphkit_testing import every_joint
 
 pytest.importorskip("torch")
 

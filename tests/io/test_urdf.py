@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from _compare import assert_morphology_equal
-from conftest import TEST_CREATURES, shipped_morphology
+from morphkit_testing import TEST_CREATURES, shipped_morphology
 
 from morphkit.conventions import matrix_from_quat, quat_from_axis_angle, quat_from_rpy, transform_multiply
 from morphkit.errors import DescriptionError, GraphError, MorphkitError

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from _compare import assert_morphology_equal
-from conftest import TEST_CREATURES, shipped_morphology
+from morphkit_testing import TEST_CREATURES, shipped_morphology
 
 from morphkit.conventions import quat_from_axis_angle, quat_rotate, transform_multiply
 from morphkit.errors import DescriptionError, GraphError, MorphkitError

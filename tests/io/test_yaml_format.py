@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from _compare import assert_morphology_equal
-from conftest import TEST_CREATURES, shipped_morphology
+from morphkit_testing import TEST_CREATURES, shipped_morphology
 
 from morphkit.conventions import quat_from_rpy
 from morphkit.errors import DescriptionError, GraphError, MorphkitError

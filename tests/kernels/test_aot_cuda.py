@@ -9,7 +9,7 @@ import pkgutil
 
 import pytest
 import warp as wp
-from conftest import shipped_morphology
+from morphkit_testing import shipped_morphology
 
 import morphkit.kernels
 from morphkit.kernels import fk_module

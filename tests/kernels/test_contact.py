@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 import warp as wp
-from conftest import random_q, shipped_morphology, spot_like
+from morphkit_testing import random_q, shipped_morphology, spot_like
 
 from morphkit.errors import GraphError
 from morphkit.graph import Limit, MorphologyBuilder, Shape, ShapeType, Transform

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import torch
 import warp as wp
-from conftest import ALL_CREATURES, creature, every_joint, mimic, planar_arm, random_q, spot_like, wheeled
+from morphkit_testing import ALL_CREATURES, creature, every_joint, mimic, planar_arm, random_q, spot_like, wheeled
 
 from morphkit.conventions import quat_from_axis_angle, quat_multiply, transform_multiply
 from morphkit.errors import GraphError

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from conftest import creature, human_like, random_q, spot_like
+from morphkit_testing import creature, human_like, random_q, spot_like
 
 from morphkit.conventions import quat_from_axis_angle, quat_multiply, transform_multiply
 from morphkit.errors import GraphError

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 import warp as wp
-from conftest import ALL_CREATURES, creature, every_joint, mimic, planar_arm, wheeled
+from morphkit_testing import ALL_CREATURES, creature, every_joint, mimic, planar_arm, wheeled
 
 from morphkit.errors import GraphError
 from morphkit.graph import BaseType, JointType, MorphologyBuilder, Shape, ShapeType, Transform

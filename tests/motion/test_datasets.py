@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
-from conftest import spot_like
+from morphkit_testing import spot_like
 
 import morphkit.motion as motion_pkg
 from morphkit.errors import ConfigError, MotionFormatError

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import human_like, random_q
+from morphkit_testing import human_like, random_q
 
 from morphkit.errors import ConfigError
 from morphkit.motion import (

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from _bvh_creature import creature_bvh
 from _motion_compare import assert_q_close, reference_link_positions
-from conftest import TEST_CREATURES, random_q
+from morphkit_testing import TEST_CREATURES, random_q
 
 from morphkit.conventions import quat_from_axis_angle, quat_multiply, quat_rotate
 from morphkit.errors import MotionFormatError

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from _motion_compare import reference_link_positions
-from conftest import TEST_CREATURES, random_q
+from morphkit_testing import TEST_CREATURES, random_q
 
 from morphkit.errors import MotionFormatError
 from morphkit.motion import Motion, read_motion, read_npz_motion, write_motion, write_npz_motion

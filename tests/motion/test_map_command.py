@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import human_like, random_q, spot_like
+from morphkit_testing import human_like, random_q, spot_like
 
 from morphkit.cli import main
 from morphkit.motion import Motion, write_motion

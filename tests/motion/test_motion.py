@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 from _motion_compare import assert_q_close
-from conftest import every_joint, human_like, spot_like
+from morphkit_testing import every_joint, human_like, spot_like
 
 from morphkit.conventions import matrix_from_quat, quat_from_axis_angle, quat_multiply, quat_rotate
 from morphkit.errors import MotionFormatError

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import TEST_CREATURES, human_like, random_q, wheeled
+from morphkit_testing import TEST_CREATURES, human_like, random_q, wheeled
 
 from morphkit.conventions import quat_from_axis_angle, quat_multiply, quat_rotate
 from morphkit.errors import MotionFormatError

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import SHIPPED, shipped_morphology
+from morphkit_testing import SHIPPED, shipped_morphology
 
 from morphkit.graph import Limit, Morphology, MorphologyBuilder, Shape, ShapeType, Transform
 from morphkit.render.scene import CHAIN_PALETTE, TRUNK_COLOR, fit_distance, link_colors, look_at, orbit_eye

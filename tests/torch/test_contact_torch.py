@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 import torch
-from conftest import spot_like
+from morphkit_testing import spot_like
 
 from morphkit.graph import Limit, MorphologyBuilder, Shape, ShapeType, Transform
 from morphkit.kernels.contact import foot_indices, self_collision_pairs

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 import torch
-from conftest import ALL_CREATURES, creature, planar_arm, random_q, spot_like, wheeled
+from morphkit_testing import ALL_CREATURES, creature, planar_arm, random_q, spot_like, wheeled
 
 import morphkit.torch as mt
 from morphkit.errors import GraphError

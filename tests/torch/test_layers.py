@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 import torch
-from conftest import every_joint, human_like, random_q, spot_like, wheeled
+from morphkit_testing import every_joint, human_like, random_q, spot_like, wheeled
 
 from morphkit.errors import GraphError
 from morphkit.model import compile_model

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 import torch
-from conftest import TEST_CREATURES, creature, every_joint, planar_arm, random_q, spot_like
+from morphkit_testing import TEST_CREATURES, creature, every_joint, planar_arm, random_q, spot_like
 
 from morphkit.errors import GraphError
 from morphkit.model import compile_model
