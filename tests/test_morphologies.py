@@ -270,6 +270,13 @@ def test_resolve_morphology(tmp_path: Path) -> None:
         resolve_morphology(tmp_path)
 
 
+def test_unrelated_folder_does_not_hide_a_shipped_name(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    (tmp_path / "spot").mkdir()
+    (tmp_path / "spot" / "renders.txt").write_text("output of an earlier run")
+    monkeypatch.chdir(tmp_path)
+    assert resolve_morphology("spot") == shipped_path("spot")
+
+
 # ---- what each creature is -------------------------------------------------------------------
 def test_counts(creature: Morphology) -> None:
     exp = EXPECTED[creature.name]

@@ -80,7 +80,8 @@ def resolve_morphology(name_or_path: str | os.PathLike[str]) -> Path:
 
     A path that exists wins: a file is returned as is, and a folder ``x/`` holding ``x/x.<ext>``
     (a creature folder) resolves to that description. Otherwise the argument is looked up
-    among the shipped creature names.
+    among the shipped creature names (so an unrelated folder called ``spot/`` in the working
+    directory does not hide the shipped ``spot``).
 
     Raises:
         DescriptionError: neither an existing path nor a shipped name (the message lists the
@@ -93,6 +94,8 @@ def resolve_morphology(name_or_path: str | os.PathLike[str]) -> Path:
         description = _description_in(path)
         if description is not None:
             return description
+        if os.fspath(name_or_path) in _shipped_index():
+            return _shipped_index()[os.fspath(name_or_path)]
         raise DescriptionError(
             f"folder holds no description named {path.name}.<ext> ({', '.join(SHIPPED_SUFFIXES)})",
             location=SourceLocation(str(name_or_path)),
