@@ -36,7 +36,7 @@ import warp as wp
 
 from morphkit.errors import GraphError
 from morphkit.graph.types import BaseType, JointType
-from morphkit.kernels.fk import eval_fk
+from morphkit.kernels.fk import _as_batch, eval_fk
 from morphkit.model.kinematic_model import KinematicModel
 
 __all__ = ["IKResult", "eval_ee_jacobian", "ik_dof_mask", "ik_solve", "ik_step"]
@@ -453,25 +453,6 @@ def _plan(model: KinematicModel, ee_idx: np.ndarray, dof_mask: Any, device: Any,
     return hit
 
 
-def _q_batch(model: KinematicModel, q: Any, device: Any) -> tuple[wp.array, tuple[int, ...], Any]:
-    if not isinstance(q, wp.array):
-        arr = np.asarray(q)
-        if arr.dtype not in (np.float32, np.float64):
-            arr = arr.astype(np.float32)
-        q = wp.array(np.ascontiguousarray(arr), dtype=wp.dtype_from_numpy(arr.dtype), device=device)
-    if q.dtype not in (wp.float32, wp.float64):
-        raise GraphError(f"q: expected float32 or float64 coordinates, got {wp.types.type_repr(q.dtype)}")
-    C = model.coordinate_count
-    if q.ndim < 1 or q.shape[-1] != C:
-        raise GraphError(f"q: expected shape [..., {C}] for {model.name!r} ({C} coordinates), got {list(q.shape)}")
-    if str(q.device) != str(device):
-        raise GraphError(f"q: array is on {q.device}, expected {device}")
-    lead = tuple(q.shape[:-1])
-    B = int(np.prod(lead)) if lead else 1
-    q = q if q.is_contiguous else q.contiguous()
-    return q.reshape((B, C)), lead, q.dtype
-
-
 def _targets(targets: Any, lead: tuple[int, ...], E: int, scalar: Any, device: Any) -> wp.array:
     vec3 = wp.vec3d if scalar == wp.float64 else wp.vec3f
     if isinstance(targets, wp.array):
@@ -521,7 +502,7 @@ def eval_ee_jacobian(model: KinematicModel, q: Any, *, ee: Any = None, dof_mask:
         ``(J, dofs)``: ``J`` of shape [..., 3E, n] and the ``qd`` index of every column, shape [n].
     """
     device = _device(q, device, model)
-    q2, lead, scalar = _q_batch(model, q, device)
+    q2, lead, scalar = _as_batch(model, q, device)
     ee_idx = _ee_indices(model, ee)
     plan = _plan(model, ee_idx, dof_mask, device, scalar)
     B = q2.shape[0]
@@ -575,7 +556,7 @@ def ik_step(model: KinematicModel, q: Any, targets: Any, *, ee: Any = None, damp
     if not np.isfinite(damping) or damping < 0:
         raise GraphError(f"damping must be >= 0, got {damping!r}")
     device = _device(q, device, model)
-    q2, lead, scalar = _q_batch(model, q, device)
+    q2, lead, scalar = _as_batch(model, q, device)
     ee_idx = _ee_indices(model, ee)
     E = len(ee_idx)
     t = _targets(targets, lead, E, scalar, device)
@@ -641,7 +622,7 @@ def ik_solve(model: KinematicModel, q: Any, targets: Any, *, ee: Any = None, ite
     if iterations < 0:
         raise GraphError(f"iterations must be >= 0, got {iterations}")
     device = _device(q, device, model)
-    q2, lead, _ = _q_batch(model, q, device)
+    q2, lead, _ = _as_batch(model, q, device)
     cur = wp.clone(q2).reshape((*lead, model.coordinate_count))  # never write into the caller's array
     buf = wp.empty_like(cur)
     for it in range(iterations + 1):
