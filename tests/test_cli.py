@@ -153,3 +153,9 @@ def test_convert_motion_between_bvh_npz_and_usd(tmp_path):
     assert read_motion(tmp_path / "m60.npz").q.shape[0] == 2 * first.q.shape[0] - 1
     res = run_cli("convert", str(src), str(tmp_path / "skeleton.yaml"))
     assert res.returncode == 0 and "links" in res.stdout
+
+
+def test_convert_unknown_output_format_names_the_output(tmp_path):
+    res = run_cli("convert", "spot", str(tmp_path / "spot.zzz"))
+    assert res.returncode == 2 and "Traceback" not in res.stderr
+    assert res.stderr.strip().startswith(f"error: {tmp_path / 'spot.zzz'}: unknown output format '.zzz'")

@@ -29,13 +29,18 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from morphkit.errors import ConfigError
-    from morphkit.io import read_morphology, write_morphology
+    from morphkit.io import WRITE_SUFFIXES, read_morphology, write_morphology
     from morphkit.io.shipped import resolve_morphology
 
+    out_suffix = Path(args.output).suffix.lower()
+    if out_suffix not in (*WRITE_SUFFIXES, *MOTION_SUFFIXES):
+        supported = ", ".join(dict.fromkeys((*WRITE_SUFFIXES, *MOTION_SUFFIXES)))
+        shown = out_suffix or "(no suffix)"
+        raise ConfigError(f"{args.output}: unknown output format {shown!r}; supported: {supported}")
     src = resolve_morphology(args.input)
     if args.fps is not None and not args.fps > 0:
         raise ConfigError(f"--fps must be > 0, got {args.fps}")
-    if not args.description_only and Path(args.output).suffix.lower() in MOTION_SUFFIXES:
+    if not args.description_only and out_suffix in MOTION_SUFFIXES:
         # Motion io lives a layer up (morphkit.motion); imported only when a motion is converted.
         from morphkit.motion import is_motion_file, read_motion, write_motion
 
