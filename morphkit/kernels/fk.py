@@ -342,14 +342,14 @@ def eval_link_positions(model: KinematicModel, q: Any, *, out: wp.array | None =
     return _eval(model, q, "fk_positions", _vec3_type, out=out, wheel_q=wheel_q, device=device)
 
 
-def _eval_adjoint(model: KinematicModel, q: wp.array, adj_out: wp.array, kernel_name: str, out_dtype_of: Any, *,
-                  adj_q: wp.array | None, wheel_q: Any, device: Any) -> wp.array:
+def _adjoint_args(model: KinematicModel, q: Any, adj_out: wp.array, out_dtype_of: Any, *, adj_q: wp.array | None,
+                  wheel_q: Any, device: Any) -> tuple[Any, wp.array, Any, wp.array, int, wp.array]:
+    """Validate the arguments of an FK adjoint; returns device, q as [B, C], dtype, wheel input, whether
+    wheels are batched, and ``adj_q`` (allocated zeroed when not given)."""
     device = _device(model, q, device)
     q2, lead, dtype = _as_batch(model, q, device)
-    B = q2.shape[0]
-    L = model.link_count
-    C = model.coordinate_count
-    wheel, wheel_batched = _wheel_input(model, wheel_q, B, lead, device, dtype)
+    L, C = model.link_count, model.coordinate_count
+    wheel, wheel_batched = _wheel_input(model, wheel_q, q2.shape[0], lead, device, dtype)
     out_type = out_dtype_of(dtype)
     if tuple(adj_out.shape) != (*lead, L) or not wp.types.types_equal(adj_out.dtype, out_type):
         raise GraphError(f"adj_out: expected shape {[*lead, L]} of {wp.types.type_repr(out_type)}, "
@@ -358,6 +358,15 @@ def _eval_adjoint(model: KinematicModel, q: wp.array, adj_out: wp.array, kernel_
         adj_q = wp.zeros((*lead, C), dtype=dtype, device=device)
     elif tuple(adj_q.shape) != (*lead, C) or adj_q.dtype != dtype:
         raise GraphError(f"adj_q: expected shape {[*lead, C]}, got {list(adj_q.shape)}")
+    return device, q2, dtype, wheel, wheel_batched, adj_q
+
+
+def _eval_adjoint(model: KinematicModel, q: wp.array, adj_out: wp.array, kernel_name: str, out_dtype_of: Any, *,
+                  adj_q: wp.array | None, wheel_q: Any, device: Any) -> wp.array:
+    device, q2, dtype, wheel, wheel_batched, adj_q = _adjoint_args(
+        model, q, adj_out, out_dtype_of, adj_q=adj_q, wheel_q=wheel_q, device=device
+    )
+    B, L, C = q2.shape[0], model.link_count, model.coordinate_count
     if B == 0:
         return adj_q
     kernel = getattr(fk_module(model, dtype), kernel_name)
@@ -395,18 +404,11 @@ def eval_link_positions_adjoint(model: KinematicModel, q: Any, adj_out: wp.array
     ``_fk_codegen._vjp_body``) instead of Warp's adjoint: it re-runs the forward pass once to
     record the joint frames, then sweeps the tree backwards.
     """
-    device = _device(model, q, device)
-    q2, lead, dtype = _as_batch(model, q, device)
+    device, q2, dtype, wheel, wheel_batched, adj_q = _adjoint_args(
+        model, q, adj_out, _vec3_type, adj_q=adj_q, wheel_q=wheel_q, device=device
+    )
     B, L, C = q2.shape[0], model.link_count, model.coordinate_count
-    wheel, wheel_batched = _wheel_input(model, wheel_q, B, lead, device, dtype)
     vec3 = _vec3_type(dtype)
-    if tuple(adj_out.shape) != (*lead, L) or not wp.types.types_equal(adj_out.dtype, vec3):
-        raise GraphError(f"adj_out: expected shape {[*lead, L]} of {wp.types.type_repr(vec3)}, "
-                         f"got {list(adj_out.shape)} of {wp.types.type_repr(adj_out.dtype)}")
-    if adj_q is None:
-        adj_q = wp.zeros((*lead, C), dtype=dtype, device=device)
-    elif tuple(adj_q.shape) != (*lead, C) or adj_q.dtype != dtype:
-        raise GraphError(f"adj_q: expected shape {[*lead, C]}, got {list(adj_q.shape)}")
     if B == 0:
         return adj_q
     module = fk_module(model, dtype)
