@@ -35,7 +35,7 @@ import warp as wp
 from morphkit.errors import GraphError
 from morphkit.graph.types import EndEffectorRole, JointType, ShapeType
 from morphkit.kernels._collision_kernels import self_collision_kernel, shape_ground_kernel
-from morphkit.kernels.fk import _launch
+from morphkit.kernels.fk import _launch, _transform_type, _vec3_type
 from morphkit.model.kinematic_model import KinematicModel
 
 __all__ = [
@@ -139,14 +139,6 @@ def _scalar_of(dtype: Any) -> Any:
     return wp.float64 if getattr(dtype, "_wp_scalar_type_", dtype) == wp.float64 else wp.float32
 
 
-def _vec3_of(scalar: Any) -> Any:
-    return wp.vec3d if scalar == wp.float64 else wp.vec3f
-
-
-def _transform_of(scalar: Any) -> Any:
-    return wp.transformd if scalar == wp.float64 else wp.transformf
-
-
 def _resolve_device(x: Any, device: Any) -> Any:
     if device is not None:
         return wp.get_device(device)
@@ -186,7 +178,7 @@ def _as_vec_array(x: Any, width: int, vec_of: Any, device: Any, what: str) -> wp
 
 
 def _as_points(points: Any, device: Any, what: str = "points") -> wp.array:
-    return _as_vec_array(points, 3, _vec3_of, device, what)
+    return _as_vec_array(points, 3, _vec3_type, device, what)
 
 
 _feet_cache: dict[tuple[str, tuple[int, ...]], wp.array] = {}
@@ -412,7 +404,7 @@ def eval_contact_flags(points: Any, fps: float, *, feet: Any = None, height_thre
 # link shapes: ground and self-collision
 # ---------------------------------------------------------------------------------------------
 def _link_transforms(model: KinematicModel, link_X: Any, device: Any) -> tuple[wp.array, tuple[int, ...], int]:
-    X = _as_vec_array(link_X, 7, _transform_of, device, "link_X")
+    X = _as_vec_array(link_X, 7, _transform_type, device, "link_X")
     L = model.link_count
     if X.ndim < 1 or X.shape[-1] != L:
         raise GraphError(f"link_X: expected shape [..., {L}] of transforms for {model.name!r}, got {list(X.shape)}")

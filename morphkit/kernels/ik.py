@@ -36,7 +36,7 @@ import warp as wp
 
 from morphkit.errors import GraphError
 from morphkit.graph.types import BaseType, JointType
-from morphkit.kernels.fk import _as_batch, eval_fk
+from morphkit.kernels.fk import _as_batch, _vec3_type, eval_fk
 from morphkit.model.kinematic_model import KinematicModel
 
 __all__ = ["IKResult", "eval_ee_jacobian", "ik_dof_mask", "ik_solve", "ik_step"]
@@ -441,7 +441,7 @@ def _plan(model: KinematicModel, ee_idx: np.ndarray, dof_mask: Any, device: Any,
     hit = cache.get(key)
     if hit is None:
         col = _columns(model, ee_idx, dof_mask)
-        vec3 = wp.vec3d if scalar == wp.float64 else wp.vec3f
+        vec3 = _vec3_type(scalar)
         np_float = np.float64 if scalar == wp.float64 else np.float32
         hit = _Plan(
             ee_link=wp.array(np.asarray(model.ee_link)[ee_idx], dtype=wp.int32, device=device),
@@ -454,7 +454,7 @@ def _plan(model: KinematicModel, ee_idx: np.ndarray, dof_mask: Any, device: Any,
 
 
 def _targets(targets: Any, lead: tuple[int, ...], E: int, scalar: Any, device: Any) -> wp.array:
-    vec3 = wp.vec3d if scalar == wp.float64 else wp.vec3f
+    vec3 = _vec3_type(scalar)
     if isinstance(targets, wp.array):
         t = targets if targets.is_contiguous else targets.contiguous()
         if t.dtype == scalar:
@@ -562,7 +562,7 @@ def ik_step(model: KinematicModel, q: Any, targets: Any, *, ee: Any = None, damp
     t = _targets(targets, lead, E, scalar, device)
     plan = _plan(model, ee_idx, dof_mask, device, scalar)
     B, C = q2.shape
-    vec3 = wp.vec3d if scalar == wp.float64 else wp.vec3f
+    vec3 = _vec3_type(scalar)
     if out is None:
         out = wp.empty((*lead, C), dtype=scalar, device=device)
     elif tuple(out.shape) != (*lead, C) or out.dtype != scalar or not out.is_contiguous:
