@@ -27,8 +27,8 @@ def main(argv: list[str] | None = None) -> int:
 
     from morphkit.io import read_morphology
     from morphkit.io.shipped import resolve_morphology
-    from morphkit.motion.synth import prepare, synthesize
-    from morphkit.motion.synth.report import format_report, quality_report
+    from morphkit.synth import prepare, synthesize
+    from morphkit.synth.report import format_report, quality_report
 
     with contextlib.redirect_stdout(sys.stderr):  # Warp's module-load messages
         m = read_morphology(resolve_morphology(args.creature))

@@ -40,8 +40,8 @@ def run(args: argparse.Namespace) -> int:
     from morphkit.errors import ConfigError
     from morphkit.io import read_morphology
     from morphkit.io.shipped import resolve_morphology
-    from morphkit.motion.synth import SynthConfig, synthesize
-    from morphkit.motion.synth.report import REPORT_KEYS, format_report, quality_report
+    from morphkit.synth import SynthConfig, synthesize
+    from morphkit.synth.report import REPORT_KEYS, format_report, quality_report
 
     if args.frames < 1:
         raise ConfigError(f"--frames must be >= 1, got {args.frames}")

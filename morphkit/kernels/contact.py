@@ -26,6 +26,7 @@ Every launcher accepts any leading batch shape, ``out=`` to reuse a buffer and `
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -490,6 +491,19 @@ class SelfCollisionPairs:
     def pair_count(self) -> int:
         """Number of candidate pairs P."""
         return len(self.shape_a)
+
+    def touching(self, links: Iterable[int]) -> SelfCollisionPairs:
+        """The pairs with a shape on at least one of ``links`` (link indices), in the same order.
+
+        ``skipped`` is copied unchanged: it counts what :func:`self_collision_pairs` filtered, not this selection.
+        """
+        idx = np.array(sorted(int(i) for i in links), dtype=np.int64)
+        keep = np.isin(self.link_a, idx) | np.isin(self.link_b, idx)
+        return SelfCollisionPairs(
+            shape_a=self.shape_a[keep], shape_b=self.shape_b[keep], link_a=self.link_a[keep],
+            link_b=self.link_b[keep], rest_distance=self.rest_distance[keep],
+            names=tuple(n for n, k in zip(self.names, keep, strict=True) if k), skipped=dict(self.skipped),
+        )
 
     def arrays(self, device: Any = None) -> tuple[wp.array, wp.array]:
         """``(shape_a, shape_b)`` as int32 Warp arrays on ``device`` (cached)."""

@@ -235,6 +235,21 @@ def test_pair_filter_skips_same_body_adjacent_rest_overlap_and_meshes():
                                                    "sensor[0] / r_thigh[0]"}
 
 
+def test_pairs_touching_links_keep_order_and_every_field():
+    """``touching`` keeps exactly the pairs with a shape on one of the links, in order, with their fields."""
+    model = compile_model(small_creature())
+    pairs = ck.self_collision_pairs(model)
+    tail = model.link_index("tail")
+    sub = pairs.touching({tail})
+    keep = (pairs.link_a == tail) | (pairs.link_b == tail)
+    assert 0 < sub.pair_count < pairs.pair_count
+    assert sub.names == tuple(n for n, k in zip(pairs.names, keep, strict=True) if k)
+    for f in ("shape_a", "shape_b", "link_a", "link_b", "rest_distance"):
+        np.testing.assert_array_equal(getattr(sub, f), getattr(pairs, f)[keep])
+    assert sub.skipped == pairs.skipped
+    assert pairs.touching([]).pair_count == 0
+
+
 def crossing_arms(r1: float = 0.05, r2: float = 0.04):
     """Two sibling links off a fixed root: arm A (capsule along x, yawing) and arm B (capsule along y) lifted by a
     prismatic joint of travel [0.3, 1] m, so the rest pose (the lower limit) keeps them apart."""

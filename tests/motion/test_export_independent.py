@@ -209,7 +209,7 @@ def _check_bvh_read(path: Path, motion: Motion) -> float:
 
 @pytest.fixture(scope="module")
 def spot_motion() -> Motion:
-    from morphkit.motion.synth import synthesize
+    from morphkit.synth import synthesize
 
     m = read_morphology(resolve_morphology("spot"))
     return synthesize(m, frames=60, seed=0, progress=False)[0]

@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 
 from morphkit.cli import main
-from morphkit.motion.synth.report import REPORT_KEYS
+from morphkit.synth.report import REPORT_KEYS
 
 
 def test_synth_writes_a_folder_and_reports_json(tmp_path, capsys):

@@ -17,8 +17,8 @@ from enum import Enum
 import numpy as np
 
 from morphkit.graph import BaseType, Morphology
-from morphkit.motion.synth._util import quat_from_yaw
-from morphkit.motion.synth.analysis import BodyPlan
+from morphkit.synth._util import quat_from_yaw
+from morphkit.synth.analysis import BodyPlan
 
 __all__ = ["Locomotion", "base_coordinates", "glide_height", "locomotion_of"]
 

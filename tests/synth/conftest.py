@@ -17,7 +17,7 @@ def synth_cache(tmp_path_factory: pytest.TempPathFactory) -> dict:
 @pytest.fixture(scope="session")
 def synthesized(synth_cache: dict):
     """A function ``name -> (morphology, SynthResult)`` over the shared cache."""
-    from morphkit.motion.synth import SynthConfig, synthesize
+    from morphkit.synth import SynthConfig, synthesize
 
     def get(name: str):
         if name not in synth_cache:

@@ -15,7 +15,7 @@ motions are collision-checked before they are ever generated.
 **Motion** (per rollout, drawn up front): the upper body moves from pose to pose of the walk
 along a smoothstep (move, then hold), arm tips on straight lines in the root frame; in some
 segments an arm waves (a sinusoid of random amplitude, frequency and direction added to its
-target, faded in and out). IK (:mod:`morphkit.motion.synth._ik`) solves the arm targets every
+target, faded in and out). IK (:mod:`morphkit.synth._ik`) solves the arm targets every
 frame, pulled toward the joint-space blend of the two poses so that redundant arms keep a natural
 posture and never drift; other joints follow that blend directly.
 """
@@ -31,10 +31,10 @@ from morphkit.conventions import quat_multiply, quat_rotate
 from morphkit.graph import JointType, Morphology
 from morphkit.kernels import eval_fk
 from morphkit.kernels.contact import eval_self_collision_distance, self_collision_pairs
-from morphkit.motion.synth._ik import LimbSolver
-from morphkit.motion.synth._util import nlerp, smoothstep
-from morphkit.motion.synth.analysis import BodyPlan
-from morphkit.motion.synth.legged import _subset_pairs, limb_links
+from morphkit.synth._ik import LimbSolver
+from morphkit.synth._util import nlerp, smoothstep
+from morphkit.synth.analysis import BodyPlan
+from morphkit.synth.legged import limb_links
 
 __all__ = ["ArmConfig", "PosePool", "UpperBodyTrack", "calibrate_arms", "draw_upper_body", "other_joints"]
 
@@ -193,10 +193,7 @@ def calibrate_arms(m: Morphology, plan: BodyPlan, solver: LimbSolver, q_stance: 
     for ji in all_joints:
         upper_links |= limb_links(m, (m.joints[ji].name,))
     uidx = np.array(sorted(model.link_index(n) for n in upper_links), dtype=np.int64)
-    pairs = self_collision_pairs(model, rest_margin=cfg.collision_rest_margin)
-    keep = np.array([(int(a) in uidx) or (int(b) in uidx) for a, b in zip(pairs.link_a, pairs.link_b, strict=True)],
-                    dtype=bool)
-    pairs = _subset_pairs(pairs, keep)
+    pairs = self_collision_pairs(model, rest_margin=cfg.collision_rest_margin).touching(uidx)
     ee = solver.arm_ee
     root = q_stance[:3].copy() if m.base_coordinate_count >= 3 else np.zeros(3)
     if m.base_coordinate_count == 3:  # planar / wheeled: (x, y, yaw)

@@ -13,7 +13,7 @@ with $\\phi$ the rollout's cycle phase. Gaits by leg count:
   antiphase, $\\beta$ = 0.5 — the tetrapod of eight legs); an odd count runs a fast wave instead.
 
 The speed that picks a gait is the *speed fraction* $s \\in [0, 1]$: how much of the creature's
-fastest stepping the current command needs (see :mod:`morphkit.motion.synth.legged`). A gait with
+fastest stepping the current command needs (see :mod:`morphkit.synth.legged`). A gait with
 duty $\\beta$ can deliver at most a fraction $s_\\beta$ of it at its highest step frequency (see
 :func:`gait_bands`), so each band ends at 0.85 $s_\\beta$ of its slowest gait. Within a
 band, alternatives (trot or pace; bound or gallop) are picked per command segment.
@@ -83,7 +83,7 @@ def gait_bands(feet_xy: np.ndarray, overhead: float = 0.0) -> tuple[GaitBand, ..
 
     ``overhead`` is the extra stance-like time a stride needs, in units of the shortest swing (the
     frames a swinging foot rises and lands vertically while the body moves on, see
-    :mod:`morphkit.motion.synth.legged`): a gait of duty $\beta$ then delivers
+    :mod:`morphkit.synth.legged`): a gait of duty $\beta$ then delivers
     $s_\beta = (\rho_{min} + o) / (\rho_\beta + o)$ with $\rho_\beta = \beta / (1 - \beta)$.
     """
     n = len(feet_xy)

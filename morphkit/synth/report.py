@@ -53,7 +53,7 @@ def _groups(motions: Sequence[Motion]) -> dict[int, list[int]]:
 
 def quality_report(result: Any, *, height_threshold: float = 0.02, collision_tolerance: float = 0.001,
                    rest_margin: float = 0.005, speed_floor: float | None = None) -> dict[str, Any]:
-    """Measure a :class:`~morphkit.motion.synth.SynthResult` (or any sequence of motions of one creature).
+    """Measure a :class:`~morphkit.synth.SynthResult` (or any sequence of motions of one creature).
 
     Args:
         result: The motions (with commands and timing when a ``SynthResult``).
@@ -139,7 +139,7 @@ def quality_report(result: Any, *, height_threshold: float = 0.02, collision_tol
     }
     if hasattr(result, "target") and m.base_coordinate_count:
         from morphkit.motion.motion import base_pose_from_q
-        from morphkit.motion.synth.commands import CMD_VX, CMD_VY, CMD_WZ
+        from morphkit.synth.locomotion_commands import CMD_VX, CMD_VY, CMD_WZ
 
         scale = getattr(getattr(result, "rig", None), "scale", 1.0)
         floor = 0.1 * scale if speed_floor is None else speed_floor

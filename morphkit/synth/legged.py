@@ -6,7 +6,7 @@
    (never raised) until no leg is stretched beyond ``stance_extension`` of its reach, so knees keep
    room to bend both ways. Legs that are straight at rest are pre-bent first (knee forward for
    upright legs), because a straight chain is singular and DLS cannot bend it.
-2. *Nominal posture*: DLS IK (:mod:`morphkit.motion.synth._ik`) puts the feet there.
+2. *Nominal posture*: DLS IK (:mod:`morphkit.synth._ik`) puts the feet there.
 3. *Step region*: each foot may move within an axis-aligned ellipse about its nominal point, of
    semi-axes $(a\\rho_l, b\\rho_l)$ fore-aft and sideways ($\\rho_l$ the leg's reach). $a$ then $b$
    are found by bisection: the largest values for which IK reaches every foot on the ellipse
@@ -16,7 +16,7 @@
 4. *Swing height*: ``swing_height`` of the reach, lowered until the raised foot is reachable.
 
 **Stepping** (:class:`LeggedController`, vectorised over rollouts and legs): the gait clock
-(:mod:`morphkit.motion.synth.gait`) says when a stance foot may lift; the cycle frequency is the
+(:mod:`morphkit.synth.gait`) says when a stance foot may lift; the cycle frequency is the
 creature's cadence $f_0 = c\\sqrt{g/h}/2\\pi$ or faster, so that each stance uses at most
 ``stroke_usage`` of the ellipse, and at most $(1-\\beta)/T_{sw,min}$. A foot that nears the edge of
 its ellipse lifts regardless. While it swings, its touchdown point is re-planned each frame
@@ -48,11 +48,11 @@ import numpy as np
 from morphkit.conventions import quat_multiply, quat_rotate
 from morphkit.graph import JointType, Morphology
 from morphkit.kernels import eval_fk
-from morphkit.kernels.contact import SelfCollisionPairs, eval_self_collision_distance, self_collision_pairs
-from morphkit.motion.synth._ik import LimbSolver
-from morphkit.motion.synth._util import quat_from_rpy_zyx, rotate2, smoothstep, wrap_angle
-from morphkit.motion.synth.analysis import BodyPlan
-from morphkit.motion.synth.gait import GaitBand, GaitClock, gait_bands
+from morphkit.kernels.contact import eval_self_collision_distance, self_collision_pairs
+from morphkit.synth._ik import LimbSolver
+from morphkit.synth._util import quat_from_rpy_zyx, rotate2, smoothstep, wrap_angle
+from morphkit.synth.analysis import BodyPlan
+from morphkit.synth.gait import GaitBand, GaitClock, gait_bands
 
 __all__ = ["LegConfig", "LegRig", "LeggedController", "calibrate_legs"]
 
@@ -197,10 +197,8 @@ class _Calibrator:
         for leg in plan.legs:
             links |= limb_links(m, leg.joints)
         idx = {self.model.link_index(n) for n in links}
-        pairs = self.all_pairs = self_collision_pairs(self.model, rest_margin=cfg.collision_rest_margin)
-        keep = np.array([(int(a) in idx) or (int(b) in idx) for a, b in zip(pairs.link_a, pairs.link_b, strict=True)],
-                        dtype=bool)
-        self.pairs = _subset_pairs(pairs, keep)
+        self.all_pairs = self_collision_pairs(self.model, rest_margin=cfg.collision_rest_margin)
+        self.pairs = self.all_pairs.touching(idx)
 
     def root_q(self, q: np.ndarray, z: np.ndarray, pitch: np.ndarray, roll: np.ndarray) -> np.ndarray:
         q = q.copy()
@@ -227,14 +225,6 @@ class _Calibrator:
         X = eval_fk(self.model, q, device="cpu")
         d = eval_self_collision_distance(self.model, self.pairs, X).numpy()
         return (d < -self.cfg.collision_tolerance).any(axis=1)
-
-
-def _subset_pairs(p: SelfCollisionPairs, keep: np.ndarray) -> SelfCollisionPairs:
-    return SelfCollisionPairs(
-        shape_a=p.shape_a[keep], shape_b=p.shape_b[keep], link_a=p.link_a[keep], link_b=p.link_b[keep],
-        rest_distance=p.rest_distance[keep], names=tuple(n for n, k in zip(p.names, keep, strict=True) if k),
-        skipped=dict(p.skipped),
-    )
 
 
 def _prebend(m: Morphology, solver: LimbSolver, q: np.ndarray, plan: BodyPlan) -> np.ndarray:

@@ -30,8 +30,8 @@ from morphkit.graph import EndEffector, EndEffectorRole, JointType, Morphology
 from morphkit.kernels import eval_fk, fk_module
 from morphkit.kernels.ik import dls_step_kernel, eval_ee_jacobian, ik_step
 from morphkit.model import KinematicModel, compile_model
-from morphkit.motion.synth._util import quat_from_yaw
-from morphkit.motion.synth.analysis import BodyPlan, Limb
+from morphkit.synth._util import quat_from_yaw
+from morphkit.synth.analysis import BodyPlan, Limb
 
 __all__ = ["Ankle", "LimbSolver"]
 

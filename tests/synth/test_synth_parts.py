@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from morphkit.errors import ConfigError
-from morphkit.motion.synth import SynthConfig, analyse, synthesize
-from morphkit.motion.synth.commands import CommandConfig, CommandLimits, draw_commands, integrate_root
-from morphkit.motion.synth.gait import GaitClock, gait_bands, leg_layout
+from morphkit.synth import SynthConfig, analyse, synthesize
+from morphkit.synth.gait import GaitClock, gait_bands, leg_layout
+from morphkit.synth.locomotion_commands import CommandConfig, CommandLimits, draw_commands, integrate_root
 
 # ---- gaits -----------------------------------------------------------------------------------
 QUAD = np.array([[0.3, 0.15], [0.3, -0.15], [-0.3, 0.15], [-0.3, -0.15]])  # LF RF LH RH
@@ -149,7 +149,7 @@ def test_yaml_creatures_body_plans(synth_creature):
 
 def test_ball_joint_projection_keeps_hinges_and_removes_hip_twist(synth_creature):
     from morphkit.conventions import quat_from_axis_angle, quat_multiply
-    from morphkit.motion.synth._ik import LimbSolver
+    from morphkit.synth._ik import LimbSolver
 
     m = synth_creature("human")
     solver = LimbSolver(m, analyse(m))
@@ -244,7 +244,7 @@ def test_bad_arguments_raise_config_errors(synth_creature):
 
 
 def test_report_keys_and_figures(synthesized):
-    from morphkit.motion.synth.report import REPORT_KEYS, format_report, quality_report
+    from morphkit.synth.report import REPORT_KEYS, format_report, quality_report
 
     _, res = synthesized("spot")
     r = quality_report(res)

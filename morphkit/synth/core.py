@@ -23,11 +23,12 @@ from morphkit.conventions import quat_rotate
 from morphkit.errors import ConfigError
 from morphkit.graph import JointType, Morphology
 from morphkit.motion.motion import Motion
-from morphkit.motion.synth._ik import LimbSolver
-from morphkit.motion.synth._util import nlerp, quat_delta_extrapolate, quat_from_rpy_zyx
-from morphkit.motion.synth.analysis import BodyPlan, analyse
-from morphkit.motion.synth.arms import ArmConfig, PosePool, calibrate_arms, draw_upper_body
-from morphkit.motion.synth.commands import (
+from morphkit.synth._ik import LimbSolver
+from morphkit.synth._util import nlerp, quat_delta_extrapolate, quat_from_rpy_zyx
+from morphkit.synth.analysis import BodyPlan, analyse
+from morphkit.synth.arms import ArmConfig, PosePool, calibrate_arms, draw_upper_body
+from morphkit.synth.legged import LegConfig, LeggedController, LegRig, calibrate_legs
+from morphkit.synth.locomotion_commands import (
     CMD_DH,
     CMD_PITCH,
     CMD_ROLL,
@@ -40,8 +41,7 @@ from morphkit.motion.synth.commands import (
     draw_commands,
     integrate_root,
 )
-from morphkit.motion.synth.legged import LegConfig, LeggedController, LegRig, calibrate_legs
-from morphkit.motion.synth.wheeled import Locomotion, base_coordinates, glide_height, lateral_allowed, locomotion_of
+from morphkit.synth.wheeled import Locomotion, base_coordinates, glide_height, lateral_allowed, locomotion_of
 
 __all__ = ["SynthConfig", "SynthResult", "SynthRig", "prepare", "synthesize"]
 
@@ -193,7 +193,7 @@ class SynthResult(Sequence[Motion]):
 
     motions: list[Motion]
     command: list[np.ndarray]
-    """Per motion: the smoothed command [T, 6] (channels :data:`~morphkit.motion.synth.commands.COMMAND_NAMES`)."""
+    """Per motion: the smoothed command [T, 6] (channels :data:`~morphkit.synth.locomotion_commands.COMMAND_NAMES`)."""
     target: list[np.ndarray]
     """Per motion: the command's current target [T, 6]."""
     settled: list[np.ndarray]
@@ -404,7 +404,7 @@ def synthesize(morphology: Morphology, *, frames: int, fps: float = 30.0, seed: 
 
     Legged creatures walk, trot, gallop (or their leg count's gaits) after random smoothed
     commands with their feet planted; arms reach and wave; wheeled bases drive; other joints
-    (heads, tails) look around. See :mod:`morphkit.motion.synth` for the method.
+    (heads, tails) look around. See :mod:`morphkit.synth` for the method.
 
     Args:
         morphology: The creature.

@@ -8,11 +8,11 @@ random generator, so a rollout is the same whatever batch it runs in.
 
 Default ranges follow the ACE paper (§7.1): linear −1.5 … 5 m/s and angular −1 … 1 rad/s. Linear
 speeds and accelerations scale with the creature's size, ``scale = leg_reach / 0.769`` (0.769 m is
-Spot's leg reach from :func:`~morphkit.motion.synth.analysis.analyse`, the creature the paper's
+Spot's leg reach from :func:`~morphkit.synth.analysis.analyse`, the creature the paper's
 ranges were tuned on); creatures without legs keep the paper's ranges (``scale = 1``), as the
 paper does for Stretch. Legged creatures cannot always step that fast (at 30 fps Spot's legs
 manage about 2.6 m/s): the forward and lateral ranges are shrunk to the creature's top speeds
-(``fit_range_to_creature``), and a feasibility clamp (:mod:`morphkit.motion.synth.legged`) scales
+(``fit_range_to_creature``), and a feasibility clamp (:mod:`morphkit.synth.legged`) scales
 down any drawn target that still exceeds them, e.g. fast running combined with turning.
 """
 
@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from morphkit.motion.synth._util import smoothstep
+from morphkit.synth._util import smoothstep
 
 __all__ = [
     "CMD_DH",

@@ -3,7 +3,7 @@
 ACE learns each character's motion prior from ~200k frames of that character's own motion, made
 by rolling out a kinematic controller under random commands (ACE paper §7.1). This package does
 that for any morphology: it finds legs, arms, head and wheels (:mod:`.analysis`), calibrates a
-stance and step region (:mod:`.legged`), draws random smoothed commands (:mod:`.commands`), picks
+stance and step region (:mod:`.legged`), draws random smoothed commands (:mod:`.locomotion_commands`), picks
 gaits by leg count and speed (:mod:`.gait`), plans footsteps and swing arcs with stance feet fixed
 on the ground, moves arms and other joints (:mod:`.arms`) or drives wheeled bases
 (:mod:`.wheeled`), and solves every limb with the morphkit DLS IK kernel, many rollouts at once
@@ -12,24 +12,24 @@ on the ground, moves arms and other joints (:mod:`.arms`) or drives wheeled base
 Example::
 
     from morphkit.io import read_morphology
-    from morphkit.motion.synth import synthesize
+    from morphkit.synth import synthesize
 
     result = synthesize(read_morphology("crab.yaml"), frames=20_000, seed=0)
     result.save("crab_motions/")  # one NPZ per rollout, readable by morphkit.motion.read_motion
 """
 
-from morphkit.motion.synth.analysis import BodyPlan as BodyPlan
-from morphkit.motion.synth.analysis import Limb as Limb
-from morphkit.motion.synth.analysis import analyse as analyse
-from morphkit.motion.synth.arms import ArmConfig as ArmConfig
-from morphkit.motion.synth.commands import COMMAND_NAMES as COMMAND_NAMES
-from morphkit.motion.synth.commands import CommandConfig as CommandConfig
-from morphkit.motion.synth.core import SynthConfig as SynthConfig
-from morphkit.motion.synth.core import SynthResult as SynthResult
-from morphkit.motion.synth.core import SynthRig as SynthRig
-from morphkit.motion.synth.core import prepare as prepare
-from morphkit.motion.synth.core import synthesize as synthesize
-from morphkit.motion.synth.legged import LegConfig as LegConfig
+from morphkit.synth.analysis import BodyPlan as BodyPlan
+from morphkit.synth.analysis import Limb as Limb
+from morphkit.synth.analysis import analyse as analyse
+from morphkit.synth.arms import ArmConfig as ArmConfig
+from morphkit.synth.core import SynthConfig as SynthConfig
+from morphkit.synth.core import SynthResult as SynthResult
+from morphkit.synth.core import SynthRig as SynthRig
+from morphkit.synth.core import prepare as prepare
+from morphkit.synth.core import synthesize as synthesize
+from morphkit.synth.legged import LegConfig as LegConfig
+from morphkit.synth.locomotion_commands import COMMAND_NAMES as COMMAND_NAMES
+from morphkit.synth.locomotion_commands import CommandConfig as CommandConfig
 
 __all__ = [
     "COMMAND_NAMES",
