@@ -87,6 +87,7 @@ from morphkit.graph import (
     Transform,
 )
 from morphkit.io._source import read_text
+from morphkit.rotations import quat_between_vectors
 
 __all__ = [
     "BVH_CHANNEL_NAMES",
@@ -882,6 +883,7 @@ _WEAK = (
 """Fallback keywords, used only when no joint on the path to the root has a strong keyword."""
 
 _MIN_RADIUS = 0.01
+_Z = np.array([0.0, 0.0, 1.0])
 _RADIUS_FRACTION = 0.08
 _FRONT_PAW_FRACTION = 0.35
 """A leg-long "hand" whose median height above the feet is below this fraction of the hips' is a paw."""
@@ -912,18 +914,6 @@ def _keyword_role(name: str, table: tuple[tuple[EndEffectorRole, tuple[str, ...]
     return None
 
 
-def _quat_z_to(direction: np.ndarray) -> tuple[float, float, float, float]:
-    """xyzw quaternion rotating +z onto unit ``direction``."""
-    z = np.array([0.0, 0.0, 1.0])
-    c = float(np.dot(z, direction))
-    if c < -1.0 + 1e-12:
-        return (1.0, 0.0, 0.0, 0.0)
-    axis = np.cross(z, direction)
-    q = np.array([*axis, 1.0 + c])
-    q = q / np.linalg.norm(q)
-    return tuple(float(v) for v in q)  # type: ignore[return-value]
-
-
 def _bone_shapes(segments: list[np.ndarray], incoming: float | None) -> tuple[Shape, ...]:
     """Capsules along ``segments`` (vectors from the link origin, metres), or one sphere."""
     shapes: list[Shape] = []
@@ -931,7 +921,8 @@ def _bone_shapes(segments: list[np.ndarray], incoming: float | None) -> tuple[Sh
         length = float(np.linalg.norm(seg))
         if length < 1e-6:
             continue
-        origin = Transform(tuple(float(v) for v in 0.5 * seg), _quat_z_to(seg / length))  # type: ignore[arg-type]
+        quat = tuple(float(v) for v in quat_between_vectors(_Z, seg / length))
+        origin = Transform(tuple(float(v) for v in 0.5 * seg), quat)  # type: ignore[arg-type]
         radius = max(_RADIUS_FRACTION * length, _MIN_RADIUS)
         shapes.append(Shape(ShapeType.CAPSULE, origin=origin, radius=radius, length=length))
     if not shapes:

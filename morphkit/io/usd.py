@@ -96,6 +96,7 @@ from morphkit.graph import (
 )
 from morphkit.graph.types import parse_enum
 from morphkit.io._source import relative_mesh_path, resolve_mesh_path
+from morphkit.rotations import quat_between_vectors
 
 __all__ = ["USD_SUFFIXES", "load_usd_mesh", "read_usd", "write_usd"]
 
@@ -121,20 +122,6 @@ def _quat_xyzw(q: Any) -> np.ndarray:
     """xyzw array from a Gf quaternion (``(real, imaginary)``)."""
     im = q.GetImaginary()
     return np.array([im[0], im[1], im[2], q.GetReal()], dtype=float)
-
-
-def _quat_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Smallest rotation (xyzw) taking unit vector ``a`` onto unit vector ``b``."""
-    c = float(np.dot(a, b))
-    if c < -1.0 + 1e-12:
-        # Half turn about any axis perpendicular to a.
-        perp = np.cross(a, [1.0, 0.0, 0.0])
-        if np.linalg.norm(perp) < 1e-6:
-            perp = np.cross(a, [0.0, 1.0, 0.0])
-        perp = perp / np.linalg.norm(perp)
-        return np.array([*perp, 0.0])
-    q = np.array([*np.cross(a, b), 1.0 + c])
-    return q / np.linalg.norm(q)
 
 
 def _pose(xyz: Iterable[float], quat: Iterable[float]) -> np.ndarray:
@@ -249,7 +236,7 @@ def _axis_frame(axis: tuple[float, float, float]) -> tuple[str, np.ndarray]:
     for token, e in _AXIS_TOKENS.items():
         if np.allclose(a, e, rtol=0.0, atol=1e-12):
             return token, _IDENTITY7[3:].copy()
-    return "X", _quat_between(_AXIS_TOKENS["X"], a / np.linalg.norm(a))
+    return "X", quat_between_vectors(_AXIS_TOKENS["X"], a / np.linalg.norm(a))
 
 
 def _build_stage(m: Morphology, target: str | None = None) -> Any:

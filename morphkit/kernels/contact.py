@@ -10,10 +10,9 @@ and a horizontal ground plane ``z = ground_height``:
   $h < h_\\text{thr}$, else 0 (differentiable w.r.t. the positions; the gate is not).
 
 Velocities of a motion ``[..., T, E]`` are finite differences along time times ``fps``, as
-:func:`~morphkit.kernels.end_effectors.eval_finite_difference`: the central difference
-$v_t = (p_{t+1} - p_{t-1})\\,\\text{fps} / 2$ inside, one-sided at both ends (a single frame has
-zero velocity). The sliding gate uses the height only, so a foot
-that skates fast on the ground still counts (a speed threshold would hide exactly that).
+:func:`~morphkit.kernels.end_effectors.eval_finite_difference`: the backward difference
+$v_t = (p_t - p_{t-1})\\,\\text{fps}$, frame 0 copying frame 1 (a single frame has zero
+velocity). The sliding gate uses the height only, so a foot that skates fast on the ground still counts (a speed threshold would hide exactly that).
 
 Self-collision measures the link shapes (:mod:`morphkit.kernels.geometry`) pairwise over a list
 of candidate pairs built once on the host by :func:`self_collision_pairs`, given the link
@@ -80,13 +79,13 @@ def foot_height_kernel(
 
 @wp.func
 def _frame_velocity(points: Any, n: int, t: int, e: int, fps: Any):
-    # Central difference, one-sided at both ends (as eval_finite_difference), zero for a single frame.
+    # Backward difference, frame 0 copying frame 1 (as eval_finite_difference), zero for a single frame.
     T = points.shape[1]
     t0 = wp.max(t - 1, 0)
-    t1 = wp.min(t + 1, T - 1)
+    t1 = wp.min(t0 + 1, T - 1)
     v = points[n, t, e] * (fps * type(fps)(0.0))
     if t1 > t0:
-        v = (points[n, t1, e] - points[n, t0, e]) * (fps / type(fps)(float(t1 - t0)))
+        v = (points[n, t1, e] - points[n, t0, e]) * fps
     return v
 
 
@@ -321,7 +320,7 @@ def eval_sliding_speed(points: Any, fps: float, *, feet: Any = None, height_thre
     """Horizontal foot speed while in contact, per frame.
 
     $s_t = \\lVert (v_{t,x}, v_{t,y}) \\rVert$ where $p_{t,z} - z_g <$ ``height_threshold``, else 0,
-    with $v_t$ the central difference times ``fps`` (one-sided at the ends). A foot moving
+    with $v_t$ the backward difference times ``fps`` (frame 0 copies frame 1). A foot moving
     1 cm per frame on the ground at 30 fps slides at 0.3 m/s.
 
     Args:

@@ -1,8 +1,9 @@
 """End-effector kernels: poses in the world or the root's heading frame, and velocities of motions.
 
-The heading frame ``T_world_heading`` has its origin on the ground (z = 0) under the root, its x
-axis along the root's facing direction (the root's x axis projected on the ground) and z up;
-it is the local frame of the ACE states. End-effector positions are their points (``ee_offset``
+The heading frame ``T_world_heading`` is :mod:`morphkit.conventions`' one heading frame: origin at
+the root, x along the root's facing direction (its x axis projected on the ground), z up; it is
+the local frame of the ACE states. Velocities are backward differences (the conventions' one
+velocity rule). End-effector positions are their points (``ee_offset``
 in the link frame); orientations are their links'.
 """
 
@@ -72,7 +73,7 @@ def heading_transforms(Ts: wp.array2d[Any], offset: int, out: wp.array[Any]):
 
 @wp.kernel
 def finite_difference(x: wp.array3d[Any], inv_dt: Any, offset: int, v: wp.array3d[Any]):
-    """``v[b, t, n]``: central difference along t (one-sided at both ends), times ``inv_dt``."""
+    """``v[b, t, n]``: backward difference ``x[t] - x[t-1]`` times ``inv_dt``; frame 0 copies frame 1."""
     i, t, n = wp.tid()
     b = i + offset
     T = x.shape[1]
@@ -80,10 +81,8 @@ def finite_difference(x: wp.array3d[Any], inv_dt: Any, offset: int, v: wp.array3
         v[b, t, n] = x[b, t, n] - x[b, t, n]
     elif t == 0:
         v[b, t, n] = (x[b, 1, n] - x[b, 0, n]) * inv_dt
-    elif t == T - 1:
-        v[b, t, n] = (x[b, t, n] - x[b, t - 1, n]) * inv_dt
     else:
-        v[b, t, n] = (x[b, t + 1, n] - x[b, t - 1, n]) * (inv_dt * type(inv_dt)(0.5))
+        v[b, t, n] = (x[b, t, n] - x[b, t - 1, n]) * inv_dt
 
 
 @wp.kernel
@@ -240,8 +239,8 @@ def eval_finite_difference(x: wp.array, *, dt: float, out: wp.array | None = Non
         out: Optional output of the same shape.
 
     Returns:
-        ``v``, shape [..., T, N]: $(x_{t+1} - x_{t-1}) / 2\\Delta t$ inside, one-sided differences at
-        the first and last frame, zeros when T = 1.
+        ``v``, shape [..., T, N]: $(x_t - x_{t-1}) / \\Delta t$, frame 0 copying frame 1, zeros when
+        T = 1 (the conventions' backward difference).
     """
     if x.ndim < 2:
         raise GraphError(f"x: expected shape [..., T, N], got {list(x.shape)}")

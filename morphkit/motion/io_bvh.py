@@ -61,14 +61,14 @@ from morphkit.io.bvh import (
     skeleton_from_bvh,
     write_bvh,
 )
-from morphkit.motion._rotations import (
+from morphkit.motion.motion import Motion, base_pose_from_q
+from morphkit.rotations import (
     euler_from_quat,
     quat_canonical,
     quat_from_euler,
     quat_normalize,
     yaw_from_quat,
 )
-from morphkit.motion.motion import Motion, base_pose_from_q
 
 __all__ = ["bvh_to_motion", "ground_motion", "motion_to_bvh", "read_bvh_motion", "write_bvh_motion"]
 

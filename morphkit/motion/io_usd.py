@@ -39,8 +39,8 @@ from morphkit._atomic import atomic_path
 from morphkit.conventions import quat_conjugate, quat_multiply, quat_rotate
 from morphkit.errors import MotionFormatError, SourceLocation
 from morphkit.graph import BaseType, JointType, Morphology
-from morphkit.motion._rotations import quat_canonical, quat_normalize, yaw_from_quat
 from morphkit.motion.motion import Motion
+from morphkit.rotations import quat_canonical, quat_normalize, yaw_from_quat
 
 __all__ = ["q_from_link_poses", "read_usd_motion", "usd_has_motion", "write_usd_motion"]
 

@@ -16,7 +16,7 @@ import numpy as np
 
 from morphkit.errors import MotionFormatError
 from morphkit.graph import BaseType, JointType, Morphology
-from morphkit.motion._rotations import quat_from_yaw, quat_normalize, quat_slerp
+from morphkit.rotations import quat_from_yaw, quat_normalize, quat_slerp
 
 __all__ = ["Motion", "base_pose_from_q", "quaternion_slices"]
 

@@ -64,7 +64,7 @@ from morphkit._atomic import atomic_path
 from morphkit.conventions import quat_conjugate, quat_multiply, quat_rotate
 from morphkit.errors import MotionFormatError, SourceLocation
 from morphkit.graph import JointType, Morphology
-from morphkit.motion._rotations import axis_angle_from_quat, quat_canonical, quat_from_yaw, yaw_from_quat
+from morphkit.rotations import axis_angle_from_quat, quat_canonical, quat_from_yaw, yaw_from_quat
 
 if TYPE_CHECKING:
     from morphkit.motion.motion import Motion

@@ -25,12 +25,18 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
-from morphkit.conventions import matrix_from_quat, quat_conjugate, quat_from_matrix, quat_multiply, quat_rotate
 from morphkit.graph import EndEffector, EndEffectorRole, JointType, Morphology
 from morphkit.kernels import eval_fk, fk_module
 from morphkit.kernels.ik import dls_step_kernel, eval_ee_jacobian, ik_step
 from morphkit.model import KinematicModel, compile_model
-from morphkit.synth._util import quat_from_yaw
+from morphkit.rotations import (
+    matrix_from_quat,
+    quat_conjugate,
+    quat_from_matrix,
+    quat_from_yaw,
+    quat_multiply,
+    quat_rotate,
+)
 from morphkit.synth.analysis import BodyPlan, Limb
 
 __all__ = ["Ankle", "LimbSolver"]

@@ -1,19 +1,18 @@
-"""Small vectorised helpers shared by the synthesis modules (NumPy only)."""
+"""Small vectorised helpers shared by the synthesis modules (NumPy only; rotations are in
+:mod:`morphkit.rotations`)."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from morphkit.conventions import quat_conjugate, quat_multiply
+from morphkit.rotations import quat_conjugate, quat_multiply
 
 __all__ = [
     "nlerp",
-    "quat_from_rpy_zyx",
-    "quat_from_yaw",
+    "quat_delta_extrapolate",
     "rotate2",
     "smoothstep",
     "smoothstep_derivative",
-    "wrap_angle",
 ]
 
 
@@ -30,40 +29,10 @@ def smoothstep_derivative(x: np.ndarray | float) -> np.ndarray:
     return np.where(inside, 6.0 * x * (1.0 - x), 0.0)
 
 
-def wrap_angle(a: np.ndarray | float) -> np.ndarray:
-    """Angles [rad] wrapped into [-pi, pi)."""
-    return (np.asarray(a) + np.pi) % (2.0 * np.pi) - np.pi
-
-
 def rotate2(c: np.ndarray, s: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Rotate 2-vectors ``v`` [..., 2] by the angle whose cosine and sine are ``c``, ``s`` [...]."""
     x, y = v[..., 0], v[..., 1]
     return np.stack([c * x - s * y, s * x + c * y], axis=-1)
-
-
-def quat_from_yaw(yaw: np.ndarray) -> np.ndarray:
-    """xyzw quaternions of rotations about +z by ``yaw`` [...] [rad], shape [..., 4]."""
-    yaw = np.asarray(yaw, dtype=float)
-    out = np.zeros((*yaw.shape, 4))
-    out[..., 2] = np.sin(0.5 * yaw)
-    out[..., 3] = np.cos(0.5 * yaw)
-    return out
-
-
-def quat_from_rpy_zyx(roll: np.ndarray, pitch: np.ndarray, yaw: np.ndarray) -> np.ndarray:
-    """xyzw quaternions of ``Rz(yaw) Ry(pitch) Rx(roll)`` (the conventions' rpy), shape [..., 4]."""
-    cr, sr = np.cos(0.5 * roll), np.sin(0.5 * roll)
-    cp, sp = np.cos(0.5 * pitch), np.sin(0.5 * pitch)
-    cy, sy = np.cos(0.5 * yaw), np.sin(0.5 * yaw)
-    return np.stack(
-        [
-            sr * cp * cy - cr * sp * sy,
-            cr * sp * cy + sr * cp * sy,
-            cr * cp * sy - sr * sp * cy,
-            cr * cp * cy + sr * sp * sy,
-        ],
-        axis=-1,
-    )
 
 
 def nlerp(q0: np.ndarray, q1: np.ndarray, w: np.ndarray) -> np.ndarray:

@@ -19,12 +19,12 @@ from typing import Any
 
 import numpy as np
 
-from morphkit.conventions import quat_rotate
 from morphkit.errors import ConfigError
 from morphkit.graph import JointType, Morphology
 from morphkit.motion.motion import Motion
+from morphkit.rotations import quat_from_rpy, quat_from_yaw, quat_rotate
 from morphkit.synth._ik import LimbSolver
-from morphkit.synth._util import nlerp, quat_delta_extrapolate, quat_from_rpy_zyx
+from morphkit.synth._util import nlerp, quat_delta_extrapolate
 from morphkit.synth.analysis import BodyPlan, analyse
 from morphkit.synth.arms import ArmConfig, PosePool, calibrate_arms, draw_upper_body
 from morphkit.synth.legged import LegConfig, LeggedController, LegRig, calibrate_legs
@@ -345,13 +345,13 @@ def _run_batch(rig: SynthRig, seeds: Sequence[np.random.SeedSequence], lengths: 
             assert legs is not None and rig.legs is not None
             legs.step(t, path_xy, path_yaw, c[:, [CMD_VX, CMD_VY]], c[:, CMD_WZ], cmds.choice[:, t])
             z = rig.legs.stance_height + c[:, CMD_DH]
-            rot = quat_from_rpy_zyx(c[:, CMD_ROLL], c[:, CMD_PITCH], yaw)
+            rot = quat_from_rpy(np.stack([c[:, CMD_ROLL], c[:, CMD_PITCH], yaw], axis=-1))
             q[:, :nb] = base_coordinates(m, xy, yaw, z, rot)
             contact[:, t] = legs.stance
             gait[:, t] = legs.clock.gait_code
         else:
             z = np.full(R, glide_z)
-            rot = quat_from_rpy_zyx(np.zeros(R), np.zeros(R), yaw)
+            rot = quat_from_yaw(yaw)
             q[:, :nb] = base_coordinates(m, xy, yaw, z, rot)
         targets = []
         if NL:

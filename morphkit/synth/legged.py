@@ -45,12 +45,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from morphkit.conventions import quat_multiply, quat_rotate
 from morphkit.graph import JointType, Morphology
 from morphkit.kernels import eval_fk
 from morphkit.kernels.contact import eval_self_collision_distance, self_collision_pairs
+from morphkit.rotations import quat_from_rpy, quat_multiply, quat_rotate, wrap_angle
 from morphkit.synth._ik import LimbSolver
-from morphkit.synth._util import quat_from_rpy_zyx, rotate2, smoothstep, wrap_angle
+from morphkit.synth._util import rotate2, smoothstep
 from morphkit.synth.analysis import BodyPlan
 from morphkit.synth.gait import GaitBand, GaitClock, gait_bands
 
@@ -204,7 +204,7 @@ class _Calibrator:
         q = q.copy()
         q[:, 0:2] = 0.0
         q[:, 2] = z
-        q[:, 3:7] = quat_from_rpy_zyx(roll, pitch, np.zeros_like(z))
+        q[:, 3:7] = quat_from_rpy(np.stack([roll, pitch, np.zeros_like(z)], axis=-1))
         return q
 
     def solve(self, q: np.ndarray, feet: np.ndarray, iterations: int) -> tuple[np.ndarray, np.ndarray]:

@@ -5,7 +5,7 @@ Figures (the ``morphkit synth --report --json`` keys first):
 - ``frames``, ``frames_per_s``: how much was generated and how fast (calibration included).
 - ``foot_sliding_cm_s``: mean horizontal speed of feet in contact (lower than ``height_threshold``
   above the ground; the feet of the legs that carry the body, or every ``foot`` end-effector of plain
-  motions), by :func:`~morphkit.kernels.contact.eval_sliding_speed` (central differences).
+  motions), by :func:`~morphkit.kernels.contact.eval_sliding_speed` (backward differences).
 - ``penetration_mm``: deepest foot penetration below the ground
   (:func:`~morphkit.kernels.contact.eval_penetration_depth`).
 - ``self_collision_frac``: fraction of frames where any candidate shape pair overlaps by more than

@@ -17,7 +17,7 @@ from enum import Enum
 import numpy as np
 
 from morphkit.graph import BaseType, Morphology
-from morphkit.synth._util import quat_from_yaw
+from morphkit.rotations import quat_from_yaw
 from morphkit.synth.analysis import BodyPlan
 
 __all__ = ["Locomotion", "base_coordinates", "glide_height", "locomotion_of"]

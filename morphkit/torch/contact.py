@@ -144,7 +144,7 @@ def penetration_depth(p: torch.Tensor, *, feet: Any = None, ground_height: float
 class SlidingSpeedFunction(torch.autograd.Function):
     """Horizontal foot speed where below the height threshold, [B, T, F], from points [B, T, E, 3].
 
-    Backward: the adjoint of $\\lVert (v_x, v_y) \\rVert$ with $v$ the central difference × fps;
+    Backward: the adjoint of $\\lVert (v_x, v_y) \\rVert$ with $v$ the backward difference × fps;
     the contact gate passes no gradient.
     """
 
@@ -182,7 +182,7 @@ def sliding_speed(P: torch.Tensor, fps: float, *, feet: Any = None, height_thres
     """Horizontal foot speed while in contact [m/s], shape [..., T, F]; differentiable w.r.t. ``P``.
 
     $s_t = \\lVert (v_{t,x}, v_{t,y}) \\rVert$ where $P_{t,z} - z_g <$ ``height_threshold``, else 0;
-    $v_t$ is the central difference along T times ``fps`` (one-sided at the ends). A foot moving
+    $v_t$ is the backward difference along T times ``fps`` (frame 0 copies frame 1). A foot moving
     1 cm per frame on the ground at 30 fps slides at 0.3 m/s.
 
     Args:

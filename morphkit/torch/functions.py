@@ -30,6 +30,7 @@ from morphkit.errors import GraphError
 from morphkit.kernels import end_effectors as _ee
 from morphkit.kernels import fk as _fk
 from morphkit.model.kinematic_model import KinematicModel
+from morphkit.rotations import heading_frame, quat_rotate_inverse
 
 __all__ = [
     "EndEffectorFunction",
@@ -386,8 +387,8 @@ def end_effectors(
 ) -> tuple[torch.Tensor, torch.Tensor]:
     """End-effector points [..., E, 3] [m] and orientations [..., E, 4] (xyzw, their links').
 
-    ``frame="heading"`` expresses both in the root's heading frame: origin on the ground under
-    the root, x along its facing direction, z up.
+    ``frame="heading"`` expresses both in the root's heading frame (:mod:`morphkit.conventions`:
+    origin at the root, x along its facing direction, z up).
     """
     heading = _ee.frame_code(frame)
     q2, w = _prepare(model, q, wheel_q, time_series)
@@ -413,8 +414,9 @@ def end_effector_velocities(
 ) -> torch.Tensor:
     """End-effector velocities of motions ``q`` [..., T, C], shape [..., T, E, 3] [m/s].
 
-    Central differences of the world positions along T (one-sided at the ends); with
-    ``frame="heading"`` each frame's world velocity is expressed in that frame's heading frame.
+    Backward differences of the world positions along T (frame 0 copies frame 1, as the
+    conventions say); with ``frame="heading"`` each frame's world velocity is expressed in that
+    frame's heading frame.
     Differentiable (the differences are plain torch ops over :func:`end_effectors`).
     """
     _ee.frame_code(frame)
@@ -427,17 +429,12 @@ def end_effector_velocities(
     if T < 2:
         v = torch.zeros_like(p)
     else:
-        inner = (p[..., 2:, :, :] - p[..., :-2, :, :]) / (2.0 * dt)
-        v = torch.cat(
-            ((p[..., 1:2, :, :] - p[..., :1, :, :]) / dt, inner, (p[..., -1:, :, :] - p[..., -2:-1, :, :]) / dt), dim=-3
-        )
+        d = (p[..., 1:, :, :] - p[..., :-1, :, :]) / dt
+        v = torch.cat((d[..., :1, :, :], d), dim=-3)
     if frame == "heading":
-        from morphkit.torch.reference import heading_transforms_reference, quat_rotate
-
         root = fk(model, q, wheel_q=wheel_q, time_series=True)[..., 0, :]  # [..., T, 7]
-        H = heading_transforms_reference(root)  # [..., T, 7]
-        q_inv = torch.cat((-H[..., 3:6], H[..., 6:]), dim=-1)[..., None, :]  # [..., T, 1, 4]
-        v = quat_rotate(q_inv, v)
+        H = heading_frame(root)  # [..., T, 7]
+        v = quat_rotate_inverse(H[..., None, 3:], v)
     return v
 
 

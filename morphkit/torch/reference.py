@@ -25,71 +25,21 @@ import torch
 from morphkit.errors import GraphError
 from morphkit.graph.types import BaseType, JointType
 from morphkit.model.kinematic_model import KinematicModel
+from morphkit.rotations import (
+    heading_frame,
+    quat_from_axis_angle,
+    quat_from_yaw,
+    quat_multiply,
+    quat_normalize,
+    transform_inverse,
+    transform_multiply,
+)
 
 __all__ = [
     "end_effectors_reference",
     "fk_reference",
-    "heading_transforms_reference",
-    "quat_from_axis_angle",
-    "quat_multiply",
-    "quat_rotate",
-    "transform_inverse",
-    "transform_multiply",
     "wheel_angles_reference",
 ]
-
-
-# ---- quaternion and transform helpers (xyzw, broadcasting over leading dims) -----------------
-def quat_multiply(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
-    """Hamilton product ``a * b`` of xyzw quaternions [..., 4]."""
-    ax, ay, az, aw = a.unbind(-1)
-    bx, by, bz, bw = b.unbind(-1)
-    return torch.stack(
-        (
-            aw * bx + ax * bw + ay * bz - az * by,
-            aw * by - ax * bz + ay * bw + az * bx,
-            aw * bz + ax * by - ay * bx + az * bw,
-            aw * bw - ax * bx - ay * by - az * bz,
-        ),
-        dim=-1,
-    )
-
-
-def quat_rotate(q: torch.Tensor, v: torch.Tensor) -> torch.Tensor:
-    """Rotate vectors ``v`` [..., 3] by unit xyzw quaternions ``q`` [..., 4]."""
-    shape = torch.broadcast_shapes(q.shape[:-1], v.shape[:-1])
-    u = q[..., :3].expand(*shape, 3)
-    w = q[..., 3:]
-    v = v.expand(*shape, 3)
-    t = 2.0 * torch.linalg.cross(u, v)
-    return v + w * t + torch.linalg.cross(u, t)
-
-
-def quat_from_axis_angle(axis: torch.Tensor, angle: torch.Tensor) -> torch.Tensor:
-    """xyzw quaternion of a rotation by ``angle`` [...] [rad] about unit ``axis`` [..., 3]."""
-    half = 0.5 * angle[..., None]
-    return torch.cat((axis * torch.sin(half), torch.cos(half)), dim=-1)
-
-
-def transform_multiply(T_a_b: torch.Tensor, T_b_c: torch.Tensor) -> torch.Tensor:
-    """Compose poses [..., 7]: returns ``T_a_c``."""
-    p = T_a_b[..., :3] + quat_rotate(T_a_b[..., 3:], T_b_c[..., :3])
-    return torch.cat((p, quat_multiply(T_a_b[..., 3:], T_b_c[..., 3:])), dim=-1)
-
-
-def transform_inverse(T_a_b: torch.Tensor) -> torch.Tensor:
-    """``T_b_a`` from ``T_a_b`` [..., 7] (unit quaternions)."""
-    q_inv = torch.cat((-T_a_b[..., 3:6], T_a_b[..., 6:]), dim=-1)
-    return torch.cat((-quat_rotate(q_inv, T_a_b[..., :3]), q_inv), dim=-1)
-
-
-def _quat_about_z(yaw: torch.Tensor) -> torch.Tensor:
-    z = torch.zeros_like(yaw)
-    return torch.stack((z, z, torch.sin(0.5 * yaw), torch.cos(0.5 * yaw)), dim=-1)
-
-
-def _normalize(q: torch.Tensor) -> torch.Tensor:
-    return q / torch.linalg.vector_norm(q, dim=-1, keepdim=True)
 
 
 def _constants(model: KinematicModel, dtype: torch.dtype, device: torch.device) -> tuple[torch.Tensor, torch.Tensor]:
@@ -146,9 +96,9 @@ def fk_reference(
 
     base = BaseType(model.base_type)
     if base == BaseType.FLOATING:
-        T0 = torch.cat((q[..., 0:3], _normalize(q[..., 3:7])), dim=-1)
+        T0 = torch.cat((q[..., 0:3], quat_normalize(q[..., 3:7])), dim=-1)
     elif base in (BaseType.PLANAR, BaseType.WHEELED):
-        T0 = torch.cat((q[..., 0:2], torch.zeros_like(q[..., :1]), _quat_about_z(q[..., 2])), dim=-1)
+        T0 = torch.cat((q[..., 0:2], torch.zeros_like(q[..., :1]), quat_from_yaw(q[..., 2])), dim=-1)
     else:
         T0 = torch.zeros((*lead, 7), dtype=dt, device=dev)
         T0 = T0 + torch.tensor([0, 0, 0, 0, 0, 0, 1.0], dtype=dt, device=dev)
@@ -186,26 +136,12 @@ def fk_reference(
             T = transform_multiply(T_joint, torch.cat((p, quat), dim=-1))
         elif jt == JointType.SPHERICAL:
             s = int(qs[j])
-            quat = _normalize(q[..., s : s + 4])
+            quat = quat_normalize(q[..., s : s + 4])
             T = torch.cat((T_joint[..., :3], quat_multiply(T_joint[..., 3:], quat)), dim=-1)
         else:
             T = T_joint
         Ts.append(T)
     return torch.stack(torch.broadcast_tensors(*Ts), dim=-2)
-
-
-def heading_transforms_reference(T_world_root: torch.Tensor) -> torch.Tensor:
-    """``T_world_heading`` [..., 7] of root poses [..., 7]: origin under the root on the ground, x along
-    the root's facing direction (its x axis projected on the ground), z up."""
-    f = quat_rotate(T_world_root[..., 3:], torch.tensor([1.0, 0.0, 0.0], dtype=T_world_root.dtype,
-                                                        device=T_world_root.device).expand_as(T_world_root[..., :3]))
-    # Where the facing direction is vertical the heading is world x with zero gradient (as in the kernels).
-    degenerate = f[..., 0] * f[..., 0] + f[..., 1] * f[..., 1] <= 1e-12
-    fx = torch.where(degenerate, torch.ones_like(f[..., 0]), f[..., 0])
-    fy = torch.where(degenerate, torch.zeros_like(f[..., 1]), f[..., 1])
-    yaw = torch.atan2(fy, fx)
-    p = torch.cat((T_world_root[..., :2], torch.zeros_like(T_world_root[..., 2:3])), dim=-1)
-    return torch.cat((p, _quat_about_z(yaw)), dim=-1)
 
 
 def end_effectors_reference(model: KinematicModel, Ts_world_link: torch.Tensor, *,
@@ -223,7 +159,7 @@ def end_effectors_reference(model: KinematicModel, Ts_world_link: torch.Tensor, 
     if frame == "world":
         return T_ee
     if frame == "heading":
-        T_heading = heading_transforms_reference(Ts_world_link[..., 0, :])
+        T_heading = heading_frame(Ts_world_link[..., 0, :])
         return transform_multiply(transform_inverse(T_heading)[..., None, :], T_ee)
     raise GraphError(f"unknown frame {frame!r}; expected one of: world, heading")
 

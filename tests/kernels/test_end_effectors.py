@@ -48,10 +48,11 @@ def test_heading_frame_analytic(device):
     head = m.ee_index("head")
     pos, rot = eval_end_effectors(m, wp.array(q, dtype=wp.float64, device=device), frame="heading")
     c, s = math.cos(theta), math.sin(theta)
-    np.testing.assert_allclose(pos.numpy()[0, head], [0.25 * c + 0.1 * s, 0.0, 0.5 - 0.25 * s + 0.1 * c], atol=1e-12)
+    # The heading frame's origin is the root itself (conventions), so the height is relative to it.
+    np.testing.assert_allclose(pos.numpy()[0, head], [0.25 * c + 0.1 * s, 0.0, -0.25 * s + 0.1 * c], atol=1e-12)
     np.testing.assert_allclose(rot.numpy()[0, head], quat_from_axis_angle(Y, theta), atol=1e-12)
     H = eval_heading_transforms(m, eval_fk(m, wp.array(q, dtype=wp.float64, device=device))).numpy()[0]
-    np.testing.assert_allclose(H, [1.0, 2.0, 0.0, *quat_from_axis_angle(Z, psi)], atol=1e-12)
+    np.testing.assert_allclose(H, [1.0, 2.0, 0.5, *quat_from_axis_angle(Z, psi)], atol=1e-12)
     world, _ = eval_end_effectors(m, wp.array(q, dtype=wp.float64, device=device))
     np.testing.assert_allclose(world.numpy()[0, head, 2], 0.5 - 0.25 * s + 0.1 * c, atol=1e-12)
 
@@ -89,9 +90,9 @@ def test_finite_difference_kernel(device):
     x[0, :, 0, 0] = t**2
     x[1, :, 0, 2] = 3 * t
     v = eval_finite_difference(wp.array(x, dtype=wp.vec3d, device=device), dt=dt).numpy()
-    np.testing.assert_allclose(v[0, 1:-1, 0, 0], 2 * t[1:-1], atol=1e-12)  # central differences are exact
-    np.testing.assert_allclose(v[0, 0, 0, 0], (x[0, 1, 0, 0] - x[0, 0, 0, 0]) / dt, atol=1e-12)
-    np.testing.assert_allclose(v[0, -1, 0, 0], (x[0, -1, 0, 0] - x[0, -2, 0, 0]) / dt, atol=1e-12)
+    # Backward differences of t² are exact at the midpoint of each step: 2 (t - dt/2); frame 0 copies frame 1.
+    np.testing.assert_allclose(v[0, 1:, 0, 0], 2 * (t[1:] - dt / 2), atol=1e-12)
+    np.testing.assert_allclose(v[0, 0, 0, 0], v[0, 1, 0, 0], atol=1e-12)
     np.testing.assert_allclose(v[1, :, 0, 2], 3.0, atol=1e-12)
     single = eval_finite_difference(wp.array(x[:, :1], dtype=wp.vec3d, device=device), dt=dt).numpy()
     np.testing.assert_array_equal(single, 0.0)
@@ -166,3 +167,15 @@ def test_wheeled_heading_follows_yaw(device):
     cam = m.ee_index("camera")
     pos, _ = eval_end_effectors(m, wp.array(q, dtype=wp.float64, device=device), frame="heading")
     np.testing.assert_allclose(pos.numpy()[0, cam], [0.15, 0.0, 0.72], atol=1e-12)
+
+
+def test_warp_heading_equals_the_rotations_module(device):
+    """The kernels' heading frame is :func:`morphkit.rotations.heading_frame` (one definition, two languages)."""
+    from morphkit.rotations import heading_frame
+
+    m = compile_model(every_joint("floating"))
+    q = random_q(m, 64, seed=11)
+    q[:, :3] = np.random.default_rng(12).normal(size=(64, 3))
+    Ts = eval_fk(m, wp.array(q, dtype=wp.float64, device=device))
+    H = eval_heading_transforms(m, Ts).numpy()
+    np.testing.assert_allclose(H, heading_frame(Ts.numpy()[:, 0]), atol=1e-12)

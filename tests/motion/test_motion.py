@@ -12,14 +12,14 @@ from morphkit_testing import every_joint, human_like, spot_like
 from morphkit.conventions import matrix_from_quat, quat_from_axis_angle, quat_multiply, quat_rotate
 from morphkit.errors import MotionFormatError
 from morphkit.motion import Motion
-from morphkit.motion._rotations import (
+from morphkit.motion.motion import quaternion_slices
+from morphkit.rotations import (
     axis_angle_from_quat,
     euler_from_quat,
     quat_from_euler,
     quat_slerp,
     yaw_from_quat,
 )
-from morphkit.motion.motion import quaternion_slices
 
 
 # ---- rotation helpers ------------------------------------------------------------------------

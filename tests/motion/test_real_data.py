@@ -26,7 +26,7 @@ from morphkit.motion import (
     read_motion,
     write_motion,
 )
-from morphkit.motion._rotations import quat_from_yaw
+from morphkit.rotations import quat_from_yaw
 
 DATA = Path(os.environ["MORPHKIT_DATA"]) if os.environ.get("MORPHKIT_DATA") else None
 FOLDERS = {"cmu": "human/cmu", "cmu_daz": "human/cmu_daz", "second_skeleton": "human/second_skeleton",

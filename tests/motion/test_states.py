@@ -22,7 +22,7 @@ from morphkit.motion import (
     human_state_layout,
 )
 from morphkit.motion._fk import compiled_model
-from morphkit.motion._rotations import quat_from_yaw, yaw_from_quat
+from morphkit.rotations import quat_from_yaw, yaw_from_quat
 
 Z = np.array([0.0, 0.0, 1.0])
 Y = np.array([0.0, 1.0, 0.0])

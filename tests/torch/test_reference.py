@@ -9,13 +9,7 @@ from morphkit_testing import TEST_CREATURES, creature, every_joint, planar_arm, 
 
 from morphkit.errors import GraphError
 from morphkit.model import compile_model
-from morphkit.torch.reference import (
-    end_effectors_reference,
-    fk_reference,
-    heading_transforms_reference,
-    transform_inverse,
-    transform_multiply,
-)
+from morphkit.torch.reference import end_effectors_reference, fk_reference
 
 
 @pytest.mark.parametrize("name", TEST_CREATURES)
@@ -66,19 +60,6 @@ def test_rotations_override():
     torch.testing.assert_close(fk_reference(k, q, joint_rotations=rot), fk_reference(k, q))
     with pytest.raises(GraphError, match="joint_rotations"):
         fk_reference(k, q, joint_rotations=rot[:2])
-
-
-def test_heading_reference_and_inverse():
-    T = torch.tensor([[1.0, 2.0, 3.0, 0.0, 0.0, math.sin(0.4), math.cos(0.4)]], dtype=torch.float64)
-    H = heading_transforms_reference(T)
-    torch.testing.assert_close(H, torch.tensor([[1.0, 2.0, 0.0, 0.0, 0.0, math.sin(0.4), math.cos(0.4)]],
-                                               dtype=torch.float64))
-    ident = transform_multiply(transform_inverse(T), T)
-    torch.testing.assert_close(ident, torch.tensor([[0, 0, 0, 0, 0, 0, 1.0]], dtype=torch.float64))
-    up = torch.tensor([[0, 0, 0, 0, -math.sin(math.pi / 4), 0, math.cos(math.pi / 4)]], dtype=torch.float64,
-                      requires_grad=True)
-    heading_transforms_reference(up).sum().backward()
-    assert torch.isfinite(up.grad).all()
 
 
 def test_bad_shapes():
