@@ -12,7 +12,8 @@ and a horizontal ground plane ``z = ground_height``:
 Velocities of a motion ``[..., T, E]`` are finite differences along time times ``fps``, as
 :func:`~morphkit.kernels.end_effectors.eval_finite_difference`: the backward difference
 $v_t = (p_t - p_{t-1})\\,\\text{fps}$, frame 0 copying frame 1 (a single frame has zero
-velocity). The sliding gate uses the height only, so a foot that skates fast on the ground still counts (a speed threshold would hide exactly that).
+velocity). The sliding gate uses the height only, so a foot that skates fast on the ground still
+counts (a speed threshold would hide exactly that).
 
 Self-collision measures the link shapes (:mod:`morphkit.kernels.geometry`) pairwise over a list
 of candidate pairs built once on the host by :func:`self_collision_pairs`, given the link
