@@ -1,0 +1,28 @@
+"""Evaluation metrics of ACE (Li et al. 2023, §7): DIV and FID; pure functions.
+
+=================================  ==================================================================
+metric                             what it measures
+=================================  ==================================================================
+:func:`diversity` (DIV)            mean Ψ distance between two random subsets of S_d = 300 frames;
+                                   best when closest to the creature dataset's own DIV
+:func:`fid` (FID)                  Fréchet distance between Gaussians fitted to the Ψ of the creature
+                                   dataset and of the retargeted motion; lower is better
+=================================  ==================================================================
+
+Ψ is :func:`morphkit.motion.features` / :func:`morphkit.motion.motion_features` (§6.3). DIV and FID
+take Ψ arrays (NumPy; torch accepted).
+"""
+
+from morphkit.metrics._distribution import DEFAULT_SUBSET_SIZE as DEFAULT_SUBSET_SIZE
+from morphkit.metrics._distribution import diversity as diversity
+from morphkit.metrics._distribution import fid as fid
+from morphkit.metrics._distribution import frechet_distance as frechet_distance
+from morphkit.metrics._distribution import gaussian_statistics as gaussian_statistics
+
+__all__ = [
+    "DEFAULT_SUBSET_SIZE",
+    "diversity",
+    "fid",
+    "frechet_distance",
+    "gaussian_statistics",
+]
