@@ -1,4 +1,4 @@
-"""Evaluation metrics of ACE (Li et al. 2023, §7): DIV and FID; pure functions.
+"""Evaluation metrics of ACE (Li et al. 2023, §7): DIV, FID and the feature loss; pure functions.
 
 =================================  ==================================================================
 metric                             what it measures
@@ -7,10 +7,11 @@ metric                             what it measures
                                    best when closest to the creature dataset's own DIV
 :func:`fid` (FID)                  Fréchet distance between Gaussians fitted to the Ψ of the creature
                                    dataset and of the retargeted motion; lower is better
+:func:`feature_loss` (L_fea)       Eq. 9, ‖Ψ(x^h) − Ψ(x̂^r)‖ per frame, averaged; lower is better
 =================================  ==================================================================
 
-Ψ is :func:`morphkit.motion.features` / :func:`morphkit.motion.motion_features` (§6.3). DIV and FID
-take Ψ arrays (NumPy; torch accepted).
+Ψ is :func:`morphkit.motion.features` / :func:`morphkit.motion.motion_features` (§6.3). DIV, FID
+and L_fea take Ψ arrays (NumPy; torch accepted, and L_fea stays differentiable on torch).
 """
 
 from morphkit.metrics._distribution import DEFAULT_SUBSET_SIZE as DEFAULT_SUBSET_SIZE
@@ -18,10 +19,12 @@ from morphkit.metrics._distribution import diversity as diversity
 from morphkit.metrics._distribution import fid as fid
 from morphkit.metrics._distribution import frechet_distance as frechet_distance
 from morphkit.metrics._distribution import gaussian_statistics as gaussian_statistics
+from morphkit.metrics._feature_loss import feature_loss as feature_loss
 
 __all__ = [
     "DEFAULT_SUBSET_SIZE",
     "diversity",
+    "feature_loss",
     "fid",
     "frechet_distance",
     "gaussian_statistics",
