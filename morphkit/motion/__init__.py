@@ -1,5 +1,6 @@
-"""Motion data: the :class:`Motion` container, BVH/USD/NPZ motion files, ACE states and Ψ, the
-KL end-effector mapping, and windowed datasets.
+"""Motion data: the :class:`Motion` container, BVH/USD/NPZ motion files, ACE states and Ψ with the
+state codec (encode and decode; NumPy, and torch twins through the FK kernels), the KL
+end-effector mapping, and windowed datasets.
 
 Importing this package loads NumPy and PyYAML only; FK (Warp), USD (``pxr``) and PyTorch
 (:class:`MotionDataset`) load when first used.
@@ -12,6 +13,10 @@ from pathlib import Path
 from typing import Any
 
 from morphkit.errors import MotionFormatError, SourceLocation
+from morphkit.motion.codec import ClampReport as ClampReport
+from morphkit.motion.codec import character_state_from_q as character_state_from_q
+from morphkit.motion.codec import decode_character_states as decode_character_states
+from morphkit.motion.codec import human_state_from_q as human_state_from_q
 from morphkit.motion.ee_mapping import EndEffectorMapping as EndEffectorMapping
 from morphkit.motion.ee_mapping import Gaussian as Gaussian
 from morphkit.motion.ee_mapping import ee_distributions as ee_distributions
@@ -31,6 +36,8 @@ from morphkit.motion.io_bvh import write_bvh_motion as write_bvh_motion
 from morphkit.motion.io_npz import read_npz_motion as read_npz_motion
 from morphkit.motion.io_npz import write_npz_motion as write_npz_motion
 from morphkit.motion.motion import Motion as Motion
+from morphkit.motion.scale import body_length as body_length
+from morphkit.motion.scale import standing_height as standing_height
 from morphkit.motion.states import NormStats as NormStats
 from morphkit.motion.states import StateLayout as StateLayout
 from morphkit.motion.states import character_state as character_state
@@ -45,16 +52,20 @@ __all__ = [
     "MOTION_READ_SUFFIXES",
     "MOTION_WRITE_SUFFIXES",
     "ROOT_FEATURE_DIM",
+    "ClampReport",
     "EndEffectorMapping",
     "Gaussian",
     "Motion",
     "MotionDataset",
     "NormStats",
     "StateLayout",
+    "body_length",
     "bvh_to_motion",
     "character_state",
     "character_state_from_motion",
+    "character_state_from_q",
     "character_state_layout",
+    "decode_character_states",
     "ee_distributions",
     "feature_dim",
     "features",
@@ -63,6 +74,7 @@ __all__ = [
     "heading_frame",
     "human_state",
     "human_state_from_motion",
+    "human_state_from_q",
     "human_state_layout",
     "is_motion_file",
     "kl_divergence",
@@ -75,6 +87,7 @@ __all__ = [
     "read_npz_motion",
     "read_override",
     "read_usd_motion",
+    "standing_height",
     "write_bvh_motion",
     "write_motion",
     "write_npz_motion",

@@ -26,6 +26,7 @@ import torch
 
 from morphkit._version import __version__
 from morphkit.errors import ConfigError, MorphkitError, MotionFormatError, SourceLocation
+from morphkit.graph import Morphology
 from morphkit.motion.io_npz import read_npz_motion_with_extra, write_npz_motion
 from morphkit.motion.motion import Motion
 from morphkit.motion.states import (
@@ -37,7 +38,14 @@ from morphkit.motion.states import (
     human_state_layout,
 )
 
-__all__ = ["CACHE_VERSION", "MotionDataset", "default_cache_dir", "expand_motion_paths", "load_motions"]
+__all__ = [
+    "CACHE_VERSION",
+    "MotionDataset",
+    "default_cache_dir",
+    "expand_motion_paths",
+    "joint_offsets",
+    "load_motions",
+]
 
 CACHE_VERSION = 2
 """Bumped whenever the conversion or the state definitions change (part of every cache key)."""
@@ -107,6 +115,11 @@ def _load_one(path: Path, cache: Path | None, options: dict[str, Any], kind: str
     return motion, states
 
 
+def joint_offsets(morphology: Morphology) -> np.ndarray:
+    """Joint origin translations in their parent links ("bone offsets"), shape [J, 3] [m], joint order."""
+    return np.array([j.origin.xyz for j in morphology.joints], dtype=float).reshape(-1, 3)
+
+
 def _states(motion: Motion, kind: str) -> np.ndarray:
     return human_state_from_motion(motion) if kind == "human" else character_state_from_motion(motion)
 
@@ -146,9 +159,11 @@ def _resolve_cache(cache_dir: str | os.PathLike[str] | bool | None) -> Path | No
 class MotionDataset(torch.utils.data.Dataset):
     """Fixed-length windows of normalised ACE states over many clips of one creature.
 
-    Item ``i`` is a dict: ``state`` [window, D] (float32 by default, normalised), ``clip`` (index
-    into :attr:`motions`) and ``start`` (first frame). Windows start every ``stride`` frames;
-    clips shorter than ``window`` give none.
+    Item ``i`` is a dict: ``state`` [window, D] (float32 by default, normalised), ``q`` [window, C]
+    (the clip's coordinates), ``root_pose`` [window, 7] (``T_world_root``), ``offsets`` [J, 3] (the
+    clip's joint origin translations, its bone offsets [m], which differ between subjects of one
+    topology), ``clip`` (index into :attr:`motions`) and ``start`` (first frame). Windows start
+    every ``stride`` frames; clips shorter than ``window`` give none.
 
     Args:
         motions: Clips of one creature (same end-effectors and q layout).
@@ -208,6 +223,9 @@ class MotionDataset(torch.utils.data.Dataset):
         lengths = [s.shape[0] for s in self.states]
         flat = torch.as_tensor(self.stats.normalize(np.concatenate(self.states, axis=0)), dtype=dtype)
         self._normalised = list(torch.split(flat, lengths))
+        self._q = [torch.as_tensor(m.q, dtype=dtype) for m in self.motions]
+        self._root_pose = [torch.as_tensor(m.root_pose(), dtype=dtype) for m in self.motions]
+        self._offsets = [torch.as_tensor(joint_offsets(m.morphology), dtype=dtype) for m in self.motions]
         self.index = [
             (c, start)
             for c, s in enumerate(self.states)
@@ -247,7 +265,15 @@ class MotionDataset(torch.utils.data.Dataset):
 
     def __getitem__(self, i: int) -> dict[str, Any]:
         clip, start = self.index[i]
-        return {"state": self._normalised[clip][start : start + self.window], "clip": clip, "start": start}
+        w = slice(start, start + self.window)
+        return {
+            "state": self._normalised[clip][w],
+            "q": self._q[clip][w],
+            "root_pose": self._root_pose[clip][w],
+            "offsets": self._offsets[clip],
+            "clip": clip,
+            "start": start,
+        }
 
     @property
     def frame_count(self) -> int:

@@ -26,6 +26,7 @@ import numpy as np
 
 from morphkit.errors import ConfigError, SourceLocation
 from morphkit.motion.features import ROOT_FEATURE_DIM, motion_features
+from morphkit.motion.scale import body_length
 
 if TYPE_CHECKING:
     from morphkit.motion.motion import Motion
@@ -98,9 +99,9 @@ def ee_distributions(
         motions: Clips of one creature.
         max_frames_per_clip: Use at most this many evenly spaced frames of each clip (speed).
         regularization: Diagonal added to each covariance (normalised units²).
-        length: Body length [m] to normalise by (default: each morphology's
-            :attr:`~morphkit.graph.Morphology.characteristic_length`, its rest height; pass one for
-            skeletons whose rest pose is not upright).
+        length: Body length [m] to normalise by (default:
+            :func:`~morphkit.motion.scale.body_length` of the first clip's morphology, measured on
+            all the clips together, so every clip shares it).
 
     Returns:
         ``{ee_name: Gaussian}`` in the morphology's end-effector order.
@@ -109,6 +110,9 @@ def ee_distributions(
         ConfigError: no motion, a morphology without end-effectors, or clips that disagree on
             end-effector names.
     """
+    motions = list(motions)
+    if length is None and motions:
+        length = body_length(motions[0].morphology, motions)
     names: tuple[str, ...] | None = None
     chunks: list[np.ndarray] = []
     for m in motions:
@@ -145,6 +149,14 @@ class EndEffectorMapping:
     mapping: dict[str, str]
     kl: dict[str, dict[str, float]]
     overridden: frozenset[str] = field(default_factory=frozenset)
+
+    def feature_order(self) -> tuple[tuple[str, ...], tuple[str, ...]]:
+        """``(creature_ees, human_ees)``: the end-effector lists Ψ takes, paired index by index.
+
+        Pass the first as ``ee_names`` to the creature's :func:`~morphkit.motion.features` and the
+        second to the human's, so both Ψ vectors put mapped end-effectors in the same slots.
+        """
+        return tuple(self.mapping), tuple(self.mapping.values())
 
     def to_json(self) -> dict[str, Any]:
         """``{"mapping": {...}, "kl": {...}}`` (plus ``"overridden"`` when any), JSON-serialisable."""

@@ -61,10 +61,17 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from morphkit._atomic import atomic_path
-from morphkit.conventions import quat_conjugate, quat_multiply, quat_rotate
 from morphkit.errors import MotionFormatError, SourceLocation
 from morphkit.graph import JointType, Morphology
-from morphkit.rotations import axis_angle_from_quat, quat_canonical, quat_from_yaw, yaw_from_quat
+from morphkit.rotations import (
+    axis_angle_from_quat,
+    heading_frame,
+    quat_canonical,
+    quat_conjugate,
+    quat_multiply,
+    quat_rotate,
+    quat_rotate_inverse,
+)
 
 if TYPE_CHECKING:
     from morphkit.motion.motion import Motion
@@ -154,97 +161,119 @@ def character_state_layout(morphology: Morphology) -> StateLayout:
     return _layout("character", sizes, tuple(x.name for x in morphology.end_effectors))
 
 
-# ---- heading frame and differences --------------------------------------------------------
+# ---- heading frame and differences (NumPy arrays or torch tensors) -------------------------
 
 
-def heading_frame(root_pose: np.ndarray) -> np.ndarray:
-    """Heading frames ``T_world_heading`` [..., 7] of root poses [..., 7] (origin at the root, yaw only)."""
-    root_pose = np.asarray(root_pose, dtype=float)
-    out = np.empty_like(root_pose)
-    out[..., :3] = root_pose[..., :3]
-    out[..., 3:] = quat_from_yaw(yaw_from_quat(root_pose[..., 3:]))
-    return out
+def _is_torch(x: Any) -> bool:
+    return type(x).__module__.split(".", 1)[0] == "torch"
 
 
-def to_heading_frame(heading: np.ndarray, points: np.ndarray, *, direction: bool = False) -> np.ndarray:
-    """Express world points (or, with ``direction=True``, vectors) [T, ..., 3] in heading frames [T, 7]."""
-    heading = np.asarray(heading, dtype=float)
-    points = np.asarray(points, dtype=float)
+def _cat(parts: list[Any]) -> Any:
+    if _is_torch(parts[0]):
+        import torch
+
+        return torch.cat(parts, dim=-1)
+    return np.concatenate(parts, axis=-1)
+
+
+def _as_float(x: Any) -> Any:
+    return x if _is_torch(x) else np.asarray(x, dtype=float)
+
+
+def to_heading_frame(heading: Any, points: Any, *, direction: bool = False) -> Any:
+    """Express world points (or, with ``direction=True``, vectors) [..., T, K..., 3] in heading frames [..., T, 7]."""
+    heading, points = _as_float(heading), _as_float(points)
     extra = points.ndim - heading.ndim
-    shape = heading.shape[:-1] + (1,) * extra
-    inv = quat_conjugate(heading[..., 3:]).reshape(*shape, 4)
-    v = points if direction else points - heading[..., :3].reshape(*shape, 3)
-    return quat_rotate(np.broadcast_to(inv, (*v.shape[:-1], 4)), v)
+    shape = tuple(heading.shape[:-1]) + (1,) * extra
+    origin = heading[..., :3].reshape(*shape, 3)
+    v = points if direction else points - origin
+    return quat_rotate_inverse(heading[..., 3:].reshape(*shape, 4), v)
 
 
-def _backward_diff(x: np.ndarray) -> np.ndarray:
-    """``x[t] - x[t-1]`` along axis 0 with frame 0 copying frame 1 (zeros for a single frame)."""
-    d = np.zeros_like(x)
-    if x.shape[0] > 1:
-        d[1:] = x[1:] - x[:-1]
-        d[0] = d[1]
-    return d
+def _backward_diff(x: Any, axis: int) -> Any:
+    """``x[t] - x[t-1]`` along time ``axis`` (negative) with frame 0 copying frame 1 (zeros for one frame)."""
+    tail = (slice(None),) * (-axis - 1)
+    if x.shape[axis] < 2:
+        return x * 0.0
+    d = x[(..., slice(1, None), *tail)] - x[(..., slice(None, -1), *tail)]
+    first = d[(..., slice(0, 1), *tail)]
+    if _is_torch(x):
+        import torch
+
+        return torch.cat([first, d], dim=axis)
+    return np.concatenate([first, d], axis=axis)
 
 
-def _rotation_steps(q: np.ndarray) -> np.ndarray:
-    """World rotation ``q_t q_{t-1}⁻¹`` per frame [T, 4] (frame 0 copies frame 1; identity for one frame)."""
-    steps = np.zeros_like(q)
-    steps[..., 3] = 1.0
-    if q.shape[0] > 1:
-        steps[1:] = quat_multiply(q[1:], quat_conjugate(q[:-1]))
-        steps[0] = steps[1]
-    return steps
+def _rotation_steps(q: Any) -> Any:
+    """World rotation ``q_t q_{t-1}⁻¹`` per frame [..., T, 4] (frame 0 copies frame 1; identity for one frame)."""
+    if q.shape[-2] < 2:
+        return _cat([q[..., :3] * 0.0, q[..., 3:] * 0.0 + 1.0])
+    steps = quat_multiply(q[..., 1:, :], quat_conjugate(q[..., :-1, :]))
+    return _cat_time(steps[..., :1, :], steps)
 
 
-def _root_terms(root_pose: np.ndarray, fps: float) -> dict[str, np.ndarray]:
-    root_pose = np.asarray(root_pose, dtype=float)
+def _cat_time(a: Any, b: Any) -> Any:
+    if _is_torch(a):
+        import torch
+
+        return torch.cat([a, b], dim=-2)
+    return np.concatenate([a, b], axis=-2)
+
+
+def _root_terms(root_pose: Any, fps: float) -> dict[str, Any]:
+    """Root blocks of both states from root poses [..., T, 7]."""
     heading = heading_frame(root_pose)
-    inv_h = quat_conjugate(heading[:, 3:])
-    step = _rotation_steps(root_pose[:, 3:])
-    disp = _backward_diff(root_pose[:, :3])
-    prev_q = quat_multiply(quat_conjugate(step), root_pose[:, 3:])
+    inv_h = quat_conjugate(heading[..., 3:])
+    q = root_pose[..., 3:]
+    step = _rotation_steps(q)
+    disp = quat_rotate(inv_h, _backward_diff(root_pose[..., :3], -2))
+    prev_q = quat_multiply(quat_conjugate(step), q)
     return {
         "heading": heading,
-        "root_height": root_pose[:, 2:3],
-        "root_orientation": quat_canonical(quat_multiply(inv_h, root_pose[:, 3:])),
-        "root_displacement": quat_rotate(inv_h, disp)[:, :2],
+        "root_height": root_pose[..., 2:3],
+        "root_orientation": quat_canonical(quat_multiply(inv_h, q)),
+        "root_displacement": disp[..., :2],
         "previous_root_orientation": quat_canonical(quat_multiply(inv_h, prev_q)),
-        "root_linear_velocity": quat_rotate(inv_h, disp) * fps,
+        "root_linear_velocity": disp * fps,
         "root_angular_velocity": quat_rotate(inv_h, axis_angle_from_quat(step)) * fps,
     }
 
 
-def _check_frames(what: str, arrays: dict[str, np.ndarray], frames: int) -> None:
+def _check_frames(what: str, arrays: dict[str, Any], root_pose: Any, time_axis: dict[str, int]) -> None:
+    frames = root_pose.shape[-2]
     for name, a in arrays.items():
-        if a.shape[0] != frames:
-            raise MotionFormatError(f"{what}: {name} has {a.shape[0]} frames, root_pose has {frames}")
+        if a.ndim < -time_axis[name] or a.shape[time_axis[name]] != frames:
+            raise MotionFormatError(f"{what}: {name} has shape {list(a.shape)}, root_pose has {frames} frames")
 
 
-def human_state(
-    root_pose: np.ndarray, link_positions: np.ndarray, ee_positions: np.ndarray, fps: float
-) -> np.ndarray:
+def _flat_tail(x: Any) -> Any:
+    """[..., T, K, 3] → [..., T, 3K]."""
+    return x.reshape(*x.shape[:-2], -1)
+
+
+def human_state(root_pose: Any, link_positions: Any, ee_positions: Any, fps: float) -> Any:
     """Human state x^h per frame (§6.1; layout in :func:`human_state_layout`).
 
+    NumPy arrays or torch tensors (differentiable), with any leading batch shape.
+
     Args:
-        root_pose: World pose of the root link ``T_world_root``, shape [T, 7].
-        link_positions: World positions of all links (root first), shape [T, L, 3] [m].
-        ee_positions: World positions of the end-effectors, shape [T, E, 3] [m].
+        root_pose: World pose of the root link ``T_world_root``, shape [..., T, 7].
+        link_positions: World positions of all links (root first), shape [..., T, L, 3] [m].
+        ee_positions: World positions of the end-effectors, shape [..., T, E, 3] [m].
         fps: Frame rate [1/s].
 
     Returns:
-        [T, 11 + 3 (L - 1) + 6 E] float64.
+        [..., T, 11 + 3 (L - 1) + 6 E] (float64 for NumPy input).
     """
-    root_pose = np.asarray(root_pose, dtype=float)
-    link_positions = np.asarray(link_positions, dtype=float)
-    ee_positions = np.asarray(ee_positions, dtype=float)
-    t = root_pose.shape[0]
-    _check_frames("human_state", {"link_positions": link_positions, "ee_positions": ee_positions}, t)
+    root_pose, link_positions, ee_positions = _as_float(root_pose), _as_float(link_positions), _as_float(ee_positions)
+    _check_frames("human_state", {"link_positions": link_positions, "ee_positions": ee_positions}, root_pose,
+                  {"link_positions": -3, "ee_positions": -3})
     r = _root_terms(root_pose, fps)
     h = r["heading"]
-    joints = to_heading_frame(h, link_positions[:, 1:]).reshape(t, -1)
-    ee = to_heading_frame(h, ee_positions).reshape(t, -1)
-    ee_vel = to_heading_frame(h, _backward_diff(ee_positions) * fps, direction=True).reshape(t, -1)
-    return np.concatenate(
+    joints = _flat_tail(to_heading_frame(h, link_positions[..., 1:, :]))
+    ee = _flat_tail(to_heading_frame(h, ee_positions))
+    ee_vel = _flat_tail(to_heading_frame(h, _backward_diff(ee_positions, -3) * fps, direction=True))
+    return _cat(
         [
             r["root_height"],
             r["root_orientation"],
@@ -253,52 +282,56 @@ def human_state(
             joints,
             ee,
             ee_vel,
-        ],
-        axis=-1,
+        ]
     )
 
 
-def _canonical_joint_q(morphology: Morphology, joint_q: np.ndarray) -> np.ndarray:
-    out = np.array(joint_q, dtype=float, copy=True)
+def _canonical_joint_q(morphology: Morphology, joint_q: Any) -> Any:
+    """Joint coordinates with every spherical joint's quaternion in the ``w >= 0`` half."""
     b = morphology.base_coordinate_count
+    parts, at = [], 0
     for j, start in zip(morphology.joints, morphology.joint_q_start[:-1], strict=True):
         if j.type == JointType.SPHERICAL and not morphology.is_driven(j):
-            out[:, start - b : start - b + 4] = quat_canonical(out[:, start - b : start - b + 4])
-    return out
+            s = start - b
+            parts += [joint_q[..., at:s], quat_canonical(joint_q[..., s : s + 4])]
+            at = s + 4
+    if not parts:
+        return joint_q
+    return _cat([*parts, joint_q[..., at:]])
 
 
 def character_state(
-    root_pose: np.ndarray,
-    joint_q: np.ndarray,
-    ee_positions: np.ndarray,
+    root_pose: Any,
+    joint_q: Any,
+    ee_positions: Any,
     fps: float,
     *,
     morphology: Morphology | None = None,
-) -> np.ndarray:
+) -> Any:
     """Character state x^r per frame (§6.2; layout in :func:`character_state_layout`).
 
+    NumPy arrays or torch tensors (differentiable), with any leading batch shape.
+
     Args:
-        root_pose: World pose of the root link, shape [T, 7].
-        joint_q: Joint coordinates (``q`` without the base), shape [T, C - B].
-        ee_positions: World end-effector positions, shape [T, E, 3] [m].
+        root_pose: World pose of the root link, shape [..., T, 7].
+        joint_q: Joint coordinates (``q`` without the base), shape [..., T, C - B].
+        ee_positions: World end-effector positions, shape [..., T, E, 3] [m].
         fps: Frame rate [1/s].
         morphology: When given, spherical joints' quaternions are put in the ``w >= 0`` half.
 
     Returns:
-        [T, 17 + (C - B) + 6 E] float64.
+        [..., T, 17 + (C - B) + 6 E] (float64 for NumPy input).
     """
-    root_pose = np.asarray(root_pose, dtype=float)
-    joint_q = np.asarray(joint_q, dtype=float)
-    ee_positions = np.asarray(ee_positions, dtype=float)
-    t = root_pose.shape[0]
-    _check_frames("character_state", {"joint_q": joint_q, "ee_positions": ee_positions}, t)
+    root_pose, joint_q, ee_positions = _as_float(root_pose), _as_float(joint_q), _as_float(ee_positions)
+    _check_frames("character_state", {"joint_q": joint_q, "ee_positions": ee_positions}, root_pose,
+                  {"joint_q": -2, "ee_positions": -3})
     if morphology is not None:
         joint_q = _canonical_joint_q(morphology, joint_q)
     r = _root_terms(root_pose, fps)
     h = r["heading"]
-    ee = to_heading_frame(h, ee_positions).reshape(t, -1)
-    ee_vel = to_heading_frame(h, _backward_diff(ee_positions) * fps, direction=True).reshape(t, -1)
-    return np.concatenate(
+    ee = _flat_tail(to_heading_frame(h, ee_positions))
+    ee_vel = _flat_tail(to_heading_frame(h, _backward_diff(ee_positions, -3) * fps, direction=True))
+    return _cat(
         [
             r["root_height"],
             r["root_orientation"],
@@ -306,11 +339,10 @@ def character_state(
             r["previous_root_orientation"],
             r["root_linear_velocity"],
             r["root_angular_velocity"],
-            joint_q.reshape(t, -1),
+            joint_q,
             ee,
             ee_vel,
-        ],
-        axis=-1,
+        ]
     )
 
 

@@ -90,7 +90,7 @@ def test_sliding_ignores_vertical_motion_and_gates_on_height():
 
 
 def test_sliding_uses_the_project_finite_difference_convention():
-    """Sliding equals the horizontal norm of eval_finite_difference (backward, frame 0 copying frame 1) on the ground."""
+    """Sliding equals the horizontal norm of eval_finite_difference (backward differences) on the ground."""
     from morphkit.kernels.end_effectors import eval_finite_difference
 
     rng = np.random.default_rng(4)

@@ -66,6 +66,12 @@ def test_windowed_dataset(tmp_path: Path) -> None:
     assert item["state"].shape == (4, ds.layout.dim) and item["state"].dtype == torch.float32
     raw = character_state_from_motion(ds.motions[1])[0:4]
     np.testing.assert_allclose(ds.stats.denormalize(item["state"].double().numpy()), raw, atol=1e-5)
+    # What NKN needs beside the states: coordinates, root poses and the clip's bone offsets.
+    np.testing.assert_allclose(item["q"].numpy(), ds.motions[1].q[0:4], atol=1e-6)
+    np.testing.assert_allclose(item["root_pose"].numpy(), ds.motions[1].root_pose()[0:4], atol=1e-6)
+    m = ds.motions[1].morphology
+    assert item["offsets"].shape == (m.joint_count, 3)
+    np.testing.assert_allclose(item["offsets"][m.joint_index("fl_hx")].numpy(), m.joint("fl_hx").origin.xyz, atol=1e-7)
     allx = np.concatenate(ds.states)
     np.testing.assert_allclose(ds.stats.mean, allx.mean(0))
     loader = torch.utils.data.DataLoader(ds, batch_size=3, shuffle=False)

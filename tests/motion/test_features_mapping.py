@@ -116,6 +116,7 @@ def test_mapping_is_forced_by_construction() -> None:
         creature[n] = fit_gaussian(rng.normal(np.array(centres[h]) + offset, 0.04, (3000, 3)))
     result = map_end_effectors(creature, human)
     assert result.mapping == truth
+    assert result.feature_order() == (tuple(truth), tuple(truth.values()))
     for c, row in result.kl.items():
         assert min(row, key=row.get) == truth[c]
     over = map_end_effectors(creature, human, override={"gripper": "lhand"})
