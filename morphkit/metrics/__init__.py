@@ -1,4 +1,5 @@
-"""Evaluation metrics of ACE (Li et al. 2023, §7): DIV, FID and the feature loss; pure functions.
+"""Evaluation metrics of ACE (Li et al. 2023, §7): DIV, FID, the feature loss and the unrealistic
+frame ratio; pure functions.
 
 =================================  ==================================================================
 metric                             what it measures
@@ -8,10 +9,13 @@ metric                             what it measures
 :func:`fid` (FID)                  Fréchet distance between Gaussians fitted to the Ψ of the creature
                                    dataset and of the retargeted motion; lower is better
 :func:`feature_loss` (L_fea)       Eq. 9, ‖Ψ(x^h) − Ψ(x̂^r)‖ per frame, averaged; lower is better
+:func:`unrealistic_frame_ratio`    fraction of frames with self-collision, foot penetration or foot
+(UFR)                              sliding, from the contact kernels; lower is better
 =================================  ==================================================================
 
 Ψ is :func:`morphkit.motion.features` / :func:`morphkit.motion.motion_features` (§6.3). DIV, FID
-and L_fea take Ψ arrays (NumPy; torch accepted, and L_fea stays differentiable on torch).
+and L_fea take Ψ arrays (NumPy; torch accepted, and L_fea stays differentiable on torch); UFR
+takes a :class:`~morphkit.motion.Motion`.
 """
 
 from morphkit.metrics._distribution import DEFAULT_SUBSET_SIZE as DEFAULT_SUBSET_SIZE
@@ -20,12 +24,18 @@ from morphkit.metrics._distribution import fid as fid
 from morphkit.metrics._distribution import frechet_distance as frechet_distance
 from morphkit.metrics._distribution import gaussian_statistics as gaussian_statistics
 from morphkit.metrics._feature_loss import feature_loss as feature_loss
+from morphkit.metrics._unrealistic import UnrealisticFrames as UnrealisticFrames
+from morphkit.metrics._unrealistic import UnrealisticFrameThresholds as UnrealisticFrameThresholds
+from morphkit.metrics._unrealistic import unrealistic_frame_ratio as unrealistic_frame_ratio
 
 __all__ = [
     "DEFAULT_SUBSET_SIZE",
+    "UnrealisticFrameThresholds",
+    "UnrealisticFrames",
     "diversity",
     "feature_loss",
     "fid",
     "frechet_distance",
     "gaussian_statistics",
+    "unrealistic_frame_ratio",
 ]
