@@ -452,7 +452,7 @@ def _set_threads(n: int) -> None:
 
     torch.set_num_threads(n)
     try:
-        from morphkit.kernels.fk import set_cpu_thread_count
+        from morphkit.kernels import set_cpu_thread_count
 
         set_cpu_thread_count(n)
     except ImportError:  # pragma: no cover - the kernels are part of morphkit

@@ -27,19 +27,19 @@ from morphkit.kernels.end_effectors import eval_end_effectors as eval_end_effect
 from morphkit.kernels.end_effectors import eval_end_effectors_adjoint as eval_end_effectors_adjoint
 from morphkit.kernels.end_effectors import eval_finite_difference as eval_finite_difference
 from morphkit.kernels.end_effectors import eval_heading_transforms as eval_heading_transforms
-from morphkit.kernels.fk import cpu_thread_count as cpu_thread_count
 from morphkit.kernels.fk import eval_fk as eval_fk
 from morphkit.kernels.fk import eval_fk_adjoint as eval_fk_adjoint
 from morphkit.kernels.fk import eval_link_positions as eval_link_positions
 from morphkit.kernels.fk import eval_link_positions_adjoint as eval_link_positions_adjoint
 from morphkit.kernels.fk import eval_wheel_angles as eval_wheel_angles
 from morphkit.kernels.fk import fk_module as fk_module
-from morphkit.kernels.fk import set_cpu_thread_count as set_cpu_thread_count
 from morphkit.kernels.ik import IKResult as IKResult
 from morphkit.kernels.ik import eval_ee_jacobian as eval_ee_jacobian
 from morphkit.kernels.ik import ik_dof_mask as ik_dof_mask
 from morphkit.kernels.ik import ik_solve as ik_solve
 from morphkit.kernels.ik import ik_step as ik_step
+from morphkit.kernels.launch import cpu_thread_count as cpu_thread_count
+from morphkit.kernels.launch import set_cpu_thread_count as set_cpu_thread_count
 
 __all__ = [
     "IKResult",

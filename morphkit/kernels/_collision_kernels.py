@@ -4,7 +4,7 @@
 They live in their own Warp module because the shape-pair dispatch is by far the largest code
 in the contact family: foot queries then compile in a couple of seconds without it. The last
 input of each kernel is the batch ``offset`` of a chunk (large CPU batches are split over threads
-by :func:`morphkit.kernels.fk._launch`).
+by :func:`morphkit.kernels.launch.launch`).
 """
 
 from __future__ import annotations

@@ -36,7 +36,8 @@ import warp as wp
 from morphkit.errors import GraphError
 from morphkit.graph.types import EndEffectorRole, JointType, ShapeType
 from morphkit.kernels._collision_kernels import self_collision_kernel, shape_ground_kernel
-from morphkit.kernels.fk import _launch, _transform_type, _vec3_type
+from morphkit.kernels.dtypes import transform_type, vec3_type
+from morphkit.kernels.launch import launch, resolve_device
 from morphkit.model.kinematic_model import KinematicModel
 
 __all__ = [
@@ -140,14 +141,6 @@ def _scalar_of(dtype: Any) -> Any:
     return wp.float64 if getattr(dtype, "_wp_scalar_type_", dtype) == wp.float64 else wp.float32
 
 
-def _resolve_device(x: Any, device: Any) -> Any:
-    if device is not None:
-        return wp.get_device(device)
-    if isinstance(x, wp.array):
-        return x.device
-    return wp.get_device(None)
-
-
 def _as_vec_array(x: Any, width: int, vec_of: Any, device: Any, what: str) -> wp.array:
     """``x`` as a contiguous Warp array of ``width``-vectors (or transforms) of shape [...].
 
@@ -179,7 +172,7 @@ def _as_vec_array(x: Any, width: int, vec_of: Any, device: Any, what: str) -> wp
 
 
 def _as_points(points: Any, device: Any, what: str = "points") -> wp.array:
-    return _as_vec_array(points, 3, _vec3_type, device, what)
+    return _as_vec_array(points, 3, vec3_type, device, what)
 
 
 _feet_cache: dict[tuple[str, tuple[int, ...]], wp.array] = {}
@@ -222,7 +215,7 @@ def foot_indices(model: KinematicModel) -> np.ndarray:
 # ground: heights and penetration
 # ---------------------------------------------------------------------------------------------
 def _foot_height(points: Any, feet: Any, ground_height: float, penetration: int, out: Any, device: Any) -> wp.array:
-    device = _resolve_device(points, device)
+    device = resolve_device(device, points)
     pts = _as_points(points, device)
     if pts.ndim < 1:
         raise GraphError(f"points: expected shape [..., E], got {list(pts.shape)}")
@@ -268,7 +261,7 @@ def eval_penetration_depth(points: Any, *, feet: Any = None, ground_height: floa
 
 def _foot_height_adjoint(points: Any, adj_out: wp.array, feet: Any, ground_height: float, penetration: int,
                          adj_points: Any, device: Any) -> wp.array:
-    device = _resolve_device(points, device)
+    device = resolve_device(device, points)
     pts = _as_points(points, device)
     lead, E = tuple(pts.shape[:-1]), pts.shape[-1]
     N = int(np.prod(lead)) if lead else 1
@@ -337,7 +330,7 @@ def eval_sliding_speed(points: Any, fps: float, *, feet: Any = None, height_thre
         Sliding speeds [m/s], shape [..., T, F].
     """
     _check_fps(fps)
-    device = _resolve_device(points, device)
+    device = resolve_device(device, points)
     pts, lead, N, T, E = _motion_points(points, device)
     feet_a = _feet_array(feet, E, device)
     F = feet_a.shape[0]
@@ -359,7 +352,7 @@ def eval_sliding_speed_adjoint(points: Any, adj_out: wp.array, fps: float, *, fe
     The contact gate is piecewise constant and gets no gradient; at zero speed the gradient is zero.
     """
     _check_fps(fps)
-    device = _resolve_device(points, device)
+    device = resolve_device(device, points)
     pts, lead, N, T, E = _motion_points(points, device)
     feet_a = _feet_array(feet, E, device)
     F = feet_a.shape[0]
@@ -387,7 +380,7 @@ def eval_contact_flags(points: Any, fps: float, *, feet: Any = None, height_thre
     Same array arguments as :func:`eval_sliding_speed`; returns ``wp.bool`` flags, shape [..., T, F].
     """
     _check_fps(fps)
-    device = _resolve_device(points, device)
+    device = resolve_device(device, points)
     pts, lead, N, T, E = _motion_points(points, device)
     feet_a = _feet_array(feet, E, device)
     F = feet_a.shape[0]
@@ -405,7 +398,7 @@ def eval_contact_flags(points: Any, fps: float, *, feet: Any = None, height_thre
 # link shapes: ground and self-collision
 # ---------------------------------------------------------------------------------------------
 def _link_transforms(model: KinematicModel, link_X: Any, device: Any) -> tuple[wp.array, tuple[int, ...], int]:
-    X = _as_vec_array(link_X, 7, _transform_type, device, "link_X")
+    X = _as_vec_array(link_X, 7, transform_type, device, "link_X")
     L = model.link_count
     if X.ndim < 1 or X.shape[-1] != L:
         raise GraphError(f"link_X: expected shape [..., {L}] of transforms for {model.name!r}, got {list(X.shape)}")
@@ -427,17 +420,17 @@ def eval_shape_ground_distance(model: KinematicModel, link_X: Any, *, ground_hei
     Returns:
         Signed heights [m], shape [..., S]; mesh shapes get :data:`~morphkit.kernels.geometry.NO_CONTACT_DISTANCE`.
     """
-    device = _resolve_device(link_X, device)
+    device = resolve_device(device, link_X)
     X, lead, N = _link_transforms(model, link_X, device)
     scalar = _scalar_of(X.dtype)
     S = model.shape_count
     out = _check_out(out, (*lead, S), scalar, device, X.requires_grad)
     if N and S:
         a = model.arrays(device, scalar)
-        _launch(shape_ground_kernel, N, device,
-                [X.reshape((N, model.link_count)), a.shape_link, a.shape_type, a.shape_X_link, a.shape_params,
-                 scalar(ground_height), 0],
-                [out.reshape((N, S))], dim_tail=(S,))
+        launch(shape_ground_kernel, N, device,
+               [X.reshape((N, model.link_count)), a.shape_link, a.shape_type, a.shape_X_link, a.shape_params,
+                scalar(ground_height), 0],
+               [out.reshape((N, S))], dim_tail=(S,))
     return out
 
 
@@ -445,7 +438,7 @@ def eval_shape_ground_distance_adjoint(model: KinematicModel, link_X: Any, adj_o
                                        ground_height: float = 0.0, adj_link_X: wp.array | None = None,
                                        device: Any = None) -> wp.array:
     """Accumulate the vector–Jacobian product of :func:`eval_shape_ground_distance` into ``adj_link_X`` ([..., L])."""
-    device = _resolve_device(link_X, device)
+    device = resolve_device(device, link_X)
     X, lead, N = _link_transforms(model, link_X, device)
     scalar = _scalar_of(X.dtype)
     S, L = model.shape_count, model.link_count
@@ -455,12 +448,12 @@ def eval_shape_ground_distance_adjoint(model: KinematicModel, link_X: Any, adj_o
     if N and S:
         a = model.arrays(device, scalar)
         out = adj_out.contiguous().reshape((N, S))
-        _launch(shape_ground_kernel, N, device,
-                [X.reshape((N, L)), a.shape_link, a.shape_type, a.shape_X_link, a.shape_params,
-                 scalar(ground_height), 0],
-                [out], adjoint=True,
-                adj_inputs=[adj_link_X.reshape((N, L)), None, None, None, None, scalar(0.0), 0],
-                adj_outputs=[out], dim_tail=(S,))
+        launch(shape_ground_kernel, N, device,
+               [X.reshape((N, L)), a.shape_link, a.shape_type, a.shape_X_link, a.shape_params,
+                scalar(ground_height), 0],
+               [out], adjoint=True,
+               adj_inputs=[adj_link_X.reshape((N, L)), None, None, None, None, scalar(0.0), 0],
+               adj_outputs=[out], dim_tail=(S,))
     return adj_link_X
 
 
@@ -626,7 +619,7 @@ def self_collision_pairs(model: KinematicModel, *, rest_margin: float = 0.0, ski
 
 def _self_collision(model: KinematicModel, pairs: SelfCollisionPairs, link_X: Any, penetration: int, out: Any,
                     device: Any) -> wp.array:
-    device = _resolve_device(link_X, device)
+    device = resolve_device(device, link_X)
     X, lead, N = _link_transforms(model, link_X, device)
     scalar = _scalar_of(X.dtype)
     P = pairs.pair_count
@@ -634,10 +627,10 @@ def _self_collision(model: KinematicModel, pairs: SelfCollisionPairs, link_X: An
     if N and P:
         a = model.arrays(device, scalar)
         pa, pb = pairs.arrays(device)
-        _launch(self_collision_kernel, N, device,
-                [X.reshape((N, model.link_count)), a.shape_link, a.shape_type, a.shape_X_link, a.shape_params,
-                 pa, pb, penetration, 0],
-                [out.reshape((N, P))], dim_tail=(P,))
+        launch(self_collision_kernel, N, device,
+               [X.reshape((N, model.link_count)), a.shape_link, a.shape_type, a.shape_X_link, a.shape_params,
+                pa, pb, penetration, 0],
+               [out.reshape((N, P))], dim_tail=(P,))
     return out
 
 
@@ -668,7 +661,7 @@ def eval_self_collision_penetration(model: KinematicModel, pairs: SelfCollisionP
 
 def _self_collision_adjoint(model: KinematicModel, pairs: SelfCollisionPairs, link_X: Any, adj_out: wp.array,
                             penetration: int, adj_link_X: Any, device: Any) -> wp.array:
-    device = _resolve_device(link_X, device)
+    device = resolve_device(device, link_X)
     X, lead, N = _link_transforms(model, link_X, device)
     scalar = _scalar_of(X.dtype)
     P = pairs.pair_count
@@ -680,12 +673,12 @@ def _self_collision_adjoint(model: KinematicModel, pairs: SelfCollisionPairs, li
         a = model.arrays(device, scalar)
         pa, pb = pairs.arrays(device)
         out = adj_out.contiguous().reshape((N, P))
-        _launch(self_collision_kernel, N, device,
-                [X.reshape((N, L)), a.shape_link, a.shape_type, a.shape_X_link, a.shape_params, pa, pb,
-                 penetration, 0],
-                [out], adjoint=True,
-                adj_inputs=[adj_link_X.reshape((N, L)), None, None, None, None, None, None, 0, 0],
-                adj_outputs=[out], dim_tail=(P,))
+        launch(self_collision_kernel, N, device,
+               [X.reshape((N, L)), a.shape_link, a.shape_type, a.shape_X_link, a.shape_params, pa, pb,
+                penetration, 0],
+               [out], adjoint=True,
+               adj_inputs=[adj_link_X.reshape((N, L)), None, None, None, None, None, None, 0, 0],
+               adj_outputs=[out], dim_tail=(P,))
     return adj_link_X
 
 

@@ -15,7 +15,8 @@ import numpy as np
 import warp as wp
 
 from morphkit.errors import GraphError
-from morphkit.kernels.fk import _as_batch, _device, _launch, eval_fk, eval_fk_adjoint
+from morphkit.kernels.fk import eval_fk, eval_fk_adjoint
+from morphkit.kernels.launch import as_batch, launch, resolve_device
 from morphkit.kernels.spatial import heading_transform
 from morphkit.model.kinematic_model import KinematicModel
 
@@ -151,8 +152,8 @@ def eval_end_effectors(
         ``(positions, orientations)``: shape [..., E] of vec3 [m] and of xyzw quaternions.
     """
     heading = frame_code(frame)
-    device = _device(model, q, device)
-    q2, lead, dtype = _as_batch(model, q, device)
+    device = resolve_device(device, q, model)
+    q2, lead, dtype = as_batch(model, q, device)
     B, E, L = q2.shape[0], model.ee_count, model.link_count
     vec3, quat, _ = _types(dtype)
     if Ts_world_link is None:
@@ -164,8 +165,8 @@ def eval_end_effectors(
     if B == 0 or E == 0:
         return pos, rot
     a = model.arrays(device, dtype)
-    _launch(end_effector_poses, B, device, [Ts_world_link.reshape((B, L)), a.ee_link, a.ee_offset, heading, 0],
-            [pos.reshape((B, E)), rot.reshape((B, E))], dim_tail=(E,))
+    launch(end_effector_poses, B, device, [Ts_world_link.reshape((B, L)), a.ee_link, a.ee_offset, heading, 0],
+           [pos.reshape((B, E)), rot.reshape((B, E))], dim_tail=(E,))
     return pos, rot
 
 
@@ -195,8 +196,8 @@ def eval_end_effectors_adjoint(
     into the link transforms, then the FK adjoint.
     """
     heading = frame_code(frame)
-    device = _device(model, q, device)
-    q2, lead, dtype = _as_batch(model, q, device)
+    device = resolve_device(device, q, model)
+    q2, lead, dtype = as_batch(model, q, device)
     B, E, L = q2.shape[0], model.ee_count, model.link_count
     vec3, quat, transform = _types(dtype)
     if adj_q is None:
@@ -209,8 +210,8 @@ def eval_end_effectors_adjoint(
         adj_orientations.reshape((B, E))
     adj_Ts = wp.zeros((B, L), dtype=transform, device=device)
     Ts = Ts_world_link.reshape((B, L))
-    _launch(end_effector_poses, B, device, [Ts, a.ee_link, a.ee_offset, heading, 0], [adj_pos, adj_rot],
-            adjoint=True, adj_inputs=[adj_Ts, None, None, 0, 0], adj_outputs=[adj_pos, adj_rot], dim_tail=(E,))
+    launch(end_effector_poses, B, device, [Ts, a.ee_link, a.ee_offset, heading, 0], [adj_pos, adj_rot],
+           adjoint=True, adj_inputs=[adj_Ts, None, None, 0, 0], adj_outputs=[adj_pos, adj_rot], dim_tail=(E,))
     eval_fk_adjoint(model, q2, adj_Ts, adj_q=adj_q.reshape((B, model.coordinate_count)),
                     wheel_q=None if wheel_q is None else _flat(wheel_q, B), device=device)
     return adj_q
@@ -225,8 +226,8 @@ def eval_heading_transforms(model: KinematicModel, Ts_world_link: wp.array, *, o
     transform = Ts_world_link.dtype
     out = _check_out(out, lead, transform, device, "out")
     if B:
-        _launch(heading_transforms, B, device, [Ts_world_link.reshape((B, model.link_count)), 0],
-                [out.reshape((B,))])
+        launch(heading_transforms, B, device, [Ts_world_link.reshape((B, model.link_count)), 0],
+               [out.reshape((B,))])
     return out
 
 
@@ -252,8 +253,8 @@ def eval_finite_difference(x: wp.array, *, dt: float, out: wp.array | None = Non
     out = _check_out(out, tuple(x.shape), x.dtype, device, "out")
     scalar = x.dtype._wp_scalar_type_
     if B * T * N:
-        _launch(finite_difference, B, device, [x.contiguous().reshape((B, T, N)), scalar(1.0 / dt), 0],
-                [out.reshape((B, T, N))], dim_tail=(T, N))
+        launch(finite_difference, B, device, [x.contiguous().reshape((B, T, N)), scalar(1.0 / dt), 0],
+               [out.reshape((B, T, N))], dim_tail=(T, N))
     return out
 
 
@@ -278,8 +279,8 @@ def eval_end_effector_velocities(
         Velocities [m/s], shape [..., T, E] of vec3.
     """
     heading = frame_code(frame)
-    device = _device(model, q, device)
-    q2, lead, _ = _as_batch(model, q, device)
+    device = resolve_device(device, q, model)
+    q2, lead, _ = as_batch(model, q, device)
     if len(lead) < 1:
         raise GraphError(f"q: expected a motion of shape [..., T, {model.coordinate_count}], got {list(q.shape)}")
     E = model.ee_count
@@ -291,6 +292,6 @@ def eval_end_effector_velocities(
     if heading:
         out = wp.empty((B * T, E), dtype=v.dtype, device=device)
         if B * T and E:
-            _launch(rotate_into_heading, B * T, device, [Ts, v.reshape((B * T, E)), 0], [out], dim_tail=(E,))
+            launch(rotate_into_heading, B * T, device, [Ts, v.reshape((B * T, E)), 0], [out], dim_tail=(E,))
         v = out
     return v.reshape((*lead, E))

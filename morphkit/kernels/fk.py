@@ -16,11 +16,9 @@ from __future__ import annotations
 
 import hashlib
 import importlib.util
-import math
 import os
 import sys
 import threading
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from types import ModuleType
 from typing import Any
@@ -32,10 +30,11 @@ from morphkit._atomic import atomic_write_text
 from morphkit._version import __version__
 from morphkit.errors import GraphError
 from morphkit.kernels._fk_codegen import generate_source
+from morphkit.kernels.dtypes import quat_type, transform_type, vec3_type
+from morphkit.kernels.launch import as_batch, as_shape, launch, resolve_device
 from morphkit.model.kinematic_model import KinematicModel, resolve_float_dtype
 
 __all__ = [
-    "cpu_thread_count",
     "eval_fk",
     "eval_fk_adjoint",
     "eval_link_positions",
@@ -44,7 +43,6 @@ __all__ = [
     "fk_module",
     "generate_fk_source",
     "kernel_cache_dir",
-    "set_cpu_thread_count",
 ]
 
 # ---------------------------------------------------------------------------------------------
@@ -120,129 +118,8 @@ def fk_module(model: KinematicModel, dtype: Any = None) -> ModuleType:
 
 
 # ---------------------------------------------------------------------------------------------
-# CPU threading: Warp runs a CPU launch on one thread; the launcher splits large batches into
-# chunks launched from a small thread pool (ctypes releases the GIL during the kernel call).
-# ---------------------------------------------------------------------------------------------
-
-_MIN_CHUNK = 2048
-
-
-class _CpuThreads:
-    """Thread count and the lazily created pool CPU launches are split over."""
-
-    def __init__(self) -> None:
-        self.count = max(1, int(os.environ.get("MORPHKIT_CPU_THREADS", "0")) or (os.cpu_count() or 1))
-        self.pool: ThreadPoolExecutor | None = None
-        self.lock = threading.Lock()
-        self.loaded: set[tuple[int, str]] = set()
-        """Modules launched once on a device (safe to launch from several threads)."""
-
-    def get_pool(self) -> ThreadPoolExecutor:
-        with self.lock:
-            if self.pool is None:
-                self.pool = ThreadPoolExecutor(max_workers=self.count, thread_name_prefix="morphkit-cpu")
-            return self.pool
-
-
-_cpu = _CpuThreads()
-
-
-def cpu_thread_count() -> int:
-    """Number of threads CPU launches of large batches are split over (``MORPHKIT_CPU_THREADS``, default all cores)."""
-    return _cpu.count
-
-
-def set_cpu_thread_count(n: int) -> None:
-    """Set how many threads CPU launches may use (1 disables threading)."""
-    if n < 1:
-        raise ValueError(f"thread count must be >= 1, got {n}")
-    with _cpu.lock:
-        _cpu.count = int(n)
-        if _cpu.pool is not None:
-            _cpu.pool.shutdown(wait=True)
-            _cpu.pool = None
-
-
-def _chunks(batch: int, device: Any) -> list[tuple[int, int]]:
-    """``(offset, size)`` per launch: one chunk on CUDA, several for large CPU batches."""
-    n = 1
-    if device.is_cpu and _cpu.count > 1:
-        n = min(_cpu.count, max(1, batch // _MIN_CHUNK))
-    if n <= 1:
-        return [(0, batch)]
-    size = math.ceil(batch / n)
-    return [(s, min(size, batch - s)) for s in range(0, batch, size)]
-
-
-def _tape_active() -> bool:
-    import warp._src.context as context  # the runtime object appears once Warp is initialised
-
-    return context.runtime is not None and context.runtime.tape is not None
-
-
-def _launch(kernel: Any, batch: int, device: Any, inputs: list, outputs: list, *, adjoint: bool = False,
-            adj_inputs: list | None = None, adj_outputs: list | None = None, dim_tail: tuple[int, ...] = ()) -> None:
-    """Launch ``kernel`` over ``batch`` poses, split into chunks on the CPU.
-
-    The kernel's first ``wp.tid()`` index runs over a chunk of the batch and its last input is
-    the chunk's ``offset``; ``dim_tail`` gives the remaining launch dimensions. Under a
-    ``wp.Tape`` the launch is not split, so the tape records exactly one launch.
-    """
-    chunks = _chunks(batch, device)
-    if len(chunks) > 1 and _tape_active():
-        chunks = [(0, batch)]
-    last = len(inputs) - 1
-
-    def run(chunk: tuple[int, int]) -> None:
-        ins = list(inputs)
-        ins[last] = chunk[0]
-        wp.launch(kernel, dim=(chunk[1], *dim_tail), inputs=ins, outputs=outputs, device=device, adjoint=adjoint,
-                  adj_inputs=adj_inputs or [], adj_outputs=adj_outputs or [])
-
-    if len(chunks) == 1:
-        run(chunks[0])
-        return
-    key = (id(kernel.module), str(device))
-    if key not in _cpu.loaded:
-        # The first launch may compile the module: run one chunk alone so threads never race to load it.
-        run(chunks[0])
-        _cpu.loaded.add(key)
-        chunks = chunks[1:]
-    for f in [_cpu.get_pool().submit(run, c) for c in chunks]:
-        f.result()
-
-
-# ---------------------------------------------------------------------------------------------
 # launchers
 # ---------------------------------------------------------------------------------------------
-
-
-def _as_batch(model: KinematicModel, q: Any, device: Any, what: str = "q") -> tuple[wp.array, tuple[int, ...], Any]:
-    """``q`` as a [B, C] Warp array on ``device``; returns it, the leading shape and the Warp dtype."""
-    if not isinstance(q, wp.array):
-        arr = np.asarray(q)
-        if arr.dtype not in (np.float32, np.float64):
-            arr = arr.astype(np.float32)
-        q = wp.array(np.ascontiguousarray(arr), dtype=wp.dtype_from_numpy(arr.dtype), device=device)
-    if q.dtype not in (wp.float32, wp.float64):
-        raise GraphError(f"{what}: expected float32 or float64 coordinates, got {wp.types.type_repr(q.dtype)}")
-    C = model.coordinate_count
-    if q.ndim < 1 or q.shape[-1] != C:
-        raise GraphError(
-            f"{what}: expected shape [..., {C}] for {model.name!r} ({C} coordinates), got {list(q.shape)}"
-        )
-    if str(q.device) != str(device):
-        raise GraphError(f"{what}: array is on {q.device}, expected {device}")
-    lead = tuple(q.shape[:-1])
-    B = int(np.prod(lead)) if lead else 1
-    if not q.is_contiguous:
-        q = q.contiguous()
-    return _as_shape(q, (B, C)), lead, q.dtype
-
-
-def _as_shape(a: wp.array, shape: tuple[int, ...]) -> wp.array:
-    """``a`` viewed with ``shape`` (no new array object when it already has it)."""
-    return a if tuple(a.shape) == shape else a.reshape(shape)
 
 
 def _wheel_input(model: KinematicModel, wheel_q: Any, B: int, lead: tuple[int, ...], device: Any,
@@ -266,22 +143,14 @@ def _wheel_input(model: KinematicModel, wheel_q: Any, B: int, lead: tuple[int, .
     return wheel_q.contiguous().reshape((B, W)), 1
 
 
-def _device(model: KinematicModel, q: Any, device: Any) -> Any:
-    if device is not None:
-        return wp.get_device(device)
-    if isinstance(q, wp.array):
-        return q.device
-    return wp.get_device(model.device)
-
-
 def _fk_inputs(q: wp.array, wheel: wp.array, wheel_batched: int) -> list:
     return [q, wheel, wheel_batched, 0]
 
 
 def _eval(model: KinematicModel, q: Any, kernel_name: str, out_dtype_of: Any, *, out: Any, wheel_q: Any,
           device: Any) -> wp.array:
-    device = _device(model, q, device)
-    q2, lead, dtype = _as_batch(model, q, device)
+    device = resolve_device(device, q, model)
+    q2, lead, dtype = as_batch(model, q, device)
     B = q2.shape[0]
     wheel, wheel_batched = _wheel_input(model, wheel_q, B, lead, device, dtype)
     L = model.link_count
@@ -296,16 +165,8 @@ def _eval(model: KinematicModel, q: Any, kernel_name: str, out_dtype_of: Any, *,
     if B == 0:
         return out
     kernel = getattr(fk_module(model, dtype), kernel_name)
-    _launch(kernel, B, device, _fk_inputs(q2, wheel, wheel_batched), [_as_shape(out, (B, L))])
+    launch(kernel, B, device, _fk_inputs(q2, wheel, wheel_batched), [as_shape(out, (B, L))])
     return out
-
-
-def _transform_type(dtype: Any) -> Any:
-    return wp.transformd if dtype == wp.float64 else wp.transform
-
-
-def _vec3_type(dtype: Any) -> Any:
-    return wp.vec3d if dtype == wp.float64 else wp.vec3
 
 
 def eval_fk(model: KinematicModel, q: Any, *, out: wp.array | None = None, wheel_q: Any = None,
@@ -329,7 +190,7 @@ def eval_fk(model: KinematicModel, q: Any, *, out: wp.array | None = None, wheel
     Raises:
         GraphError: on a wrong shape, dtype or device.
     """
-    return _eval(model, q, "fk_transforms", _transform_type, out=out, wheel_q=wheel_q, device=device)
+    return _eval(model, q, "fk_transforms", transform_type, out=out, wheel_q=wheel_q, device=device)
 
 
 def eval_link_positions(model: KinematicModel, q: Any, *, out: wp.array | None = None, wheel_q: Any = None,
@@ -339,15 +200,15 @@ def eval_link_positions(model: KinematicModel, q: Any, *, out: wp.array | None =
     Same arguments as :func:`eval_fk`; returns shape [..., L] of ``wp.vec3`` (``.numpy()``:
     [..., L, 3], [m]).
     """
-    return _eval(model, q, "fk_positions", _vec3_type, out=out, wheel_q=wheel_q, device=device)
+    return _eval(model, q, "fk_positions", vec3_type, out=out, wheel_q=wheel_q, device=device)
 
 
 def _adjoint_args(model: KinematicModel, q: Any, adj_out: wp.array, out_dtype_of: Any, *, adj_q: wp.array | None,
                   wheel_q: Any, device: Any) -> tuple[Any, wp.array, Any, wp.array, int, wp.array]:
     """Validate the arguments of an FK adjoint; returns device, q as [B, C], dtype, wheel input, whether
     wheels are batched, and ``adj_q`` (allocated zeroed when not given)."""
-    device = _device(model, q, device)
-    q2, lead, dtype = _as_batch(model, q, device)
+    device = resolve_device(device, q, model)
+    q2, lead, dtype = as_batch(model, q, device)
     L, C = model.link_count, model.coordinate_count
     wheel, wheel_batched = _wheel_input(model, wheel_q, q2.shape[0], lead, device, dtype)
     out_type = out_dtype_of(dtype)
@@ -374,8 +235,8 @@ def _eval_adjoint(model: KinematicModel, q: wp.array, adj_out: wp.array, kernel_
     # ``out`` is not read by the adjoint of a store; a zero-size placeholder avoids allocating it.
     out_placeholder = adj_out.contiguous().reshape((B, L))
     adj_inputs = [adj_q.reshape((B, C)), None, 0, 0]
-    _launch(kernel, B, device, inputs, [out_placeholder], adjoint=True, adj_inputs=adj_inputs,
-            adj_outputs=[out_placeholder])
+    launch(kernel, B, device, inputs, [out_placeholder], adjoint=True, adj_inputs=adj_inputs,
+           adj_outputs=[out_placeholder])
     return adj_q
 
 
@@ -392,7 +253,7 @@ def eval_fk_adjoint(model: KinematicModel, q: Any, adj_out: wp.array, *, adj_q: 
     Returns:
         ``adj_q``, shape [..., C] (allocated zeroed when not given; accumulated into otherwise).
     """
-    return _eval_adjoint(model, q, adj_out, "fk_transforms", _transform_type, adj_q=adj_q, wheel_q=wheel_q,
+    return _eval_adjoint(model, q, adj_out, "fk_transforms", transform_type, adj_q=adj_q, wheel_q=wheel_q,
                          device=device)
 
 
@@ -405,19 +266,18 @@ def eval_link_positions_adjoint(model: KinematicModel, q: Any, adj_out: wp.array
     record the joint frames, then sweeps the tree backwards.
     """
     device, q2, dtype, wheel, wheel_batched, adj_q = _adjoint_args(
-        model, q, adj_out, _vec3_type, adj_q=adj_q, wheel_q=wheel_q, device=device
+        model, q, adj_out, vec3_type, adj_q=adj_q, wheel_q=wheel_q, device=device
     )
     B, L, C = q2.shape[0], model.link_count, model.coordinate_count
-    vec3 = _vec3_type(dtype)
+    vec3 = vec3_type(dtype)
     if B == 0:
         return adj_q
     module = fk_module(model, dtype)
     pos = wp.empty((B, L), dtype=vec3, device=device)
-    frames = wp.empty((B, max(model.joint_count, 1)), dtype=wp.quatd if dtype == wp.float64 else wp.quat,
-                      device=device)
-    _launch(module.fk_positions_frames, B, device, _fk_inputs(q2, wheel, wheel_batched), [pos, frames])
-    _launch(module.fk_positions_vjp, B, device, [q2, pos, frames, adj_out.contiguous().reshape((B, L)), 0],
-            [adj_q.reshape((B, C))])
+    frames = wp.empty((B, max(model.joint_count, 1)), dtype=quat_type(dtype), device=device)
+    launch(module.fk_positions_frames, B, device, _fk_inputs(q2, wheel, wheel_batched), [pos, frames])
+    launch(module.fk_positions_vjp, B, device, [q2, pos, frames, adj_out.contiguous().reshape((B, L)), 0],
+           [adj_q.reshape((B, C))])
     return adj_q
 
 
@@ -486,8 +346,8 @@ def eval_wheel_angles(model: KinematicModel, q: Any, *, out: wp.array | None = N
     Returns:
         Wheel angles, shape [..., T, W] (same dtype as ``q``).
     """
-    device = _device(model, q, device)
-    q2, lead, dtype = _as_batch(model, q, device)
+    device = resolve_device(device, q, model)
+    q2, lead, dtype = as_batch(model, q, device)
     if len(lead) < 1:
         raise GraphError(f"q: expected a motion of shape [..., T, {model.coordinate_count}], got {list(q.shape)}")
     W = model.wheel_count
@@ -500,6 +360,6 @@ def eval_wheel_angles(model: KinematicModel, q: Any, *, out: wp.array | None = N
     if W == 0 or B == 0:
         return out
     a = model.arrays(device, dtype)
-    _launch(wheel_angles, B, device, [q2.reshape((B, T, model.coordinate_count)), a.wheel_lateral, a.wheel_sign,
-                                      dtype(1.0 / model.wheel_radius), 0], [out.reshape((B, T, W))])
+    launch(wheel_angles, B, device, [q2.reshape((B, T, model.coordinate_count)), a.wheel_lateral, a.wheel_sign,
+                                     dtype(1.0 / model.wheel_radius), 0], [out.reshape((B, T, W))])
     return out

@@ -36,7 +36,9 @@ import warp as wp
 
 from morphkit.errors import GraphError
 from morphkit.graph.types import BaseType, JointType
-from morphkit.kernels.fk import _as_batch, _vec3_type, eval_fk
+from morphkit.kernels.dtypes import vec3_type
+from morphkit.kernels.fk import eval_fk
+from morphkit.kernels.launch import as_batch, resolve_device
 from morphkit.model.kinematic_model import KinematicModel
 
 __all__ = ["IKResult", "eval_ee_jacobian", "ik_dof_mask", "ik_solve", "ik_step"]
@@ -441,7 +443,7 @@ def _plan(model: KinematicModel, ee_idx: np.ndarray, dof_mask: Any, device: Any,
     hit = cache.get(key)
     if hit is None:
         col = _columns(model, ee_idx, dof_mask)
-        vec3 = _vec3_type(scalar)
+        vec3 = vec3_type(scalar)
         np_float = np.float64 if scalar == wp.float64 else np.float32
         hit = _Plan(
             ee_link=wp.array(np.asarray(model.ee_link)[ee_idx], dtype=wp.int32, device=device),
@@ -454,7 +456,7 @@ def _plan(model: KinematicModel, ee_idx: np.ndarray, dof_mask: Any, device: Any,
 
 
 def _targets(targets: Any, lead: tuple[int, ...], E: int, scalar: Any, device: Any) -> wp.array:
-    vec3 = _vec3_type(scalar)
+    vec3 = vec3_type(scalar)
     if isinstance(targets, wp.array):
         t = targets if targets.is_contiguous else targets.contiguous()
         if t.dtype == scalar:
@@ -476,14 +478,6 @@ def _targets(targets: Any, lead: tuple[int, ...], E: int, scalar: Any, device: A
     return t.reshape((B, E))
 
 
-def _device(q: Any, device: Any, model: KinematicModel) -> Any:
-    if device is not None:
-        return wp.get_device(device)
-    if isinstance(q, wp.array):
-        return q.device
-    return wp.get_device(model.device)
-
-
 def eval_ee_jacobian(model: KinematicModel, q: Any, *, ee: Any = None, dof_mask: Any = None,
                      device: Any = None) -> tuple[wp.array, np.ndarray]:
     """Positional Jacobian of the end-effectors with respect to the moving DoFs (world frame).
@@ -501,8 +495,8 @@ def eval_ee_jacobian(model: KinematicModel, q: Any, *, ee: Any = None, dof_mask:
     Returns:
         ``(J, dofs)``: ``J`` of shape [..., 3E, n] and the ``qd`` index of every column, shape [n].
     """
-    device = _device(q, device, model)
-    q2, lead, scalar = _as_batch(model, q, device)
+    device = resolve_device(device, q, model)
+    q2, lead, scalar = as_batch(model, q, device)
     ee_idx = _ee_indices(model, ee)
     plan = _plan(model, ee_idx, dof_mask, device, scalar)
     B = q2.shape[0]
@@ -555,14 +549,14 @@ def ik_step(model: KinematicModel, q: Any, targets: Any, *, ee: Any = None, damp
     """
     if not np.isfinite(damping) or damping < 0:
         raise GraphError(f"damping must be >= 0, got {damping!r}")
-    device = _device(q, device, model)
-    q2, lead, scalar = _as_batch(model, q, device)
+    device = resolve_device(device, q, model)
+    q2, lead, scalar = as_batch(model, q, device)
     ee_idx = _ee_indices(model, ee)
     E = len(ee_idx)
     t = _targets(targets, lead, E, scalar, device)
     plan = _plan(model, ee_idx, dof_mask, device, scalar)
     B, C = q2.shape
-    vec3 = _vec3_type(scalar)
+    vec3 = vec3_type(scalar)
     if out is None:
         out = wp.empty((*lead, C), dtype=scalar, device=device)
     elif tuple(out.shape) != (*lead, C) or out.dtype != scalar or not out.is_contiguous:
@@ -621,8 +615,8 @@ def ik_solve(model: KinematicModel, q: Any, targets: Any, *, ee: Any = None, ite
     """
     if iterations < 0:
         raise GraphError(f"iterations must be >= 0, got {iterations}")
-    device = _device(q, device, model)
-    q2, lead, _ = _as_batch(model, q, device)
+    device = resolve_device(device, q, model)
+    q2, lead, _ = as_batch(model, q, device)
     cur = wp.clone(q2).reshape((*lead, model.coordinate_count))  # never write into the caller's array
     buf = wp.empty_like(cur)
     for it in range(iterations + 1):

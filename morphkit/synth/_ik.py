@@ -17,8 +17,6 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
-import os
-import threading
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
@@ -28,6 +26,7 @@ import warp as wp
 from morphkit.graph import EndEffector, EndEffectorRole, JointType, Morphology
 from morphkit.kernels import eval_fk, fk_module
 from morphkit.kernels.ik import dls_step_kernel, eval_ee_jacobian, ik_step
+from morphkit.kernels.launch import cpu_pool, cpu_thread_count
 from morphkit.model import KinematicModel, compile_model
 from morphkit.rotations import (
     matrix_from_quat,
@@ -156,28 +155,6 @@ class _Workspace:
 def _run_pair(pair: list) -> None:
     pair[0].launch()
     pair[1].launch()
-
-
-_pool_lock = threading.Lock()
-_pools: dict[int, ThreadPoolExecutor] = {}
-
-
-def _thread_pool(workers: int) -> ThreadPoolExecutor | None:
-    if workers <= 1:
-        return None
-    with _pool_lock:
-        pool = _pools.get(workers)
-        if pool is None:
-            pool = _pools[workers] = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="morphkit-synth-ik")
-        return pool
-
-
-def cpu_workers() -> int:
-    """Threads the IK launches are split over (``MORPHKIT_CPU_THREADS``, default all cores)."""
-    return max(1, int(os.environ.get("MORPHKIT_CPU_THREADS", "0")) or _CPU_COUNT)
-
-
-_CPU_COUNT = os.cpu_count() or 1
 
 
 class LimbSolver:
@@ -320,7 +297,7 @@ class LimbSolver:
     def _workspace(self, key: str, ee: np.ndarray, mask: np.ndarray, B: int) -> _Workspace:
         ws = self._ws.get((key, B))
         if ws is None:
-            workers = cpu_workers()
+            workers = cpu_thread_count()
             parts = min(workers, max(1, B // 32))
             ws = _Workspace(self.model, ee, mask, B, parts, self.damping, self.max_step, self.max_error)
             self._ws[(key, B)] = ws
@@ -353,7 +330,7 @@ class LimbSolver:
         B = q.shape[0]
         if B == 0 or len(ee) == 0 or min_iterations <= 0:
             return q
-        pool = _thread_pool(cpu_workers())
+        pool = cpu_pool()
         ws = self._workspace(key, ee, mask, B)
         ws.q_np[0][:] = q
         ws.targets_np[:] = targets

@@ -13,8 +13,6 @@ one-sided value 0). Once differentiable; compose with the FK functions for gradi
 
 from __future__ import annotations
 
-import contextlib
-from collections.abc import Iterator
 from typing import Any
 
 import torch
@@ -25,6 +23,7 @@ from morphkit.errors import GraphError
 from morphkit.kernels import contact as _ck
 from morphkit.kernels.contact import SelfCollisionPairs
 from morphkit.model.kinematic_model import KinematicModel
+from morphkit.torch.streams import on_torch_stream
 
 __all__ = [
     "FootHeightFunction",
@@ -42,17 +41,6 @@ __all__ = [
 
 _VEC3 = {torch.float32: wp.vec3f, torch.float64: wp.vec3d}
 _TRANSFORM = {torch.float32: wp.transformf, torch.float64: wp.transformd}
-
-
-@contextlib.contextmanager
-def _on_torch_stream(t: torch.Tensor) -> Iterator[wp.context.Device]:
-    """Yield the Warp device of ``t``; on CUDA, Warp launches go to torch's current stream."""
-    device = wp.device_from_torch(t.device)
-    if device.is_cuda:
-        with wp.ScopedStream(wp.stream_from_torch(torch.cuda.current_stream(t.device))):
-            yield device
-    else:
-        yield device
 
 
 def _wrap(t: torch.Tensor, dtype_of: dict) -> wp.array:
@@ -92,7 +80,7 @@ class FootHeightFunction(torch.autograd.Function):
         F = p.shape[1] if feet is None else len(feet)
         out = torch.empty((p.shape[0], F), dtype=p.dtype, device=p.device)  # [B, F]
         launch = _ck.eval_penetration_depth if penetration else _ck.eval_foot_heights
-        with _on_torch_stream(p) as dev:
+        with on_torch_stream(p.device) as dev:
             launch(_wrap(p, _VEC3), feet=feet, ground_height=ground_height,
                    out=wp.from_torch(out, requires_grad=False), device=dev)
         ctx.save_for_backward(p)
@@ -108,7 +96,7 @@ class FootHeightFunction(torch.autograd.Function):
         feet, ground_height, penetration = ctx.args
         grad_p = torch.zeros_like(p)  # [B, E, 3]
         adjoint = _ck.eval_penetration_depth_adjoint if penetration else _ck.eval_foot_heights_adjoint
-        with _on_torch_stream(p) as dev:
+        with on_torch_stream(p.device) as dev:
             adjoint(_wrap(p, _VEC3), wp.from_torch(grad_out.contiguous(), requires_grad=False), feet=feet,
                     ground_height=ground_height, adj_points=_wrap(grad_p, _VEC3), device=dev)
         return grad_p, None, None, None
@@ -154,7 +142,7 @@ class SlidingSpeedFunction(torch.autograd.Function):
         P = P.contiguous()  # [B, T, E, 3]
         F = P.shape[2] if feet is None else len(feet)
         out = torch.empty((P.shape[0], P.shape[1], F), dtype=P.dtype, device=P.device)  # [B, T, F]
-        with _on_torch_stream(P) as dev:
+        with on_torch_stream(P.device) as dev:
             _ck.eval_sliding_speed(_wrap(P, _VEC3), fps, feet=feet, height_threshold=height_threshold,
                                    ground_height=ground_height, out=wp.from_torch(out, requires_grad=False),
                                    device=dev)
@@ -170,7 +158,7 @@ class SlidingSpeedFunction(torch.autograd.Function):
             return None, None, None, None, None
         fps, feet, height_threshold, ground_height = ctx.args
         grad_P = torch.zeros_like(P)  # [B, T, E, 3]
-        with _on_torch_stream(P) as dev:
+        with on_torch_stream(P.device) as dev:
             _ck.eval_sliding_speed_adjoint(_wrap(P, _VEC3), wp.from_torch(grad_out.contiguous(), requires_grad=False),
                                            fps, feet=feet, height_threshold=height_threshold,
                                            ground_height=ground_height, adj_points=_wrap(grad_P, _VEC3), device=dev)
@@ -210,7 +198,7 @@ def contact_flags(P: torch.Tensor, fps: float, *, feet: Any = None, height_thres
     Pd = P.detach().reshape(-1, T, E, 3).contiguous()
     F = E if feet is None else len(_feet(feet) or ())
     out = torch.empty((Pd.shape[0], T, F), dtype=torch.bool, device=P.device)
-    with _on_torch_stream(Pd) as dev:
+    with on_torch_stream(Pd.device) as dev:
         _ck.eval_contact_flags(_wrap(Pd, _VEC3), fps, feet=_feet(feet), height_threshold=height_threshold,
                                speed_threshold=speed_threshold, ground_height=ground_height,
                                out=wp.from_torch(out, dtype=wp.bool, requires_grad=False), device=dev)
@@ -242,7 +230,7 @@ class SelfCollisionFunction(torch.autograd.Function):
         Ts = Ts.contiguous()  # [B, L, 7]
         out = torch.empty((Ts.shape[0], pairs.pair_count), dtype=Ts.dtype, device=Ts.device)  # [B, P]
         launch = _ck.eval_self_collision_penetration if penetration else _ck.eval_self_collision_distance
-        with _on_torch_stream(Ts) as dev:
+        with on_torch_stream(Ts.device) as dev:
             launch(model, pairs, _wrap(Ts, _TRANSFORM), out=wp.from_torch(out, requires_grad=False), device=dev)
         ctx.save_for_backward(Ts)
         ctx.args = (model, pairs, penetration)
@@ -258,7 +246,7 @@ class SelfCollisionFunction(torch.autograd.Function):
         grad_Ts = torch.zeros_like(Ts)  # [B, L, 7]
         adjoint = (_ck.eval_self_collision_penetration_adjoint if penetration
                    else _ck.eval_self_collision_distance_adjoint)
-        with _on_torch_stream(Ts) as dev:
+        with on_torch_stream(Ts.device) as dev:
             adjoint(model, pairs, _wrap(Ts, _TRANSFORM), wp.from_torch(grad_out.contiguous(), requires_grad=False),
                     adj_link_X=_wrap(grad_Ts, _TRANSFORM), device=dev)
         return grad_Ts, None, None, None
@@ -294,7 +282,7 @@ class ShapeGroundFunction(torch.autograd.Function):
     def forward(ctx: Any, Ts: torch.Tensor, model: KinematicModel, ground_height: float) -> torch.Tensor:
         Ts = Ts.contiguous()  # [B, L, 7]
         out = torch.empty((Ts.shape[0], model.shape_count), dtype=Ts.dtype, device=Ts.device)  # [B, S]
-        with _on_torch_stream(Ts) as dev:
+        with on_torch_stream(Ts.device) as dev:
             _ck.eval_shape_ground_distance(model, _wrap(Ts, _TRANSFORM), ground_height=ground_height,
                                            out=wp.from_torch(out, requires_grad=False), device=dev)
         ctx.save_for_backward(Ts)
@@ -309,7 +297,7 @@ class ShapeGroundFunction(torch.autograd.Function):
             return None, None, None
         model, ground_height = ctx.args
         grad_Ts = torch.zeros_like(Ts)  # [B, L, 7]
-        with _on_torch_stream(Ts) as dev:
+        with on_torch_stream(Ts.device) as dev:
             _ck.eval_shape_ground_distance_adjoint(model, _wrap(Ts, _TRANSFORM),
                                                    wp.from_torch(grad_out.contiguous(), requires_grad=False),
                                                    ground_height=ground_height, adj_link_X=_wrap(grad_Ts, _TRANSFORM),

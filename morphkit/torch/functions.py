@@ -17,9 +17,7 @@ escape hatch :mod:`morphkit.torch.reference` (same conventions, plain autograd),
 
 from __future__ import annotations
 
-import contextlib
 import threading
-from collections.abc import Iterator
 from typing import Any
 
 import torch
@@ -29,8 +27,11 @@ from torch.autograd.function import once_differentiable
 from morphkit.errors import GraphError
 from morphkit.kernels import end_effectors as _ee
 from morphkit.kernels import fk as _fk
+from morphkit.kernels.dtypes import quat_type, transform_type, vec3_type
+from morphkit.kernels.launch import launch, launch_chunks, tape_active
 from morphkit.model.kinematic_model import KinematicModel
 from morphkit.rotations import heading_frame, quat_rotate_inverse
+from morphkit.torch.streams import on_torch_stream
 
 __all__ = [
     "EndEffectorFunction",
@@ -94,16 +95,6 @@ def _check(model: KinematicModel, q: torch.Tensor) -> None:
         )
 
 
-@contextlib.contextmanager
-def _on_torch_stream(device: wp.context.Device) -> Iterator[None]:
-    """Run Warp launches on the stream torch is currently using (a no-op on the CPU)."""
-    if device.is_cuda:
-        with wp.ScopedStream(wp.stream_from_torch(torch.cuda.current_stream(device.ordinal))):
-            yield
-    else:
-        yield
-
-
 class _Ctx:
     """Per (model, device, dtype) state: the generated kernels, Warp device and wrapped constants."""
 
@@ -112,9 +103,9 @@ class _Ctx:
         self.wp_device = wp.device_from_torch(device)
         self.scalar = _WP_SCALAR[dtype]
         self.module = _fk.fk_module(model, self.scalar)
-        self.transform = wp.transformd if self.scalar == wp.float64 else wp.transform
-        self.vec3 = wp.vec3d if self.scalar == wp.float64 else wp.vec3
-        self.quat = wp.quatd if self.scalar == wp.float64 else wp.quat
+        self.transform = transform_type(self.scalar)
+        self.vec3 = vec3_type(self.scalar)
+        self.quat = quat_type(self.scalar)
         self.arrays = model.arrays(self.wp_device, self.scalar)
         self.zero_wheels_array = wp.zeros((1, max(model.wheel_count, 1)), dtype=self.scalar, device=self.wp_device)
         self.zero_wheels = self.zero_wheels_array.__ctype__()
@@ -127,14 +118,14 @@ class _Ctx:
 
         Small batches replay a recorded launch whose array descriptors are updated in place
         (a few µs instead of ~15 for ``wp.launch``); large CPU batches are split over threads.
+        Call inside :func:`~morphkit.torch.streams.on_torch_stream`: the replay runs on the
+        device's current stream.
         """
         B = q.shape[0]
-        if len(_fk._chunks(B, self.wp_device)) > 1 or _fk._tape_active():
-            _fk._launch(kernel, B, self.wp_device, [_ctype(q, self.scalar), wheel, batched, 0],
-                        [_ctype(t, dt) for t, dt in outs])
+        if len(launch_chunks(B, self.wp_device)) > 1 or tape_active():
+            launch(kernel, B, self.wp_device, [_ctype(q, self.scalar), wheel, batched, 0],
+                   [_ctype(t, dt) for t, dt in outs])
             return
-        stream = wp.stream_from_torch(torch.cuda.current_stream(self.wp_device.ordinal)) \
-            if self.wp_device.is_cuda else None
         with self.lock:
             entry = self.replays.get(kernel.key)
             if entry is None:
@@ -153,7 +144,7 @@ class _Ctx:
                 if entry[1] != B:
                     replay.set_dim(B)
                     entry[1] = B
-            replay.launch(stream)
+            replay.launch()
 
 
 def _ctx(model: KinematicModel, t: torch.Tensor) -> _Ctx:
@@ -205,7 +196,7 @@ class FKFunction(torch.autograd.Function):
             kernel = c.module.fk_positions
         if B:
             wheel, batched = _wheels(c, model, wheel_q, B)
-            with _on_torch_stream(c.wp_device):
+            with on_torch_stream(c.wp_device):
                 c.launch_fk(kernel, q, outs, wheel, batched)
         if frames is not None:
             ctx.save_for_backward(q, wheel_q, out, frames)
@@ -227,10 +218,10 @@ class FKFunction(torch.autograd.Function):
         grad_q = _zeros(q.shape, q)  # [B, C]
         if B:
             grad_out = _cotangent(grad_out)  # [B, L, 7 | 3]
-            with _on_torch_stream(c.wp_device):
+            with on_torch_stream(c.wp_device):
                 if ctx.kind == "positions":
                     pos, frames = saved[2], saved[3]  # [B, L, 3], [B, J, 4]
-                    _fk._launch(
+                    launch(
                         c.module.fk_positions_vjp,
                         B,
                         c.wp_device,
@@ -242,7 +233,7 @@ class FKFunction(torch.autograd.Function):
                     wheel, batched = _wheels(c, model, wheel_q, B)
                     adj_out = _ctype(grad_out, c.transform)
                     # The adjoint never reads the forward output: the gradient buffer stands in for it.
-                    _fk._launch(
+                    launch(
                         c.module.fk_transforms,
                         B,
                         c.wp_device,
@@ -273,10 +264,10 @@ class EndEffectorFunction(torch.autograd.Function):
         rot = torch.empty((B, E, 4), dtype=q.dtype, device=q.device)  # [B, E, 4]
         if B:
             wheel, batched = _wheels(c, model, wheel_q, B)
-            with _on_torch_stream(c.wp_device):
+            with on_torch_stream(c.wp_device):
                 c.launch_fk(c.module.fk_transforms, q, [(Ts, c.transform)], wheel, batched)
                 if E:
-                    _fk._launch(
+                    launch(
                         _ee.end_effector_poses,
                         B,
                         c.wp_device,
@@ -313,8 +304,8 @@ class EndEffectorFunction(torch.autograd.Function):
             adj_pos = _array(grad_pos, c.vec3)
             adj_rot = _array(grad_rot, c.quat)
             adj_Ts_wp = _array(adj_Ts, c.transform)
-            with _on_torch_stream(c.wp_device):
-                _fk._launch(
+            with on_torch_stream(c.wp_device):
+                launch(
                     _ee.end_effector_poses,
                     B,
                     c.wp_device,
@@ -325,7 +316,7 @@ class EndEffectorFunction(torch.autograd.Function):
                     adj_outputs=[adj_pos, adj_rot],
                     dim_tail=(E,),
                 )
-                _fk._launch(
+                launch(
                     c.module.fk_transforms,
                     B,
                     c.wp_device,
@@ -447,6 +438,6 @@ def wheel_angles(model: KinematicModel, q: torch.Tensor) -> torch.Tensor:
     if model.wheel_count and q.numel():
         qd = q.detach().contiguous()
         c = _ctx(model, qd)
-        with _on_torch_stream(c.wp_device):
+        with on_torch_stream(c.wp_device):
             _fk.eval_wheel_angles(model, _array(qd, c.scalar), out=_array(out, c.scalar), device=c.wp_device)
     return out

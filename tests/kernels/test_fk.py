@@ -11,6 +11,7 @@ from morphkit_testing import ALL_CREATURES, creature, every_joint, mimic, planar
 from morphkit.conventions import quat_from_axis_angle, quat_multiply, transform_multiply
 from morphkit.errors import GraphError
 from morphkit.kernels import (
+    cpu_thread_count,
     eval_fk,
     eval_fk_adjoint,
     eval_link_positions,
@@ -19,7 +20,7 @@ from morphkit.kernels import (
     fk_module,
     set_cpu_thread_count,
 )
-from morphkit.kernels.fk import cpu_thread_count, generate_fk_source
+from morphkit.kernels.fk import generate_fk_source
 from morphkit.model import compile_model
 from morphkit.torch.reference import fk_reference, wheel_angles_reference
 

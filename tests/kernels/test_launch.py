@@ -1,0 +1,65 @@
+"""The shared launch helpers: device resolution, batch checks, CPU chunks and the one thread pool."""
+
+from __future__ import annotations
+
+import threading
+
+import numpy as np
+import pytest
+import warp as wp
+from morphkit_testing import random_q, spot_like
+
+from morphkit.errors import GraphError
+from morphkit.kernels import cpu_thread_count, set_cpu_thread_count
+from morphkit.kernels.launch import as_batch, cpu_pool, launch_chunks, resolve_device
+from morphkit.model import compile_model
+
+
+def test_resolve_device_prefers_the_argument_then_the_array_then_the_model():
+    m = compile_model(spot_like())
+    q = wp.zeros((2, m.coordinate_count), device="cpu")
+    assert resolve_device("cpu", q, m) == wp.get_device("cpu")
+    assert resolve_device(None, q, m) is q.device
+    assert resolve_device(None, np.zeros(3), m) == wp.get_device(m.device)
+    assert resolve_device(None, np.zeros(3)) == wp.get_device(None)
+
+
+def test_as_batch_flattens_leading_dimensions_and_names_bad_input():
+    m = compile_model(spot_like())
+    C = m.coordinate_count
+    q2, lead, dtype = as_batch(m, random_q(m, (2, 3)), wp.get_device("cpu"))
+    assert (tuple(q2.shape), lead, dtype) == ((6, C), (2, 3), wp.float64)
+    assert as_batch(m, np.zeros(C, np.int64), wp.get_device("cpu"))[2] == wp.float32
+    with pytest.raises(GraphError, match=rf"q: expected shape \[\.\.\., {C}\]"):
+        as_batch(m, np.zeros((2, C + 1)), wp.get_device("cpu"))
+    with pytest.raises(GraphError, match="expected float32 or float64"):
+        as_batch(m, wp.zeros((2, C), dtype=wp.int32, device="cpu"), wp.get_device("cpu"))
+
+
+def test_cpu_chunks_cover_the_batch_once_and_one_thread_pool_is_shared():
+    before = cpu_thread_count()
+    try:
+        set_cpu_thread_count(3)
+        cpu = wp.get_device("cpu")
+        for batch in (0, 1, 2047, 6144, 10_001):
+            chunks = launch_chunks(batch, cpu)
+            assert len(chunks) <= 3
+            covered = [i for offset, size in chunks for i in range(offset, offset + size)]
+            assert covered == list(range(batch))
+        assert len(launch_chunks(10_001, cpu)) == 3
+        pool = cpu_pool()
+        assert pool is not None and cpu_pool() is pool
+        names = set(pool.map(lambda _: threading.current_thread().name, range(6)))
+        assert all(n.startswith("morphkit-cpu") for n in names)
+        set_cpu_thread_count(2)
+        assert cpu_pool() is not pool  # a new count makes a new pool
+        set_cpu_thread_count(1)
+        assert cpu_pool() is None
+        assert launch_chunks(10_001, cpu) == [(0, 10_001)]
+    finally:
+        set_cpu_thread_count(before)
+
+
+@pytest.mark.skipif(not wp.is_cuda_available(), reason="needs a CUDA device")
+def test_cuda_launches_in_one_chunk():
+    assert launch_chunks(1_000_000, wp.get_device("cuda")) == [(0, 1_000_000)]
