@@ -15,6 +15,7 @@ __all__ = [
     "GraphError",
     "MorphkitError",
     "MotionFormatError",
+    "RunError",
     "SourceLocation",
 ]
 
@@ -68,3 +69,7 @@ class MotionFormatError(MorphkitError):
 
 class ConfigError(MorphkitError):
     """A configuration value or command-line argument is invalid."""
+
+
+class RunError(MorphkitError):
+    """A training run folder or checkpoint cannot be used (another trainer's or creature's, truncated, foreign)."""
