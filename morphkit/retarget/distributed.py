@@ -1,0 +1,136 @@
+"""Data-parallel training under ``torchrun``, detected from the environment.
+
+``torchrun --nproc_per_node N script.py`` sets ``WORLD_SIZE``, ``RANK`` and ``LOCAL_RANK``;
+:func:`init_distributed` reads them, joins the process group (NCCL on CUDA, Gloo on CPU) and
+says which device this rank trains on. Without those variables everything is a one-process
+no-op, so the same script runs either way. Rank 0 is the one that writes files.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from typing import Any
+
+import torch
+import torch.distributed as dist
+from torch import nn
+
+from morphkit.errors import ConfigError
+
+__all__ = [
+    "DistributedContext",
+    "all_gather_objects",
+    "all_reduce_max",
+    "all_reduce_mean",
+    "init_distributed",
+    "unwrap",
+    "wrap_ddp",
+]
+
+
+@dataclass(frozen=True)
+class DistributedContext:
+    """Where this process stands in a (possibly one-process) data-parallel job."""
+
+    rank: int
+    """Global rank, 0 … world_size − 1."""
+    local_rank: int
+    """Rank on this node; picks the CUDA device."""
+    world_size: int
+    """Number of processes."""
+    device: torch.device
+    """Device this rank trains on."""
+    backend: str | None
+    """``"nccl"``, ``"gloo"``, or ``None`` when not distributed."""
+
+    @property
+    def is_main(self) -> bool:
+        """Rank 0: the one process that writes files and shows progress."""
+        return self.rank == 0
+
+    @property
+    def is_distributed(self) -> bool:
+        """More than one process."""
+        return self.world_size > 1
+
+    def barrier(self) -> None:
+        """Wait for every rank (no-op in one process)."""
+        if self.is_distributed:
+            dist.barrier()
+
+
+def init_distributed(device: str | torch.device | None = None) -> DistributedContext:
+    """Join the ``torchrun`` process group if the environment names one; pick this rank's device.
+
+    Args:
+        device: ``"cpu"``, ``"cuda"`` (this rank's GPU under torchrun), an explicit device, or
+            ``None`` for CUDA when available, else CPU.
+    """
+    world_size = int(os.environ.get("WORLD_SIZE", "1"))
+    rank = int(os.environ.get("RANK", "0"))
+    local_rank = int(os.environ.get("LOCAL_RANK", "0"))
+    if device is None:
+        device = "cuda" if torch.cuda.is_available() else "cpu"
+    dev = torch.device(device)
+    if dev.type == "cuda":
+        if not torch.cuda.is_available():
+            raise ConfigError("device 'cuda' asked for, but torch sees no CUDA device")
+        dev = torch.device("cuda", local_rank if dev.index is None else dev.index)
+        torch.cuda.set_device(dev)
+    backend = None
+    if world_size > 1:
+        backend = "nccl" if dev.type == "cuda" else "gloo"
+        if not dist.is_initialized():
+            dist.init_process_group(backend=backend, device_id=dev if dev.type == "cuda" else None)
+        else:
+            backend = dist.get_backend()
+    return DistributedContext(rank, local_rank, world_size, dev, backend)
+
+
+def wrap_ddp(module: nn.Module, context: DistributedContext) -> nn.Module:
+    """``module`` on the context's device, inside ``DistributedDataParallel`` when distributed.
+
+    DDP broadcasts rank 0's parameters on construction and averages gradients in ``backward``.
+    """
+    module = module.to(context.device)
+    if not context.is_distributed:
+        return module
+    ids = [context.device.index] if context.device.type == "cuda" else None
+    return nn.parallel.DistributedDataParallel(module, device_ids=ids)
+
+
+def unwrap(module: nn.Module) -> nn.Module:
+    """The module inside a DDP wrapper (or ``module`` itself)."""
+    return module.module if isinstance(module, nn.parallel.DistributedDataParallel) else module
+
+
+def all_reduce_max(value: float, context: DistributedContext) -> float:
+    """The largest ``value`` over all ranks, on every rank (a collective: call it on all ranks)."""
+    if not context.is_distributed:
+        return value
+    tensor = torch.tensor([float(value)], dtype=torch.float64, device=_collective_device(context))
+    dist.all_reduce(tensor, op=dist.ReduceOp.MAX)
+    return float(tensor.item())
+
+
+def all_reduce_mean(value: torch.Tensor | float, context: DistributedContext) -> torch.Tensor:
+    """The mean of ``value`` over all ranks, on every rank (detached; a collective)."""
+    tensor = torch.as_tensor(value).detach().to(_collective_device(context), torch.float64).clone()
+    if context.is_distributed:
+        dist.all_reduce(tensor, op=dist.ReduceOp.SUM)
+        tensor /= context.world_size
+    return tensor
+
+
+def _collective_device(context: DistributedContext) -> torch.device:
+    return context.device if context.backend == "nccl" else torch.device("cpu")
+
+
+def all_gather_objects(obj: Any, context: DistributedContext) -> list[Any]:
+    """``obj`` from every rank, in rank order (a collective; ``[obj]`` in one process)."""
+    if not context.is_distributed:
+        return [obj]
+    out: list[Any] = [None] * context.world_size
+    dist.all_gather_object(out, obj)
+    return out
