@@ -10,6 +10,7 @@ from __future__ import annotations
 import importlib.util
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,13 +18,14 @@ from morphkit_testing import every_joint
 
 pytest.importorskip("torch")
 
+import morphkit.bench as bench
+from morphkit.bench.peers import mjcf_text, urdf_text_for_peers
 from morphkit.cli import main
-from morphkit.commands import bench
-from morphkit.commands._bench_peers import mjcf_text, urdf_text_for_peers
 from morphkit.errors import ConfigError
 
 PEER_MODULES = {"pytorch_kinematics": "pytorch_kinematics", "pinocchio": "pinocchio", "mujoco": "mujoco"}
 RECORD_KEYS = {"creature", "impl", "mode", "batch", "poses_per_s"}
+TARGETS = Path(__file__).resolve().parents[1] / "benchmarks" / "fk_targets.yaml"
 
 
 def _installed(impl: str) -> bool:
@@ -117,14 +119,15 @@ def test_peer_descriptions_expand_spherical_joints():
 def test_peers_reject_planar_base():
     """Peers cannot express a planar base: a ConfigError, which the benchmark lists as skipped."""
     _require("pinocchio")
-    from morphkit.commands._bench_peers import PinocchioFK
+    from morphkit.bench.peers import PinocchioFK
 
     with pytest.raises(ConfigError, match="planar"):
         PinocchioFK(every_joint("planar"))
 
 
 def test_report_checks_targets():
-    """The markdown report prints PASS/MISS with the margin for the issue's targets."""
+    """The markdown report prints PASS/MISS with the margin for the project's targets (benchmarks/fk_targets.yaml)."""
+    targets = bench.load_targets(TARGETS)
     records = [
         {"creature": "spot", "impl": "morphkit", "mode": "fwd", "batch": 16384, "poses_per_s": 5e6},
         {"creature": "spot", "impl": "pinocchio", "mode": "fwd", "batch": 16384, "poses_per_s": 2e6},
@@ -133,13 +136,33 @@ def test_report_checks_targets():
     result = bench.BenchResult(records=records, config=bench.BenchConfig(batches=(16384,), modes=("fwd",)))
     result.creatures = {"spot": "test", "human": "test"}
     result.bridge = {"spot": {"raw": 30.0, "torch": 50.0, "overhead": 20.0}}
-    checks = {c.name: c for c in bench.check_targets(result)}
+    checks = {c.name: c for c in bench.check_targets(result, targets)}
     assert checks["spot fwd, morphkit"].passed and checks["spot fwd, morphkit"].margin == pytest.approx(1.25)
     assert not checks["spot fwd, morphkit / pinocchio"].passed  # 2.5× < 3×
     assert not checks["human fwd, morphkit"].passed
-    report = bench.markdown_report(result)
+    report = bench.markdown_report(result, targets)
     assert "- PASS spot fwd, morphkit: 5 M poses/s" in report
     assert "- MISS human fwd, morphkit" in report
     assert "| 16384 | 5 M | 2 M (×2.5) |" in report
     assert "- PASS spot torch bridge overhead at B=1: 20 µs (target ≤ 40 µs; margin 2.00×)" in report
     assert "| spot | 30.0 µs | 50.0 µs | 20.0 µs |" in report
+
+
+def test_targets_file_errors_name_the_entry(tmp_path):
+    """A malformed targets file is a ConfigError naming the file, the entry and what is wrong."""
+    cases = {
+        "targets: []": "positive integer 'batch'",
+        "batch: 8\ntargets:\n  - {kind: speed, at_least: 1}": r"targets\[0\]: unknown kind 'speed'",
+        "batch: 8\ntargets:\n  - {kind: rate, creature: spot, mode: fwd, at_least: 1}": "missing impl",
+        "batch: 8\ntargets:\n  - {kind: rate, creature: spot, mode: fwd, impl: morphkit, at_least: 4.0e6}":
+            "signed exponent",
+        "batch: 8\ntargets:\n  - {kind: cold_compile, at_least: 1, at_most: 2}": "exactly one number",
+        "batch: 8\ntargets:\n  - {kind: speedup, creature: spot, mode: fwd, impl: morphkit, over: numpy, at_least: 2}":
+            "unknown over 'numpy'",
+    }
+    for i, (text, message) in enumerate(cases.items()):
+        path = tmp_path / f"t{i}.yaml"
+        path.write_text(text)
+        with pytest.raises(ConfigError, match=message) as info:
+            bench.load_targets(path)
+        assert str(path) in str(info.value)
