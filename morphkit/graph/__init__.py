@@ -13,8 +13,10 @@ from morphkit.graph.layout import BASE_COORD_WIDTH as BASE_COORD_WIDTH
 from morphkit.graph.layout import BASE_DOF_WIDTH as BASE_DOF_WIDTH
 from morphkit.graph.layout import JOINT_COORD_WIDTH as JOINT_COORD_WIDTH
 from morphkit.graph.layout import JOINT_DOF_WIDTH as JOINT_DOF_WIDTH
+from morphkit.graph.morphology import HUMAN_HAND_REACH as HUMAN_HAND_REACH
 from morphkit.graph.morphology import Morphology as Morphology
 from morphkit.graph.types import BaseType as BaseType
+from morphkit.graph.types import BodyLengthRule as BodyLengthRule
 from morphkit.graph.types import EndEffectorRole as EndEffectorRole
 from morphkit.graph.types import JointType as JointType
 from morphkit.graph.types import ShapeType as ShapeType
@@ -22,9 +24,11 @@ from morphkit.graph.types import ShapeType as ShapeType
 __all__ = [
     "BASE_COORD_WIDTH",
     "BASE_DOF_WIDTH",
+    "HUMAN_HAND_REACH",
     "JOINT_COORD_WIDTH",
     "JOINT_DOF_WIDTH",
     "BaseType",
+    "BodyLengthRule",
     "EndEffector",
     "EndEffectorRole",
     "Joint",

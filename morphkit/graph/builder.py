@@ -55,6 +55,7 @@ class MorphologyBuilder:
         self._ees: dict[str, EndEffector] = {}
         self._wheels: Wheels | None = None
         self._wheels_location: SourceLocation | None = None
+        self._body_length: float | None = None
 
     def _loc(self, location: SourceLocation | None) -> SourceLocation | None:
         return location if location is not None else (SourceLocation(self.source) if self.source else None)
@@ -68,6 +69,14 @@ class MorphologyBuilder:
         """Name the root link (by default, the one link without a parent)."""
         self.root = link
         self._root_location = self._loc(location)
+
+    def set_body_length(self, length: float, *, location: SourceLocation | None = None) -> None:
+        """Declare the body length [m] features are normalised by (overrides :attr:`Morphology.body_length`'s rule)."""
+        loc = self._loc(location)
+        (value,) = _finite([length], "body length", loc)
+        if value <= 0:
+            raise GraphError(f"body length must be > 0 [m], got {value}", location=loc)
+        self._body_length = value
 
     # ---- links and shapes ------------------------------------------------------------------
     def add_link(self, name: str, *, shapes: Sequence[Shape] = (), location: SourceLocation | None = None) -> int:
@@ -336,6 +345,7 @@ class MorphologyBuilder:
             end_effectors=tuple(self._ees.values()),
             wheels=self._wheels,
             source=self.source,
+            declared_body_length=self._body_length,
         )
 
     @staticmethod

@@ -17,9 +17,45 @@ from morphkit.graph.layout import (
     JOINT_COORD_WIDTH,
     JOINT_DOF_WIDTH,
 )
-from morphkit.graph.types import BaseType, EndEffectorRole, JointType
+from morphkit.graph.types import BaseType, BodyLengthRule, EndEffectorRole, JointType
 
-__all__ = ["Morphology"]
+__all__ = ["HUMAN_HAND_REACH", "UPRIGHT_FOOT_SLOPE", "Morphology"]
+
+HUMAN_HAND_REACH = 2.2
+"""How high a standing human's hand reaches above the ground, arm raised overhead, in body lengths
+(standing root heights): the shipped human's 2.07 m over 0.98 m, CMU clips up to 2.13, plus a margin.
+A creature without feet has the body length that puts its highest hand point there."""
+
+UPRIGHT_FOOT_SLOPE = 0.2
+"""A rest pose counts as upright when every foot lies below the root by at least this fraction of
+its distance from the root (feet at least ~12° below the root's horizontal)."""
+
+_ONE_DOF = (JointType.REVOLUTE, JointType.CONTINUOUS, JointType.PRISMATIC)
+_AXES = np.eye(3)
+
+
+def _rotation(q: np.ndarray) -> np.ndarray:
+    """Rotation matrix [3, 3] of a unit quaternion xyzw."""
+    x, y, z, w = q
+    return np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+    ])
+
+
+def _axis_rotation(axis: np.ndarray, angle: float) -> np.ndarray:
+    """Rotation matrix [3, 3] by ``angle`` [rad] about the unit ``axis`` (Rodrigues)."""
+    K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    return np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * (K @ K)
+
+
+def _matrix(p: np.ndarray, R: np.ndarray) -> np.ndarray:
+    """Homogeneous 4x4 matrix of a translation [3] and a rotation [3, 3]."""
+    M = np.eye(4)
+    M[:3, :3] = R
+    M[:3, 3] = p
+    return M
 
 
 @dataclass(frozen=True)
@@ -45,6 +81,9 @@ class Morphology:
     wheels: Wheels | None = None
     source: str | None = None
     """Path of the description this was read from, if any."""
+    declared_body_length: float | None = None
+    """Body length [m] the description declares (YAML ``body_length:``); ``None``: :attr:`body_length`
+    follows its rule."""
 
     # ---- lookups ---------------------------------------------------------------------------
     @property
@@ -212,6 +251,15 @@ class Morphology:
         """Joint names from the root to each end-effector's link."""
         return {ee.name: self.chain(ee.link) for ee in self.end_effectors}
 
+    def _rest_values(self) -> np.ndarray:
+        """Joint values at :meth:`rest_q`, shape [joint_count, 3]: column 0 for 1-DoF joints; spherical joints 0."""
+        q = self.rest_q()
+        values = np.zeros((self.joint_count, 3))
+        for ji, j in enumerate(self.joints):
+            if not self.is_driven(j) and j.type in _ONE_DOF:
+                values[ji, 0] = q[self.joint_q_start[ji]]
+        return values
+
     def rest_link_poses(self) -> np.ndarray:
         """Link poses ``T_world_link`` at :meth:`rest_q`, shape [link_count, 7] (NumPy, for queries only)."""
         q = self.rest_q()
@@ -245,11 +293,11 @@ class Morphology:
 
     @cached_property
     def characteristic_length(self) -> float:
-        """A body length [m] for normalising features: the rest pose's height.
+        """The rest pose's size [m], for framing and plausibility checks: its height.
 
         Height is the vertical extent of the link origins and end-effector points at rest; where
         that is degenerate (a creature lying flat) the largest extent along any axis is used, and
-        1.0 for a single point.
+        1.0 for a single point. Features are normalised by :attr:`body_length` instead.
         """
         pts = self.rest_points()
         extent = pts.max(axis=0) - pts.min(axis=0)
@@ -258,3 +306,190 @@ class Morphology:
         if extent.max() > 1e-6:
             return float(extent.max())
         return 1.0
+
+    # ---- body length -----------------------------------------------------------------------
+    @property
+    def body_length(self) -> float:
+        """The length [m] Ψ divides by, putting a human and any creature on one scale.
+
+        :attr:`declared_body_length` when the description gives one; otherwise, by
+        :attr:`body_length_rule`:
+
+        - **feet, upright at rest** (every foot below the root, see :data:`UPRIGHT_FOOT_SLOPE`):
+          the root's height above its lowest foot at rest, so a standing creature's root is at
+          1 and its feet at -1 in Ψ (human 0.98 m, crab 0.186 m, Spot 0.646 m on straight legs);
+        - **feet, rest pose not upright** (BVH rigs posed lying or with paws forward): the mean leg
+          length from the hip to the foot point, the height the root would stand at on straight
+          legs; :func:`morphkit.motion.body_length` measures the standing height on a motion instead;
+        - **no feet, hands or tools** (wheeled and fixed robots): the highest point a hand reaches
+          above the ground (:attr:`hand_height_range`) over :data:`HUMAN_HAND_REACH`, so its top
+          reach stands for a human's hand raised overhead;
+        - **neither**: :attr:`characteristic_length`.
+        """
+        return self._body_length[0]
+
+    @property
+    def body_length_rule(self) -> BodyLengthRule:
+        """Which rule :attr:`body_length` followed."""
+        return self._body_length[1]
+
+    @cached_property
+    def _body_length(self) -> tuple[float, BodyLengthRule]:
+        if self.declared_body_length is not None:
+            return float(self.declared_body_length), BodyLengthRule.DECLARED
+        stance = self.rest_stance_height
+        if stance is not None:
+            return stance, BodyLengthRule.STANCE
+        if self.ee_by_role(EndEffectorRole.FOOT):
+            legs = self.leg_length
+            if legs > 1e-6:
+                return legs, BodyLengthRule.STRAIGHT_LEGS
+        reach = self.hand_height_range
+        if reach is not None and reach[1] > 1e-6:
+            return reach[1] / HUMAN_HAND_REACH, BodyLengthRule.HAND_REACH
+        return self.characteristic_length, BodyLengthRule.REST_EXTENT
+
+    @cached_property
+    def rest_stance_height(self) -> float | None:
+        """The root's height above its lowest foot at rest [m], if the rest pose stands upright.
+
+        ``None`` without feet, or when some foot is not below the root by at least
+        :data:`UPRIGHT_FOOT_SLOPE` of its distance from it.
+        """
+        feet = self._rest_foot_points()
+        if feet.shape[0] == 0:
+            return None
+        depth = -feet[:, 2]  # the root is at the origin
+        if not np.all(depth >= UPRIGHT_FOOT_SLOPE * np.linalg.norm(feet, axis=1)) or depth.min() <= 1e-6:
+            return None
+        return float(depth.max())
+
+    def _rest_foot_points(self) -> np.ndarray:
+        pts = self.rest_points()[self.link_count :]
+        idx = [i for i, e in enumerate(self.end_effectors) if e.role == EndEffectorRole.FOOT]
+        return pts[idx]
+
+    @cached_property
+    def leg_length(self) -> float:
+        """Mean length [m] of the legs, from the hip (the first joint only that foot's chain uses) to
+        the foot point along the bones (0 without feet)."""
+        chains = self.end_effector_chains
+        uses: dict[str, int] = {}
+        for chain in chains.values():
+            for name in chain:
+                uses[name] = uses.get(name, 0) + 1
+        lengths = []
+        for ee in self.ee_by_role(EndEffectorRole.FOOT):
+            own = [n for n in chains[ee.name] if uses[n] == 1]
+            # Bones from the hip: every own joint's offset but the first (root to hip), then the foot point.
+            bones = [np.linalg.norm(self.joint(n).origin.xyz) for n in own[1:]]
+            lengths.append(float(sum(bones) + np.linalg.norm(ee.offset)))
+        return float(np.mean(lengths)) if lengths else 0.0
+
+    @cached_property
+    def hand_height_range(self) -> tuple[float, float] | None:
+        """Lowest and highest height [m] above the ground that any hand or tool end-effector reaches.
+
+        Found by coordinate search over the joints of each hand's chain (1-DoF joints over their
+        limits, ball joints over x, y, z rotations), with the base at rest. The ground is under the
+        lowest foot at rest for creatures standing upright, ``z = 0`` for wheeled, planar and fixed
+        bases (their root frame sits on the ground), the lowest rest point otherwise. ``None``
+        without hands or tools.
+        """
+        hands = [e for e in self.end_effectors if e.role in (EndEffectorRole.HAND, EndEffectorRole.TOOL)]
+        if not hands:
+            return None
+        if self.rest_stance_height is not None:
+            ground = -self.rest_stance_height
+        elif self.base == BaseType.FLOATING:
+            ground = float(self.rest_points()[:, 2].min())
+        else:
+            ground = 0.0
+        lows, highs = [], []
+        for ee in hands:
+            lows.append(self._extreme_height(ee, -1.0))
+            highs.append(self._extreme_height(ee, 1.0))
+        return min(lows) - ground, max(highs) - ground
+
+    def _extreme_height(self, ee: EndEffector, sign: float, *, sweeps: int = 3) -> float:
+        """Highest (``sign`` 1) or lowest (-1) z of ``ee`` [m], root at the origin, by coordinate search from rest."""
+        chain = [self.joint_index(n) for n in self.end_effector_chains[ee.name]]
+        # Joints whose value moves the chain: its own 1-DoF and ball joints, and the targets of its mimic joints.
+        free: list[int] = []
+        for ji in chain:
+            j = self.joints[ji]
+            target = self.joint_index(j.mimic.joint) if j.mimic is not None else ji
+            t = self.joints[target]
+            if target not in free and t.name not in self.wheel_joints and t.type in (*_ONE_DOF, JointType.SPHERICAL):
+                free.append(target)
+        # Chain positions each free joint's value enters (several where mimic joints follow it).
+        enters = {ji: [k for k, c in enumerate(chain) if c == ji or self._mimic_target(c) == ji] for ji in free}
+        tip = np.array([*ee.offset, 1.0])
+        values = self._rest_values()
+        locals_ = [self._local_matrix(c, values) for c in chain]
+
+        def product(ms: list[np.ndarray]) -> np.ndarray:
+            M = np.eye(4)
+            for m in ms:
+                M = M @ m
+            return M
+
+        best = sign * float((product(locals_) @ tip)[2])
+        for _ in range(sweeps):
+            improved = False
+            for ji in free:
+                ks = enters[ji]
+                if not ks:
+                    continue
+                lo, hi = ks[0], ks[-1] + 1
+                head, tail = product(locals_[:lo]), product(locals_[hi:]) @ tip
+                for col, grid in self._search_grid(self.joints[ji]):
+                    for x in grid:
+                        trial = values.copy()
+                        trial[ji, col] = x
+                        middle = [self._local_matrix(chain[k], trial) if k in ks else locals_[k] for k in range(lo, hi)]
+                        h = sign * float((head @ product(middle) @ tail)[2])
+                        if h > best + 1e-12:
+                            best, values, improved = h, trial, True
+                            locals_[lo:hi] = middle
+            if not improved:
+                break
+        return sign * best
+
+    def _mimic_target(self, ji: int) -> int | None:
+        m = self.joints[ji].mimic
+        return None if m is None else self.joint_index(m.joint)
+
+    @cached_property
+    def _origin_matrices(self) -> np.ndarray:
+        """Each joint's origin as a 4x4 matrix, shape [joint_count, 4, 4]."""
+        out = np.zeros((self.joint_count, 4, 4))
+        for ji, j in enumerate(self.joints):
+            out[ji] = _matrix(np.asarray(j.origin.xyz, dtype=float), _rotation(np.asarray(j.origin.quat, dtype=float)))
+        return out
+
+    def _local_matrix(self, ji: int, values: np.ndarray) -> np.ndarray:
+        """:meth:`_local_transform` as a 4x4 matrix (the search's fast path)."""
+        j = self.joints[ji]
+        value = j.mimic.multiplier * values[self.joint_index(j.mimic.joint), 0] + j.mimic.offset \
+            if j.mimic is not None else values[ji, 0]
+        M = self._origin_matrices[ji]
+        if j.type in (JointType.REVOLUTE, JointType.CONTINUOUS):
+            return M @ _matrix(np.zeros(3), _axis_rotation(np.asarray(j.axis, dtype=float), value))
+        if j.type == JointType.PRISMATIC:
+            return M @ _matrix(value * np.asarray(j.axis, dtype=float), np.eye(3))
+        if j.type == JointType.SPHERICAL and values[ji].any():
+            R = _axis_rotation(_AXES[0], values[ji, 0]) @ _axis_rotation(_AXES[1], values[ji, 1]) \
+                @ _axis_rotation(_AXES[2], values[ji, 2])
+            return M @ _matrix(np.zeros(3), R)
+        return M
+
+    @staticmethod
+    def _search_grid(j: Joint) -> list[tuple[int, np.ndarray]]:
+        """(column, candidate values) to try for joint ``j`` in :meth:`_extreme_height`."""
+        turn = np.linspace(-np.pi, np.pi, 12, endpoint=False)
+        if j.type == JointType.SPHERICAL:
+            return [(0, turn), (1, turn), (2, turn)]
+        if j.limit is not None and j.type in (JointType.REVOLUTE, JointType.PRISMATIC):
+            return [(0, np.linspace(j.limit.lower, j.limit.upper, 9))]
+        return [(0, turn)]

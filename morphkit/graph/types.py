@@ -6,7 +6,7 @@ from enum import IntEnum
 
 from morphkit.errors import DescriptionError, SourceLocation
 
-__all__ = ["BaseType", "EndEffectorRole", "JointType", "ShapeType", "parse_enum"]
+__all__ = ["BaseType", "BodyLengthRule", "EndEffectorRole", "JointType", "ShapeType", "parse_enum"]
 
 
 class JointType(IntEnum):
@@ -59,6 +59,23 @@ class EndEffectorRole(IntEnum):
     HAND = 1
     HEAD = 2
     TOOL = 3
+
+
+class BodyLengthRule(IntEnum):
+    """Which rule gave a creature's body length (see ``docs/concepts/body-length.md``)."""
+
+    DECLARED = 0
+    """Given by the description (YAML ``body_length:``) or by the caller."""
+    STANCE = 1
+    """Creatures with feet, upright at rest: the root's height above its lowest foot at rest."""
+    STRAIGHT_LEGS = 2
+    """Creatures with feet whose rest pose is not upright: the mean leg length, as if the legs hung straight."""
+    MEASURED = 3
+    """Creatures with feet, measured on their own motion: the root's standing height above its lowest foot."""
+    HAND_REACH = 4
+    """Creatures without feet: the highest point their hands reach, over :data:`~morphkit.graph.HUMAN_HAND_REACH`."""
+    REST_EXTENT = 5
+    """Neither feet nor hands: the rest pose's vertical extent."""
 
 
 def parse_enum(cls: type[IntEnum], value: object, *, what: str, location: SourceLocation | None = None) -> IntEnum:
