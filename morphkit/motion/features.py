@@ -2,8 +2,8 @@
 and the end-effector mapping.
 
 Ψ reads the fields every state has in common (see :mod:`morphkit.motion.states`) and divides
-lengths by the creature's body length ``length`` (its
-:attr:`~morphkit.graph.Morphology.characteristic_length`):
+lengths by the creature's body length ``length`` (:func:`morphkit.motion.scale.body_length`: its
+standing root height, so a standing creature's root is at 1 and its feet near -1):
 
 ===========================  ==========  ===================================================
 block                        dims        value
@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from morphkit.errors import ConfigError
+from morphkit.motion.scale import body_length
 from morphkit.motion.states import (
     StateLayout,
     character_state_from_motion,
@@ -106,10 +107,10 @@ def motion_features(
     Args:
         motion: The motion.
         ee_names: End-effectors to include, in this order (default: all).
-        length: Body length [m] (default: the morphology's
-            :attr:`~morphkit.graph.Morphology.characteristic_length`).
+        length: Body length [m] (default: :func:`~morphkit.motion.scale.body_length` of the
+            morphology, measured on this motion; pass one length for every clip of a data set).
     """
     layout = character_state_layout(motion.morphology)
     state = character_state_from_motion(motion)
-    body = motion.morphology.characteristic_length if length is None else length
+    body = body_length(motion.morphology, motion) if length is None else length
     return features(state, layout, length=body, ee_names=ee_names)

@@ -11,6 +11,7 @@ from morphkit_testing import human_like, random_q
 from morphkit.errors import ConfigError
 from morphkit.motion import (
     Motion,
+    body_length,
     character_state_from_motion,
     character_state_layout,
     ee_distributions,
@@ -36,7 +37,7 @@ def _motion(seed: int = 0) -> Motion:
 def test_features_pick_shared_fields_and_normalise_lengths() -> None:
     motion = _motion()
     m = motion.morphology
-    L = m.characteristic_length
+    L = body_length(m, motion)  # the default: the standing height measured on the motion
     hl, rl = human_state_layout(m), character_state_layout(m)
     xh, xr = human_state_from_motion(motion), character_state_from_motion(motion)
     fh = features(xh, hl, length=L)
@@ -137,7 +138,8 @@ def test_ee_distributions_from_motions_and_override_file(tmp_path: Path) -> None
     dists = ee_distributions(motions)
     names = [e.name for e in motions[0].morphology.end_effectors]
     assert list(dists) == names
-    psi = np.concatenate([motion_features(m)[:, 11:] for m in motions]).reshape(-1, len(names), 3)
+    L = body_length(motions[0].morphology, motions)  # one length for the data set, measured on every clip
+    psi = np.concatenate([motion_features(m, length=L)[:, 11:] for m in motions]).reshape(-1, len(names), 3)
     np.testing.assert_allclose(dists[names[0]].mean, psi[:, 0].mean(0), atol=1e-12)
     sub = ee_distributions(motions, max_frames_per_clip=5)
     assert sub[names[0]].count == 15
