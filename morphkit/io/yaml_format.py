@@ -5,6 +5,7 @@ The format (``shared/DESIGN.md``, "YAML creature format")::
     name: spot
     base: floating                  # floating | planar | wheeled | fixed (default floating)
     root: body                      # optional: the link without a parent
+    body_length: 0.55               # optional [m]: what Ψ divides lengths by (default: Morphology.body_length's rule)
     links:
       body:
         shapes: [{type: box, size: [0.85, 0.24, 0.18]}]
@@ -67,7 +68,7 @@ from morphkit.io._source import read_text, relative_mesh_path, resolve_mesh_path
 
 __all__ = ["dump_yaml", "parse_yaml", "read_yaml", "write_yaml"]
 
-_TOP_KEYS = ("name", "base", "root", "links", "joints", "end_effectors", "wheels")
+_TOP_KEYS = ("name", "base", "root", "body_length", "links", "joints", "end_effectors", "wheels")
 _LINK_KEYS = ("shapes",)
 _JOINT_KEYS = ("type", "parent", "child", "origin", "axis", "limit", "mimic")
 _LIMIT_KEYS = ("lower", "upper", "velocity", "effort")
@@ -342,6 +343,12 @@ class _Reader:
         if "root" in top:
             line = self.line_of(top, "root")
             b.set_root(self.name(top["root"], "root", line), location=self.loc(line))
+        if "body_length" in top:
+            line = self.line_of(top, "body_length")
+            length = self.number(top["body_length"], "body_length", line)
+            if length <= 0:
+                raise self.error(f"body_length: must be a length > 0 [m], got {top['body_length']!r}", line)
+            b.set_body_length(length, location=self.loc(line))
 
         links = self.mapping(top["links"], "links", self.line_of(top, "links"))
         if not links:
@@ -536,7 +543,10 @@ def dump_yaml(m: Morphology, *, target: str | os.PathLike[str] | None = None) ->
         m: The morphology.
         target: File the text will be saved as; absolute mesh paths are written relative to its folder.
     """
-    out = [f"name: {_str(m.name)}", f"base: {m.base.name.lower()}", f"root: {_str(m.root)}", "links:"]
+    out = [f"name: {_str(m.name)}", f"base: {m.base.name.lower()}", f"root: {_str(m.root)}"]
+    if m.declared_body_length is not None:
+        out.append(f"body_length: {_num(m.declared_body_length)}")
+    out.append("links:")
     for link in m.links:
         if not link.shapes:
             out.append(f"  {_str(link.name)}: {{}}")

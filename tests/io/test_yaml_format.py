@@ -13,7 +13,16 @@ from morphkit_testing import TEST_CREATURES, shipped_morphology
 
 from morphkit.conventions import quat_from_rpy
 from morphkit.errors import DescriptionError, GraphError, MorphkitError
-from morphkit.graph import BaseType, EndEffectorRole, JointType, Limit, MorphologyBuilder, ShapeType, Transform
+from morphkit.graph import (
+    BaseType,
+    BodyLengthRule,
+    EndEffectorRole,
+    JointType,
+    Limit,
+    MorphologyBuilder,
+    ShapeType,
+    Transform,
+)
 from morphkit.io import read_morphology, write_morphology
 from morphkit.io.yaml_format import dump_yaml, parse_yaml, read_yaml, write_yaml
 
@@ -111,6 +120,25 @@ def test_round_trip_shipped_yaml(name, tmp_path):
     assert_morphology_equal(m, read_morphology(tmp_path / f"{name}.yaml"), 1e-9)
 
 
+def test_body_length_reads_overrides_the_rule_and_round_trips(tmp_path):
+    plain = parse_yaml(GOOD, source="err.yaml")
+    assert plain.declared_body_length is None and "body_length" not in dump_yaml(plain)
+    m = parse_yaml(GOOD.replace("name: err\n", "name: err\nbody_length: 0.55\n"), source="err.yaml")
+    assert m.declared_body_length == 0.55 and m.body_length == 0.55
+    assert m.body_length_rule == BodyLengthRule.DECLARED and plain.body_length_rule != BodyLengthRule.DECLARED
+    write_yaml(m, tmp_path / "c.yaml")
+    assert "body_length: 0.55\n" in (tmp_path / "c.yaml").read_text()
+    assert read_yaml(tmp_path / "c.yaml").declared_body_length == 0.55
+
+
+def test_bad_body_length_names_file_and_line(tmp_path):
+    path = tmp_path / "c.yaml"
+    path.write_text(GOOD.replace("base: floating\n", "base: floating\nbody_length: -1\n"))
+    with pytest.raises(DescriptionError) as info:
+        read_yaml(path)
+    assert str(info.value) == f"{path}:3: body_length: must be a length > 0 [m], got -1"
+
+
 def test_round_trip_awkward_values():
     b = MorphologyBuilder("yes")  # names that plain YAML would read as bools, numbers or nulls
     for n in ("null", "1", "a: b", "on", "ünï"):
@@ -182,7 +210,16 @@ BAD = [
     ("upper: 1}", "upper: 1, speed: 3}", DescriptionError,
      "unknown key 'speed'; valid keys: lower, upper, velocity, effort", 15),
     ("name: err\n", "name: err\ncolour: red\n", DescriptionError,
-     "unknown key 'colour'; valid keys: name, base, root, links, joints, end_effectors, wheels", 2),
+     "unknown key 'colour'; valid keys: name, base, root, body_length, links, joints, end_effectors, wheels", 2),
+    ("name: err\n", "name: err\nbody_length: 0.55\n", None, None, None),
+    ("name: err\n", "name: err\nbody_length: 0\n", DescriptionError, "body_length: must be a length > 0 [m], got 0", 2),
+    ("name: err\n", "name: err\nbody_length: -0.5\n", DescriptionError, "must be a length > 0 [m], got -0.5", 2),
+    ("name: err\n", "name: err\nbody_length: .nan\n", DescriptionError, "body_length: non-finite number nan", 2),
+    ("name: err\n", "name: err\nbody_length: .inf\n", DescriptionError, "body_length: non-finite number inf", 2),
+    ("name: err\n", "name: err\nbody_length: tall\n", DescriptionError, "body_length: expected a number, got 'tall'",
+     2),
+    ("name: err\n", "name: err\nbody_length: [0.5]\n", DescriptionError, "body_length: expected a number, got a list",
+     2),
     ("    parent: body\n", "", DescriptionError, "joint 'hip': missing required key 'parent'", 9),
     ("links:", "likns:", DescriptionError, "unknown key 'likns'", 3),
     ("{link: foot,", "{", DescriptionError, "end-effector 'toe': missing required key 'link'", 23),
