@@ -25,6 +25,8 @@ COMMANDS = [
     "render",
     "map",
     "synth",
+    "train",
+    "retarget",
 ]
 """Subcommand modules under ``morphkit.commands``, in help order."""
 

@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from morphkit.errors import MotionFormatError, SourceLocation
+from morphkit.motion._fk import compiled_model as compiled_model
 from morphkit.motion.codec import ClampReport as ClampReport
 from morphkit.motion.codec import character_state_from_q as character_state_from_q
 from morphkit.motion.codec import decode_character_states as decode_character_states
@@ -65,6 +66,7 @@ __all__ = [
     "character_state_from_motion",
     "character_state_from_q",
     "character_state_layout",
+    "compiled_model",
     "decode_character_states",
     "ee_distributions",
     "feature_dim",

@@ -1,0 +1,61 @@
+"""``morphkit retarget --run RUN --motion CLIP_OR_DIR --out OUT``: retarget human motion with a trained run."""
+
+from __future__ import annotations
+
+import argparse
+
+FORMATS = (".npz", ".bvh", ".usda", ".usd", ".usdc", ".csv")
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "retarget",
+        help="retarget human clips onto the run's creature; writes .npz/.bvh/.usda motions and .csv robot commands",
+        description=(
+            "Roll a trained ACE run over human clips (batched) and write the creature's motions. OUT ending in a "
+            "motion suffix names the file for a single clip; otherwise OUT is a folder with one file per clip and "
+            "format (--formats). .csv files are robot commands: base velocity, body height and pitch, arm joints."
+        ),
+    )
+    p.add_argument("--run", required=True, dest="run_dir", metavar="RUN", help="an ACE run folder (morphkit train ace)")
+    p.add_argument("--motion", required=True, nargs="+", metavar="CLIP_OR_DIR", help="human motion files or folders")
+    p.add_argument("--out", required=True, metavar="OUT", help="output folder, or a file for one clip")
+    p.add_argument("--stage", metavar="DIR",
+                   help="retargeter stage folder (default RUN/retarget; e.g. RUN/retarget_wofea)")
+    p.add_argument("--formats", default="npz,csv", help="folder output: comma-separated suffixes (default npz,csv)")
+    p.add_argument("--device", default="cpu", help="torch device (default cpu)")
+    p.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from morphkit.errors import ConfigError
+    from morphkit.motion import load_motions, write_motion
+    from morphkit.motion.io_commands import write_robot_commands
+    from morphkit.retarget.ace.retarget import AceRetargeter
+
+    out = Path(args.out)
+    single = out.suffix.lower() in FORMATS
+    formats = [out.suffix.lower()] if single else ["." + f.strip().lstrip(".").lower() for f in args.formats.split(",")]
+    for f in formats:
+        if f not in FORMATS:
+            raise ConfigError(f"unknown output format {f!r}; supported: {', '.join(FORMATS)}")
+    clips = load_motions(args.motion)
+    if single and len(clips) != 1:
+        raise ConfigError(f"--out {out} names one file but {len(clips)} clips were given: pass a folder")
+    model = AceRetargeter(args.run_dir, retarget_dir=args.stage, device=args.device)
+    results = model.retarget(clips)
+    if not single:
+        out.mkdir(parents=True, exist_ok=True)
+    for r in results:
+        for f in formats:
+            path = out if single else out / f"{r.motion.name}{f}"
+            if f == ".csv":
+                write_robot_commands(r.motion, path)
+            else:
+                write_motion(r.motion, path)
+            print(path)
+        if r.clamp.coordinates:
+            print(f"  {r.motion.name}: {r.clamp}")
+    return 0

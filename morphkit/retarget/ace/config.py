@@ -1,0 +1,142 @@
+"""ACE's configuration (Li et al. 2023, §4–7): one frozen dataclass per stage, and the presets.
+
+Every size, loss and weight the paper gives is its value at ``paper``; everything the paper leaves
+open is named here as morphkit's choice (see ``docs/guides/train-ace.md``):
+
+* the VAE's β, rollout length and teacher/ramp/student schedule (MotionVAE's 8-step scheduled
+  sampling, its β = 1 with the KL averaged per latent element);
+* learning rates, batch sizes, epochs, Adam betas (ASE-style 0.5/0.999 for the GAN stage);
+* ``w_adv`` and ``w_fea`` (not given in the paper: 1 and 1 here), the D:G step ratio (1:1);
+* the human window length of a retargeting rollout and where truncated backpropagation cuts it;
+* the character start state of a rollout (a random frame of the character's data in training; the
+  data frame nearest the human's first frame in Ψ when retargeting).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+__all__ = ["PRESETS", "AceConfig", "DataConfig", "PriorConfig", "RetargetConfig", "preset"]
+
+
+@dataclass(frozen=True)
+class DataConfig:
+    """Where the training states come from."""
+
+    character_frames: int = 200_000
+    """Synthesised character frames (§7.1: 200k states per character)."""
+    fps: float = 30.0
+    """Frame rate of both data sets [1/s] (human clips are resampled to it)."""
+    synth_seed: int = 0
+    """Seed of the character's synthesis."""
+    human_frames: int = 6_000
+    """Frames of the embedded default human motion (used when no human data is given)."""
+
+
+@dataclass(frozen=True)
+class PriorConfig:
+    """The motion prior: encoder c(x_{t-1}, x_t) → z and MANN π(z, x_{t-1}) → x_t (§4, §6.4)."""
+
+    latent: int = 32
+    encoder_hidden: tuple[int, ...] = (512, 512, 512, 512)
+    prior_hidden: tuple[int, ...] = (512, 512)
+    experts: int = 8
+    gate_hidden: tuple[int, ...] = (64, 64)
+    dropout: float = 0.3
+    kl_beta: float = 1.0
+    """β of the VAE's KL term (averaged per latent element, as MotionVAE)."""
+    rollout: int = 8
+    """Steps of a scheduled-sampling rollout (MotionVAE: 8)."""
+    teacher_fraction: float = 0.15
+    """Fraction of the epochs with teacher forcing only (MotionVAE: 20 of 140)."""
+    ramp_fraction: float = 0.15
+    """Fraction of the epochs over which the own-prediction probability ramps 0 → 1."""
+    epochs: int = 140
+    steps_per_epoch: int = 400
+    batch_size: int = 64
+    lr: float = 1e-4
+    lr_final: float = 1e-7
+    """Learning rate at the last epoch (linear decay, MotionVAE)."""
+
+
+@dataclass(frozen=True)
+class RetargetConfig:
+    """The adversarial correspondence embedding: G(x^h_t, x^r_{t-1}) → ẑ, D(x^r_{t-1}, x^r_t) (§5, §6.4)."""
+
+    generator_hidden: tuple[int, ...] = (512, 512, 512)
+    discriminator_hidden: tuple[int, ...] = (512, 512, 512)
+    w_adv: float = 1.0
+    w_fea: float = 1.0
+    w_gp: float = 0.1
+    """Gradient-penalty weight on real transitions (Eq. 5: 0.1)."""
+    w_contact: float = 0.0
+    """Beyond the paper: foot sliding + ground penetration of the FK'd motion (0: off, as ACE)."""
+    window: int = 32
+    """Human frames per training rollout."""
+    tbptt: int = 8
+    """Truncated backpropagation: the carried character state is detached every this many frames."""
+    epochs: int = 60
+    steps_per_epoch: int = 200
+    batch_size: int = 64
+    lr_generator: float = 1e-4
+    lr_discriminator: float = 1e-4
+    betas: tuple[float, float] = (0.5, 0.999)
+    discriminator_steps: int = 1
+    """Discriminator updates per generator update."""
+
+
+@dataclass(frozen=True)
+class AceConfig:
+    """Everything one ACE run needs; saved as ``config.yaml`` in its run folders."""
+
+    seed: int = 0
+    data: DataConfig = field(default_factory=DataConfig)
+    prior: PriorConfig = field(default_factory=PriorConfig)
+    retarget: RetargetConfig = field(default_factory=RetargetConfig)
+
+
+def _small(width: int, experts: int) -> tuple[PriorConfig, RetargetConfig]:
+    return (
+        PriorConfig(encoder_hidden=(width,) * 3, prior_hidden=(width, width), experts=experts,
+                    gate_hidden=(32, 32)),
+        RetargetConfig(generator_hidden=(width,) * 3, discriminator_hidden=(width,) * 3),
+    )
+
+
+_SMOKE_PRIOR, _SMOKE_RET = _small(32, 2)
+_QUICK_PRIOR, _QUICK_RET = _small(128, 4)
+_DEFAULT_PRIOR, _DEFAULT_RET = _small(256, 4)
+
+PRESETS: dict[str, AceConfig] = {
+    # ≤ 60 s on 2 cores: for tests.
+    "smoke": AceConfig(
+        data=DataConfig(character_frames=1_200, human_frames=600),
+        prior=replace(_SMOKE_PRIOR, epochs=3, steps_per_epoch=10, batch_size=16, rollout=4),
+        retarget=replace(_SMOKE_RET, epochs=3, steps_per_epoch=6, batch_size=8, window=8, tbptt=4),
+    ),
+    # The whole main job ≤ 5 min on 2 cores, from a cold cache.
+    "quick": AceConfig(
+        data=DataConfig(character_frames=12_000, human_frames=3_000),
+        prior=replace(_QUICK_PRIOR, epochs=8, steps_per_epoch=60, batch_size=64),
+        retarget=replace(_QUICK_RET, epochs=8, steps_per_epoch=30, batch_size=32, window=24),
+    ),
+    # Quality runs: prior + one retargeter ≤ 20 min on 2 cores.
+    "default": AceConfig(
+        data=DataConfig(character_frames=60_000),
+        prior=replace(_DEFAULT_PRIOR, epochs=24, steps_per_epoch=120, batch_size=128),
+        retarget=replace(_DEFAULT_RET, epochs=20, steps_per_epoch=60, batch_size=64),
+    ),
+    # The paper's sizes (§6.4, §7.1).
+    "paper": AceConfig(),
+}
+
+
+def preset(name: str) -> AceConfig:
+    """The preset ``name`` (one of :data:`PRESETS`).
+
+    Raises:
+        ConfigError: an unknown name, listing the known ones.
+    """
+    from morphkit.retarget.config import preset_config
+
+    return preset_config(PRESETS, name)

@@ -1,0 +1,172 @@
+"""ACE's training data: the character's synthesised motion and the human's motion, as state windows.
+
+The character's data set is synthesised from its graph (:mod:`morphkit.synth`, §7.1: random
+commands over its speed range) and cached by content hash (the morphology, frame count, frame
+rate, seed and morphkit's version), so a second run of the same creature skips synthesis. The
+human's is a folder of motion files (BVH or any format morphkit reads), minus the documented
+evaluation split, or the embedded default (the shipped ``human`` moved by morphkit's synthesis).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from morphkit._atomic import atomic_path
+from morphkit._version import __version__
+from morphkit.errors import ConfigError, MotionFormatError, SourceLocation
+from morphkit.graph import Morphology
+from morphkit.motion import Motion, NormStats, load_motions
+from morphkit.motion.datasets import default_cache_dir
+from morphkit.retarget.ace.config import DataConfig
+
+__all__ = [
+    "StateWindows",
+    "character_motions",
+    "evaluation_split",
+    "human_motions",
+    "split_evaluation_clips",
+]
+
+
+def evaluation_split() -> tuple[str, ...]:
+    """Stems of the CMU clips kept for evaluation (``morphkit/retarget/data/cmu_eval_split.txt``)."""
+    text = resources.files("morphkit.retarget").joinpath("data/cmu_eval_split.txt").read_text()
+    return tuple(line.split("#", 1)[0].strip() for line in text.splitlines() if line.split("#", 1)[0].strip())
+
+
+def split_evaluation_clips(motions: Sequence[Motion]) -> tuple[list[Motion], list[Motion]]:
+    """``(train, evaluation)``: clips named in :func:`evaluation_split` go to the second list."""
+    held = set(evaluation_split())
+    train = [m for m in motions if m.name not in held]
+    return train, [m for m in motions if m.name in held]
+
+
+def _morphology_key(morphology: Morphology) -> str:
+    # The frozen dataclass's repr lists every link, joint, shape and end-effector: a content hash.
+    return hashlib.sha256(repr(morphology).encode()).hexdigest()[:16]
+
+
+def character_motions(
+    morphology: Morphology,
+    data: DataConfig,
+    *,
+    cache_dir: str | os.PathLike[str] | None = None,
+    progress: bool = True,
+) -> list[Motion]:
+    """The character's synthesised data set (``data.character_frames`` frames), cached.
+
+    Args:
+        morphology: The character.
+        data: Frames, frame rate and seed.
+        cache_dir: Cache folder (default ``$MORPHKIT_CACHE_DIR/motions``, see
+            :func:`~morphkit.motion.datasets.default_cache_dir`).
+        progress: Show the synthesis progress bar.
+    """
+    from morphkit.synth import synthesize
+
+    cache = Path(cache_dir) if cache_dir is not None else default_cache_dir()
+    key = hashlib.sha256(
+        f"{_morphology_key(morphology)}|{data.character_frames}|{data.fps}|{data.synth_seed}|{__version__}".encode()
+    ).hexdigest()[:24]
+    path = cache / f"synth_{morphology.name}_{key}.npz"
+    if path.is_file():
+        try:
+            with np.load(path, allow_pickle=False) as f:
+                q, lengths, names = f["q"], f["lengths"], [str(n) for n in f["names"]]
+            starts = np.concatenate([[0], np.cumsum(lengths)])
+            return [Motion(morphology, data.fps, q[a:b], n) for a, b, n in zip(starts[:-1], starts[1:], names,
+                                                                              strict=True)]
+        except (OSError, KeyError, ValueError):
+            pass  # a damaged cache entry is rebuilt
+    result = synthesize(morphology, frames=data.character_frames, fps=data.fps, seed=data.synth_seed,
+                        progress=progress)
+    motions = list(result.motions)
+    cache.mkdir(parents=True, exist_ok=True)
+    with atomic_path(path) as tmp, open(tmp, "wb") as f:
+        np.savez(f, q=np.concatenate([m.q for m in motions]), lengths=np.array([m.frame_count for m in motions]),
+                 names=np.array([m.name for m in motions]))
+    return motions
+
+
+def human_motions(
+    path: str | os.PathLike[str] | None,
+    data: DataConfig,
+    *,
+    exclude_evaluation: bool = True,
+    cache_dir: str | os.PathLike[str] | bool | None = True,
+) -> list[Motion]:
+    """Human training clips: every motion file under ``path`` (evaluation split removed), resampled
+    to ``data.fps``; or, with ``path=None``, the embedded default human motion.
+
+    Raises:
+        MotionFormatError: a folder without motion files, clips of different skeletons, or only
+            evaluation clips.
+    """
+    if path is None:
+        from morphkit.synth import default_human_motion
+
+        return list(default_human_motion(frames=data.human_frames, seed=data.synth_seed, fps=data.fps))
+    motions = load_motions(path, cache_dir=cache_dir, fps=data.fps)
+    first = motions[0].morphology
+    for m in motions[1:]:
+        if m.morphology.link_names != first.link_names or m.morphology.end_effectors != first.end_effectors:
+            raise MotionFormatError(
+                f"clip {m.name!r} has another skeleton than {motions[0].name!r}: one human data folder holds one "
+                "skeleton topology", location=SourceLocation(str(path)))
+    if exclude_evaluation:
+        motions, held = split_evaluation_clips(motions)
+        if not motions:
+            raise MotionFormatError(f"every clip is in the evaluation split ({len(held)} clips)",
+                                    location=SourceLocation(str(path)))
+    return motions
+
+
+@dataclass(eq=False)
+class StateWindows:
+    """Normalised states of many clips in one tensor, and the windows that fit inside single clips.
+
+    Attributes:
+        states: [N, D] normalised states of all clips, concatenated (float32).
+        starts: [W] first row of every window of ``length`` frames that lies inside one clip.
+        length: Frames per window.
+        stats: The normalisation statistics.
+    """
+
+    states: torch.Tensor
+    starts: torch.Tensor
+    length: int
+    stats: NormStats
+
+    @staticmethod
+    def build(per_clip: Sequence[np.ndarray], length: int, stats: NormStats | None = None) -> StateWindows:
+        """Windows of ``length`` frames over ``per_clip`` [T_i, D] states (statistics fitted unless given).
+
+        Raises:
+            ConfigError: when no clip is ``length`` frames long.
+        """
+        stats = stats if stats is not None else NormStats.fit(list(per_clip))
+        lengths = [s.shape[0] for s in per_clip]
+        offsets = np.concatenate([[0], np.cumsum(lengths)])
+        starts = [np.arange(o, o + n - length + 1) for o, n in zip(offsets[:-1], lengths, strict=True) if n >= length]
+        if not starts:
+            raise ConfigError(f"no clip has {length} frames (longest: {max(lengths, default=0)})")
+        flat = stats.normalize(np.concatenate(per_clip, axis=0))
+        return StateWindows(torch.as_tensor(flat, dtype=torch.float32), torch.as_tensor(np.concatenate(starts)),
+                            length, stats)
+
+    def __len__(self) -> int:
+        return int(self.starts.shape[0])
+
+    def windows(self, index: torch.Tensor, device: torch.device | None = None) -> torch.Tensor:
+        """Windows ``index`` [B] → [B, length, D] (on ``device``)."""
+        rows = self.starts[index][:, None] + torch.arange(self.length)
+        out = self.states[rows]
+        return out if device is None else out.to(device)

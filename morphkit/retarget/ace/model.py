@@ -1,0 +1,129 @@
+"""ACE's networks and its feature function on generated states.
+
+* :func:`build_vae` — encoder c and MANN prior π (§4, §6.4), from :mod:`morphkit.retarget.networks`.
+* :class:`Generator` — G(x^h_t, x^r_{t-1}) → ẑ_t, an MLP with LeakyReLU (§5.1, §6.4).
+* :class:`Discriminator` — D(x^r_{t-1}, x^r_t) → logit, an MLP with SiLU (§5.2, §6.4).
+* :class:`FeatureMap` — Ψ (§6.3) of human states and of generated character states, with the
+  character's end-effectors taken from **morphkit's FK of the generated joint coordinates** (through
+  :mod:`morphkit.torch`), so what the feature loss scores is what is exported.
+
+All networks read and write *normalised* states (z-scores with the run's statistics).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import torch
+from torch import nn
+
+import morphkit.torch as mt
+from morphkit.graph import BaseType, Morphology
+from morphkit.motion import NormStats, StateLayout, compiled_model, features
+from morphkit.retarget.ace.config import PriorConfig, RetargetConfig
+from morphkit.retarget.networks import MLP, MotionEncoder, MotionPrior, MotionVAE
+
+__all__ = ["Discriminator", "FeatureMap", "Generator", "build_vae"]
+
+
+def build_vae(state_dim: int, cfg: PriorConfig) -> MotionVAE:
+    """The encoder c and MANN prior π of ``cfg`` for states of ``state_dim``."""
+    encoder = MotionEncoder(state_dim, cfg.latent, hidden=cfg.encoder_hidden, activation="leaky_relu")
+    prior = MotionPrior(state_dim, cfg.latent, hidden=cfg.prior_hidden, expert_count=cfg.experts,
+                        gate_hidden=cfg.gate_hidden, dropout=cfg.dropout)
+    return MotionVAE(encoder, prior)
+
+
+class Generator(nn.Module):
+    """G(x^h_t, x^r_{t-1}) → ẑ_t (normalised states in, latent out)."""
+
+    def __init__(self, human_dim: int, character_dim: int, latent: int, cfg: RetargetConfig) -> None:
+        super().__init__()
+        self.mlp = MLP(human_dim + character_dim, cfg.generator_hidden, latent, activation="leaky_relu")
+
+    def forward(self, x_h: torch.Tensor, x_prev: torch.Tensor) -> torch.Tensor:
+        """``x_h`` [..., Sh], ``x_prev`` [..., Sr] → ẑ [..., Z]."""
+        return self.mlp(torch.cat([x_h, x_prev], dim=-1))
+
+
+class Discriminator(nn.Module):
+    """D(x^r_{t-1}, x^r_t) → logit of "a transition of the character's data" (σ(logit) ∈ [0, 1])."""
+
+    def __init__(self, character_dim: int, cfg: RetargetConfig) -> None:
+        super().__init__()
+        self.mlp = MLP(2 * character_dim, cfg.discriminator_hidden, 1, activation="silu")
+
+    def forward(self, transition: torch.Tensor) -> torch.Tensor:
+        """``transition`` [..., 2 Sr] (``[x_{t-1}, x_t]``) → logits [...]."""
+        return self.mlp(transition)[..., 0]
+
+
+@dataclass(eq=False)
+class FeatureMap:
+    """Ψ of both sides, paired by the end-effector mapping (creature ee i ↔ human ee i).
+
+    Attributes:
+        creature: The character.
+        creature_layout, human_layout: State layouts.
+        creature_stats, human_stats: Normalisation statistics of the two state sets.
+        creature_ees, human_ees: Mapped end-effector names, pair by pair (``EndEffectorMapping.feature_order``).
+        creature_length, human_length: Body lengths [m] the two Ψ divide by.
+    """
+
+    creature: Morphology
+    creature_layout: StateLayout
+    human_layout: StateLayout
+    creature_stats: NormStats
+    human_stats: NormStats
+    creature_ees: tuple[str, ...]
+    human_ees: tuple[str, ...]
+    creature_length: float
+    human_length: float
+
+    def __post_init__(self) -> None:
+        self.model = compiled_model(self.creature)
+        self._ee_slice = self.creature_layout.slice("ee_positions")
+        self._joint_slice = self.creature_layout.slice("joint_q")
+
+    def human_psi(self, x_h: torch.Tensor) -> torch.Tensor:
+        """Ψ of normalised human states [..., Sh] → [..., 11 + 3k]."""
+        return features(self.human_stats.denormalize(x_h), self.human_layout, length=self.human_length,
+                        ee_names=self.human_ees)
+
+    def local_q(self, x: torch.Tensor) -> torch.Tensor:
+        """Coordinates [..., C] that put the root at the heading frame's origin with the state's tilt and joints.
+
+        Heading-frame end-effectors depend only on the root's tilt and the joints, so FK of these
+        coordinates gives the state's ee block (denormalised state ``x`` [..., Sr] in).
+        """
+        m, lay = self.creature, self.creature_layout
+        joints = x[..., self._joint_slice]
+        if m.base == BaseType.FLOATING:
+            zero = torch.zeros_like(x[..., :2])
+            return torch.cat([zero, x[..., lay.slice("root_height")], x[..., lay.slice("root_orientation")], joints],
+                             dim=-1)
+        if m.base in (BaseType.PLANAR, BaseType.WHEELED):
+            return torch.cat([torch.zeros_like(x[..., :3]), joints], dim=-1)
+        return joints
+
+    def fk_end_effectors(self, x: torch.Tensor) -> torch.Tensor:
+        """Heading-frame end-effectors [..., E, 3] [m] of denormalised states [..., Sr], through the Warp FK."""
+        q = self.local_q(x)
+        lead = q.shape[:-1]
+        ee = mt.end_effector_positions(self.model, q.reshape(-1, q.shape[-1]).contiguous(), frame="heading")
+        return ee.reshape(*lead, -1, 3)
+
+    def creature_with_fk(self, x_norm: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """Denormalised states whose ee block is the FK of their joints, and the gap [..., E] [m]
+        between the state's own ee slots and FK."""
+        x = self.creature_stats.denormalize(x_norm)
+        ee = self.fk_end_effectors(x)
+        own = x[..., self._ee_slice].reshape(ee.shape)
+        fixed = torch.cat([x[..., : self._ee_slice.start], ee.flatten(-2), x[..., self._ee_slice.stop :]], dim=-1)
+        return fixed, (own - ee).detach().norm(dim=-1)
+
+    def character_psi(self, x_norm: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """Ψ of normalised generated states [..., Sr] (ee from FK) and the state/FK gap [..., E] [m]."""
+        fixed, gap = self.creature_with_fk(x_norm)
+        psi = features(fixed, self.creature_layout, length=self.creature_length, ee_names=self.creature_ees)
+        return psi, gap

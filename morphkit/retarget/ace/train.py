@@ -1,0 +1,460 @@
+"""Training ACE: data preparation, the motion prior (§4) and the adversarial retargeter (§5).
+
+An ACE run folder::
+
+    ace.yaml               creature, human data, body lengths, mapping source (checked on reopen)
+    creature.yaml          the character's description (so the run retargets without the original file)
+    stats_character.npz    normalisation of x^r        stats_human.npz   normalisation of x^h
+    mapping.json           end-effector mapping (Eq. 11) with every KL value
+    start_states.npz       character states a retargeting rollout may start from, with their Ψ
+    prior/                 the motion prior's Run folder (trainer "ace-prior")
+    retarget/              the retargeter's Run folder (trainer "ace"; an ablation names itself)
+
+Each stage is a :class:`~morphkit.retarget.run.Run` and resumes exactly: re-running the same
+command continues where it stopped; a finished stage is skipped. A prior can be shared: ablations
+point ``prior_dir`` at another run's ``prior/`` (train the prior once, three retargeters from it).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+import yaml
+from torch.nn import functional as F
+
+from morphkit._atomic import atomic_write_text
+from morphkit.errors import ConfigError, RunError, SourceLocation
+from morphkit.graph import EndEffectorRole, Morphology
+from morphkit.io import write_morphology
+from morphkit.metrics import feature_loss
+from morphkit.motion import (
+    EndEffectorMapping,
+    Motion,
+    NormStats,
+    body_length,
+    character_state_from_motion,
+    character_state_layout,
+    ee_distributions,
+    human_state_from_motion,
+    human_state_layout,
+    map_end_effectors,
+)
+from morphkit.retarget.ace.config import AceConfig, PriorConfig, RetargetConfig
+from morphkit.retarget.ace.data import StateWindows, character_motions, human_motions
+from morphkit.retarget.ace.model import Discriminator, FeatureMap, Generator, build_vae
+from morphkit.retarget.networks import MotionVAE, kl_divergence
+from morphkit.retarget.run import CHECKPOINT_FILE, Run
+
+__all__ = [
+    "VARIANTS",
+    "AceData",
+    "prepare",
+    "rollout",
+    "sampling_probability",
+    "train_ace",
+    "train_prior",
+    "train_retargeter",
+    "variant_of",
+]
+
+META_FILE = "ace.yaml"
+START_STATES = 512
+"""Character states kept in a run as rollout starts for retargeting (chosen by Ψ nearest the human's first frame)."""
+
+
+@dataclass(eq=False)
+class AceData:
+    """What both stages train on, prepared once per run folder."""
+
+    creature: Morphology
+    character: list[Motion]
+    human: list[Motion]
+    character_states: list[np.ndarray]
+    human_states: list[np.ndarray]
+    features: FeatureMap
+    mapping: EndEffectorMapping
+
+
+def _check_creature(m: Morphology) -> None:
+    if not m.end_effectors:
+        raise ConfigError(f"creature {m.name!r} has no end-effectors: ACE's feature loss needs some to map")
+
+
+def prepare(
+    run_dir: str | os.PathLike[str],
+    creature: Morphology,
+    cfg: AceConfig,
+    *,
+    human_data: str | os.PathLike[str] | None = None,
+    mapping_override: dict[str, str] | None = None,
+    cache_dir: str | os.PathLike[str] | None = None,
+    progress: bool = True,
+    log: Callable[[str], None] = print,
+) -> AceData:
+    """Load (or synthesise) both data sets, fit normalisation, map end-effectors; write them to the run.
+
+    Reopening a run folder of another creature raises :class:`RunError`.
+    """
+    _check_creature(creature)
+    run = Path(run_dir)
+    meta_path = run / META_FILE
+    if meta_path.is_file():
+        meta = yaml.safe_load(meta_path.read_text()) or {}
+        if meta.get("creature") != creature.name:
+            raise RunError(f"run folder is of creature {meta.get('creature')!r}, not {creature.name!r}",
+                           location=SourceLocation(str(meta_path)))
+    log(f"character data: synthesising {cfg.data.character_frames} frames of {creature.name} (cached)")
+    character = character_motions(creature, cfg.data, cache_dir=cache_dir, progress=progress)
+    human = human_motions(human_data, cfg.data)
+    human_m = human[0].morphology
+    if not human_m.end_effectors:
+        raise ConfigError(f"human skeleton {human_m.name!r} has no end-effectors")
+    log(f"human data: {len(human)} clips, {sum(m.frame_count for m in human)} frames"
+        f" ({'embedded default' if human_data is None else human_data})")
+    c_states = [character_state_from_motion(m) for m in character]
+    h_states = [human_state_from_motion(m) for m in human]
+    c_len, h_len = body_length(creature, character), body_length(human_m, human)
+    c_dist = ee_distributions(character, length=c_len, max_frames_per_clip=300)
+    h_dist = ee_distributions(human, length=h_len, max_frames_per_clip=300)
+    mapping = map_end_effectors(c_dist, h_dist, override=mapping_override)
+    c_stats, h_stats = NormStats.fit(c_states), NormStats.fit(h_states)
+    c_ees, h_ees = mapping.feature_order()
+    fmap = FeatureMap(creature, character_state_layout(creature), human_state_layout(human_m), c_stats, h_stats,
+                      c_ees, h_ees, c_len, h_len)
+    if _main_process():
+        run.mkdir(parents=True, exist_ok=True)
+        write_morphology(creature, run / "creature.yaml")
+        c_stats.save(run / "stats_character.npz")
+        h_stats.save(run / "stats_human.npz")
+        atomic_write_text(run / "mapping.json", json.dumps(mapping.to_json(), indent=1))
+        _save_start_states(run / "start_states.npz", c_states, fmap, cfg.seed)
+        meta = {
+            "creature": creature.name,
+            "human_data": None if human_data is None else os.fspath(human_data),
+            "human_skeleton": human_m.name,
+            "creature_body_length": float(c_len),
+            "human_body_length": float(h_len),
+            "fps": float(cfg.data.fps),
+            "data": {"character_frames": cfg.data.character_frames, "synth_seed": cfg.data.synth_seed,
+                     "human_frames": cfg.data.human_frames},
+            "mapping": dict(mapping.mapping),
+        }
+        atomic_write_text(meta_path, yaml.safe_dump(meta, sort_keys=False))
+    log("end-effector mapping (KL, Eq. 11): " + ", ".join(f"{c} -> {h}" for c, h in mapping.mapping.items()))
+    return AceData(creature, character, human, c_states, h_states, fmap, mapping)
+
+
+def _main_process() -> bool:
+    return int(os.environ.get("RANK", "0")) == 0
+
+
+def _save_start_states(path: Path, states: Sequence[np.ndarray], fmap: FeatureMap, seed: int) -> None:
+    flat = np.concatenate(list(states), axis=0)
+    rng = np.random.default_rng(seed)
+    pick = rng.choice(flat.shape[0], size=min(START_STATES, flat.shape[0]), replace=False)
+    x = flat[np.sort(pick)]
+    from morphkit.motion import features
+
+    psi = features(x, fmap.creature_layout, length=fmap.creature_length, ee_names=fmap.creature_ees)
+    from morphkit._atomic import atomic_path
+
+    with atomic_path(path) as tmp, open(tmp, "wb") as f:
+        np.savez(f, states=x, psi=psi)
+
+
+# ---- stage 1: the motion prior ----------------------------------------------------------------
+
+
+def sampling_probability(cfg: PriorConfig, epoch: int) -> float:
+    """Probability that a rollout step conditions on the model's own prediction (MotionVAE's schedule)."""
+    teacher = round(cfg.teacher_fraction * cfg.epochs)
+    ramp = round(cfg.ramp_fraction * cfg.epochs)
+    if epoch < teacher:
+        return 0.0
+    if ramp <= 0 or epoch >= teacher + ramp:
+        return 1.0
+    return (epoch - teacher + 1) / (ramp + 1)
+
+
+def _finished(run_dir: Path, trainer: str, epochs: int) -> bool:
+    path = run_dir / CHECKPOINT_FILE
+    if not path.is_file():
+        return False
+    from morphkit.retarget.checkpoint import load_checkpoint
+
+    try:
+        return load_checkpoint(path)["position"]["epoch"] >= epochs
+    except RunError:
+        return False
+
+
+def train_prior(
+    prior_dir: str | os.PathLike[str],
+    data: AceData,
+    cfg: AceConfig,
+    *,
+    device: str | torch.device | None = None,
+    progress: bool = True,
+) -> MotionVAE:
+    """Train (or resume, or load when finished) the encoder c and prior π on the character's states (Eq. 1–2).
+
+    Each step rolls the VAE over windows of ``rollout`` + 1 frames; a step's condition is its own
+    detached prediction with :func:`sampling_probability`, else the data (scheduled sampling).
+    """
+    pc = cfg.prior
+    windows = StateWindows.build(data.character_states, pc.rollout + 1, data.features.creature_stats)
+    with Run(prior_dir, trainer="ace-prior", config=pc, creature=data.creature.name, seed=cfg.seed, device=device,
+             progress=progress) as run:
+        vae = build_vae(windows.states.shape[1], pc).to(run.device)
+        model = run.wrap(vae)
+        opt = torch.optim.Adam(vae.parameters(), lr=pc.lr)
+        total = max(pc.epochs * pc.steps_per_epoch, 1)
+        final = pc.lr_final / pc.lr
+        sched = torch.optim.lr_scheduler.LambdaLR(opt, lambda s: 1.0 + (final - 1.0) * min(s / total, 1.0))
+        run.track(model=vae, optimizer=opt, scheduler=sched)
+        for epoch in run.epochs(pc.epochs):
+            p_own = sampling_probability(pc, epoch)
+            model.train()
+            for _ in run.steps(pc.steps_per_epoch):
+                idx = torch.randint(len(windows), (pc.batch_size,), generator=run.generator)
+                w = windows.windows(idx, run.device)
+                x_prev, recon, kl = w[:, 0], 0.0, 0.0
+                for t in range(1, w.shape[1]):
+                    out = model(x_prev, w[:, t], generator=None)
+                    recon = recon + F.mse_loss(out.x, w[:, t])
+                    kl = kl + kl_divergence(out.mu, out.logvar)
+                    own = torch.rand(w.shape[0], 1, generator=run.generator).to(run.device) < p_own
+                    x_prev = torch.where(own, out.x.detach(), w[:, t])
+                steps = w.shape[1] - 1
+                loss = (recon + pc.kl_beta * kl) / steps
+                opt.zero_grad(set_to_none=True)
+                loss.backward()
+                opt.step()
+                sched.step()
+                run.log(prior_loss=loss.detach(), prior_recon=recon.detach() / steps, prior_kl=kl.detach() / steps,
+                        p_own=p_own, lr=sched.get_last_lr()[0])
+    vae.eval()
+    return vae
+
+
+# ---- stage 2: the retargeter ------------------------------------------------------------------
+
+
+def _frozen_prior(vae: MotionVAE) -> torch.nn.Module:
+    prior = vae.prior.eval()
+    for p in prior.parameters():
+        p.requires_grad_(False)
+    return prior
+
+
+def rollout(
+    generator: torch.nn.Module,
+    prior: torch.nn.Module,
+    x_h: torch.Tensor,
+    start: torch.Tensor,
+    *,
+    tbptt: int = 0,
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """Autoregressive retargeting: ẑ_t = G(x^h_t, x^r_{t-1}), x̂^r_t = π(ẑ_t, x^r_{t-1}) (Eq. 4).
+
+    Args:
+        x_h: Normalised human states [B, T, Sh].
+        start: Normalised character start states x^r_0 [B, Sr].
+        tbptt: Detach the carried state every this many frames (0: never).
+
+    Returns:
+        ``(previous, generated)``, each [B, T, Sr]: the states each step was conditioned on, and its output.
+    """
+    x_prev, prevs, outs = start, [], []
+    for t in range(x_h.shape[1]):
+        if tbptt and t and t % tbptt == 0:
+            x_prev = x_prev.detach()
+        x = prior(generator(x_h[:, t], x_prev), x_prev)
+        prevs.append(x_prev)
+        outs.append(x)
+        x_prev = x
+    return torch.stack(prevs, dim=1), torch.stack(outs, dim=1)
+
+
+def _gradient_penalty(disc: torch.nn.Module, real: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    real = real.detach().requires_grad_(True)
+    logits = disc(real)
+    (grad,) = torch.autograd.grad(logits.sum(), real, create_graph=True)
+    return logits, grad.square().sum(-1).mean()
+
+
+def _contact_terms(data: AceData, fixed_states: torch.Tensor, fps: float) -> torch.Tensor:
+    """Beyond the paper: foot sliding [m/s] and ground penetration [m] of the generated motion, through FK.
+
+    Feet are placed in a frame that integrates the root's ground displacement and yaw over the
+    window, so a planted foot must stay put while the body moves.
+    """
+    import morphkit.torch as mt
+    from morphkit.rotations import quat_from_yaw, quat_rotate, yaw_from_quat
+
+    fmap, lay = data.features, data.features.creature_layout
+    feet = [i for i, e in enumerate(data.creature.end_effectors) if e.role == EndEffectorRole.FOOT]
+    if not feet:
+        return fixed_states.new_zeros(())
+    yaw = torch.cumsum(-yaw_from_quat(fixed_states[..., lay.slice("previous_root_orientation")]), dim=1)
+    disp = fixed_states[..., lay.slice("root_displacement")]
+    disp3 = torch.cat([disp, torch.zeros_like(disp[..., :1])], dim=-1)
+    heading = quat_from_yaw(yaw)
+    xy = torch.cumsum(quat_rotate(heading, disp3), dim=1)
+    ee_local = fmap.fk_end_effectors(fixed_states)  # heading frame, relative to the root
+    height = fixed_states[..., lay.slice("root_height")]
+    origin = torch.cat([xy[..., :2], height], dim=-1)
+    ee = origin[..., None, :] + quat_rotate(heading[..., None, :], ee_local)
+    slide = mt.sliding_speed(ee, fps, feet=feet).mean()
+    pen = mt.penetration_depth(ee.flatten(0, 1), feet=feet).mean()
+    return slide + 10.0 * pen
+
+
+def train_retargeter(
+    retarget_dir: str | os.PathLike[str],
+    data: AceData,
+    vae: MotionVAE,
+    cfg: AceConfig,
+    *,
+    trainer: str = "ace",
+    device: str | torch.device | None = None,
+    progress: bool = True,
+    use_feature_loss: bool = True,
+    use_adversarial: bool = True,
+) -> Generator:
+    """Train (or resume, or load when finished) G and D (Eq. 3–10) from a trained prior π (kept frozen).
+
+    Args:
+        trainer: Run name of the variant (``ace``, ``ace-wofea``, ``ace-woadv``, ``ace-contact``).
+        use_feature_loss: False trains ACEwoFea (w_fea·L_fea removed).
+        use_adversarial: False trains ACEwoAdv (w_adv·L_adv removed, no discriminator step).
+    """
+    rc: RetargetConfig = cfg.retarget
+    fmap = data.features
+    humans = StateWindows.build(data.human_states, rc.window, fmap.human_stats)
+    reals = StateWindows.build(data.character_states, 2, fmap.creature_stats)
+    starts = StateWindows.build(data.character_states, 1, fmap.creature_stats)
+    sh, sr = humans.states.shape[1], reals.states.shape[1]
+    with Run(retarget_dir, trainer=trainer, config=rc, creature=data.creature.name, seed=cfg.seed, device=device,
+             progress=progress) as run:
+        dev = run.device
+        prior = _frozen_prior(vae.to(dev))
+        gen = Generator(sh, sr, vae.prior.latent_features, rc).to(dev)
+        disc = Discriminator(sr, rc).to(dev)
+        g_model, d_model = run.wrap(gen), run.wrap(disc)
+        opt_g = torch.optim.Adam(gen.parameters(), lr=rc.lr_generator, betas=rc.betas)
+        opt_d = torch.optim.Adam(disc.parameters(), lr=rc.lr_discriminator, betas=rc.betas)
+        run.track(generator=gen, discriminator=disc, optimizer_g=opt_g, optimizer_d=opt_d)
+        for _ in run.epochs(rc.epochs):
+            for _ in run.steps(rc.steps_per_epoch):
+                b = rc.batch_size
+                x_h = humans.windows(torch.randint(len(humans), (b,), generator=run.generator), dev)
+                x0 = starts.windows(torch.randint(len(starts), (b,), generator=run.generator), dev)[:, 0]
+                prev, fake = rollout(g_model, prior, x_h, x0, tbptt=rc.tbptt)
+                fake_t = torch.cat([prev, fake], dim=-1).flatten(0, 1)  # [B·T, 2 Sr]
+                row: dict[str, Any] = {}
+                if use_adversarial:
+                    for _ in range(rc.discriminator_steps):
+                        real = reals.windows(torch.randint(len(reals), (fake_t.shape[0],), generator=run.generator),
+                                             dev).flatten(1)
+                        d_real, gp = _gradient_penalty(d_model, real)
+                        d_fake = d_model(fake_t.detach())
+                        loss_d = F.softplus(-d_real).mean() + F.softplus(d_fake).mean() + 0.5 * rc.w_gp * gp
+                        opt_d.zero_grad(set_to_none=True)
+                        loss_d.backward()
+                        opt_d.step()
+                    row |= {"loss_d": loss_d.detach(), "d_gp": gp.detach(),
+                            "d_real_acc": (d_real > 0).float().mean(), "d_fake_acc": (d_fake < 0).float().mean()}
+                psi_h = fmap.human_psi(x_h)
+                psi_r, gap = fmap.character_psi(fake)
+                fea = feature_loss(psi_h, psi_r)
+                g_adv = rc.w_adv * F.softplus(-disc_logits(d_model, disc, fake_t)).mean() if use_adversarial \
+                    else fea.new_zeros(())
+                g_fea = rc.w_fea * fea if use_feature_loss else fea.new_zeros(())
+                g_contact = fea.new_zeros(())
+                if rc.w_contact > 0:
+                    fixed, _ = fmap.creature_with_fk(fake)
+                    g_contact = rc.w_contact * _contact_terms(data, fixed, cfg.data.fps)
+                loss_g = g_adv + g_fea + g_contact
+                opt_g.zero_grad(set_to_none=True)
+                loss_g.backward()
+                opt_g.step()
+                run.log(**row, loss_g=loss_g.detach(), loss_g_adv=g_adv.detach(), loss_g_fea=g_fea.detach(),
+                        loss_g_contact=g_contact.detach(), feature_loss=fea.detach(), ee_fk_gap=gap.mean())
+    gen.eval()
+    return gen
+
+
+def disc_logits(d_model: torch.nn.Module, disc: torch.nn.Module, transitions: torch.Tensor) -> torch.Tensor:
+    """D's logits for the generator step, with D's parameters out of the graph (only G learns here)."""
+    for p in disc.parameters():
+        p.requires_grad_(False)
+    try:
+        return d_model(transitions)
+    finally:
+        for p in disc.parameters():
+            p.requires_grad_(True)
+
+
+VARIANTS = {
+    "ace": ("retarget", True, True),
+    "ace-wofea": ("retarget_wofea", False, True),
+    "ace-woadv": ("retarget_woadv", True, False),
+    "ace-contact": ("retarget_contact", True, True),
+}
+"""Variant → (stage folder in the run, feature loss on, adversarial loss on). ``ace-contact`` is ACE
+with ``retarget.w_contact > 0`` (beyond the paper)."""
+
+
+def variant_of(*, feature_loss: bool = True, adversarial: bool = True, contact_weight: float = 0.0) -> str:
+    """The variant name of a set of ablation flags (one ablation at a time)."""
+    if not feature_loss and not adversarial:
+        raise ConfigError("--no-feature-loss and --no-adversarial together leave nothing to train")
+    if contact_weight > 0 and not (feature_loss and adversarial):
+        raise ConfigError("--contact-weight combines with full ACE only")
+    if not feature_loss:
+        return "ace-wofea"
+    if not adversarial:
+        return "ace-woadv"
+    return "ace-contact" if contact_weight > 0 else "ace"
+
+
+def train_ace(
+    run_dir: str | os.PathLike[str],
+    creature: Morphology,
+    cfg: AceConfig,
+    *,
+    variant: str = "ace",
+    human_data: str | os.PathLike[str] | None = None,
+    mapping_override: dict[str, str] | None = None,
+    prior_dir: str | os.PathLike[str] | None = None,
+    device: str | torch.device | None = None,
+    progress: bool = True,
+    log: Callable[[str], None] = print,
+) -> Path:
+    """Prepare the data, train (or resume, or skip) the prior, then the retargeter ``variant``.
+
+    Returns:
+        The retargeter's stage folder.
+    """
+    if variant not in VARIANTS:
+        raise ConfigError(f"unknown ACE variant {variant!r}; expected one of: {', '.join(VARIANTS)}")
+    run = Path(run_dir)
+    folder, use_fea, use_adv = VARIANTS[variant]
+    data = prepare(run, creature, cfg, human_data=human_data, mapping_override=mapping_override, progress=progress,
+                   log=log)
+    prior = Path(prior_dir) if prior_dir is not None else run / "prior"
+    log(f"motion prior: {prior}")
+    vae = train_prior(prior, data, cfg, device=device, progress=progress)
+    stage = run / folder
+    log(f"retargeter ({variant}): {stage}")
+    train_retargeter(stage, data, vae, cfg, trainer=variant, device=device, progress=progress,
+                     use_feature_loss=use_fea, use_adversarial=use_adv)
+    return stage
