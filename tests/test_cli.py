@@ -59,6 +59,8 @@ def test_info_json_on_shipped_creatures(name, base, dof, roles, capsys):
         "base_dof",
         "end_effectors",
         "characteristic_length",
+        "body_length",
+        "body_length_rule",
     ):
         assert key in s
     assert s["base"] == base
@@ -70,6 +72,7 @@ def test_info_json_on_shipped_creatures(name, base, dof, roles, capsys):
     assert got == roles
     assert s["link_count"] == sum(s["joint_counts"].values()) + 1
     assert s["characteristic_length"] > 0
+    assert s["body_length"] > 0 and s["body_length_rule"] == ("hand_reach" if name == "stretch" else "stance")
 
 
 def test_info_text_and_convert_round_trip(tmp_path):
@@ -78,6 +81,7 @@ def test_info_text_and_convert_round_trip(tmp_path):
     out = run_cli("info", str(src))
     assert out.returncode == 0, out.stderr
     assert "DoF                   1" in out.stdout and "stick" in out.stdout
+    assert "body length" in out.stdout
     for suffix in (".urdf", ".usda", ".yaml"):
         dst = tmp_path / f"copy{suffix}"
         res = run_cli("convert", str(src), str(dst))

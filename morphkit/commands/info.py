@@ -1,4 +1,4 @@
-"""``morphkit info PATH...``: summarise creatures (links, joints, DoF, end-effectors, base, size)."""
+"""``morphkit info PATH...``: summarise creatures (links, joints, DoF, end-effectors, base, size, body length)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,16 @@ import json
 from collections import Counter
 from typing import Any
 
-from morphkit.graph import JointType, Morphology
+from morphkit.graph import HUMAN_HAND_REACH, BodyLengthRule, JointType, Morphology
+
+_RULE_TEXT = {
+    BodyLengthRule.DECLARED: "declared by the description",
+    BodyLengthRule.STANCE: "root above the lowest foot at rest; measured on motion where one is given",
+    BodyLengthRule.STRAIGHT_LEGS: "leg length, the rest pose is not upright; measured on motion where one is given",
+    BodyLengthRule.MEASURED: "measured on motion",
+    BodyLengthRule.HAND_REACH: f"highest hand reach above the ground / {HUMAN_HAND_REACH:g}",
+    BodyLengthRule.REST_EXTENT: "rest-pose height, no feet or hands",
+}
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -34,12 +43,15 @@ def summary(m: Morphology) -> dict[str, Any]:
         "driven_joints": [j.name for j in m.joints if m.is_driven(j)],
         "end_effectors": [{"name": e.name, "link": e.link, "role": e.role.name.lower()} for e in m.end_effectors],
         "characteristic_length": round(m.characteristic_length, 6),
+        "body_length": round(m.body_length, 6),
+        "body_length_rule": m.body_length_rule.name.lower(),
     }
 
 
 def _text(s: dict[str, Any]) -> str:
     joints = ", ".join(f"{n} {t}" for t, n in s["joint_counts"].items() if n)
     ees = ", ".join(f"{e['name']} ({e['role']}, on {e['link']})" for e in s["end_effectors"]) or "none"
+    rule = s["body_length_rule"]
     lines = [
         f"{s['name']}  ({s['source']})" if s["source"] else s["name"],
         f"  base                  {s['base']} ({s['base_dof']} DoF), root link {s['root']}",
@@ -52,7 +64,8 @@ def _text(s: dict[str, Any]) -> str:
         lines.append(f"  driven joints         {', '.join(s['driven_joints'])}")
     lines += [
         f"  end-effectors         {len(s['end_effectors'])}: {ees}",
-        f"  characteristic length {s['characteristic_length']:.3f} m",
+        f"  characteristic length {s['characteristic_length']:.3f} m (rest-pose height)",
+        f"  body length           {s['body_length']:.3f} m ({_RULE_TEXT[BodyLengthRule[rule.upper()]]})",
     ]
     return "\n".join(lines)
 

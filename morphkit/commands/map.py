@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import json
+import math
 import sys
 
 
@@ -32,11 +33,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="BVH axis the human skeletons face: +z, -z, +x, -x or auto (default: auto, +z for humans)")
     p.add_argument("--creature-facing", default="auto",
                    help="BVH axis the creature skeletons face (default: auto, detected from the motion)")
-    p.add_argument("--human-length", type=float, metavar="M",
-                   help="body length [m] to normalise human positions by (default: the skeleton's rest height)")
-    p.add_argument("--creature-length", type=float, metavar="M",
-                   help="body length [m] for the creature (default: its rest height; set it for BVH rigs whose "
-                   "rest pose is not upright)")
+    p.add_argument("--body-length", "--creature-length", dest="creature_length", type=float, metavar="M",
+                   help="the creature's body length [m], which positions are divided by (default: its description's "
+                   "body_length, else its standing root height measured on CREATURE_DATA; footless creatures: "
+                   "their hand reach; see docs/concepts/body-length.md)")
+    p.add_argument("--human-body-length", "--human-length", dest="human_length", type=float, metavar="M",
+                   help="the human's body length [m] (default: its standing root height measured on HUMAN_DATA)")
     p.add_argument("--no-cache", action="store_true", help="do not read or write the motion cache")
     p.set_defaults(run=run)
 
@@ -50,14 +52,14 @@ def _bvh_options(paths: list[str], facing: str) -> dict[str, str]:
 
 def run(args: argparse.Namespace) -> int:
     from morphkit.errors import ConfigError, SourceLocation
-    from morphkit.motion import ee_distributions, map_end_effectors, read_override
+    from morphkit.motion import body_length, ee_distributions, map_end_effectors, read_override
     from morphkit.motion.datasets import load_motions
 
     if args.max_frames < 1:
         raise ConfigError(f"--max-frames must be >= 1, got {args.max_frames}")
-    for flag, value in (("--human-length", args.human_length), ("--creature-length", args.creature_length)):
-        if value is not None and not value > 0:
-            raise ConfigError(f"{flag} must be a positive length in metres, got {value}")
+    for flag, value in (("--human-body-length", args.human_length), ("--body-length", args.creature_length)):
+        if value is not None and not (math.isfinite(value) and value > 0):
+            raise ConfigError(f"{flag} must be a finite length > 0 in metres, got {value}")
     override: dict[str, str] = read_override(args.override) if args.override else {}
     for pair in args.set:
         c, sep, h = pair.partition("=")
@@ -69,18 +71,26 @@ def run(args: argparse.Namespace) -> int:
     with contextlib.redirect_stdout(sys.stderr):
         humans = load_motions(args.human, cache_dir=cache, **_bvh_options(args.human, args.human_facing))
         creatures = load_motions(args.creature, cache_dir=cache, **_bvh_options([args.creature], args.creature_facing))
-        human = ee_distributions(humans, max_frames_per_clip=args.max_frames, length=args.human_length)
-        creature = ee_distributions(creatures, max_frames_per_clip=args.max_frames, length=args.creature_length)
+        # One length per data set, measured on all its clips unless given.
+        lengths = {
+            "creature": args.creature_length or body_length(creatures[0].morphology, creatures),
+            "human": args.human_length or body_length(humans[0].morphology, humans),
+        }
+        human = ee_distributions(humans, max_frames_per_clip=args.max_frames, length=lengths["human"])
+        creature = ee_distributions(creatures, max_frames_per_clip=args.max_frames, length=lengths["creature"])
     try:
         result = map_end_effectors(creature, human, override=override)
     except ConfigError as exc:
         where = SourceLocation(args.override) if args.override and exc.location is None else exc.location
         raise ConfigError(exc.message, location=where) from None
     if args.json:
-        json.dump(result.to_json(), sys.stdout, indent=2)
+        doc = result.to_json()
+        doc["body_length"] = {k: round(v, 6) for k, v in lengths.items()}
+        json.dump(doc, sys.stdout, indent=2)
         sys.stdout.write("\n")
         return 0
     c_name, h_name = creatures[0].morphology.name, humans[0].morphology.name
     print(f"{c_name} ({len(creatures)} clips) -> {h_name} ({len(humans)} clips); KL(p_creature || p_human)")
+    print(f"body lengths: {c_name} {lengths['creature']:.3f} m, {h_name} {lengths['human']:.3f} m")
     print(result.format_table())
     return 0

@@ -10,7 +10,7 @@ import pytest
 from morphkit_testing import human_like, random_q, spot_like
 
 from morphkit.cli import main
-from morphkit.motion import Motion, write_motion
+from morphkit.motion import Motion, body_length, load_motions, write_motion
 from morphkit.motion._fk import compiled_model
 
 
@@ -52,3 +52,23 @@ def test_map_bad_input_is_one_error_line(data: tuple[Path, Path], tmp_path: Path
     assert "no such file or folder" in capsys.readouterr().err
     assert main(["map", str(human), str(spot), "--set", "gripper", "--no-cache"]) == 2
     assert "--set" in capsys.readouterr().err
+
+
+def test_map_body_lengths_are_measured_reported_and_overridable(data: tuple[Path, Path],
+                                                                capsys: pytest.CaptureFixture[str]) -> None:
+    human, spot = data
+    assert main(["map", str(human), str(spot), "--json", "--no-cache"]) == 0
+    measured = json.loads(capsys.readouterr().out)["body_length"]
+    for key, folder in (("human", human), ("creature", spot)):
+        clips = load_motions([folder], cache_dir=None)
+        assert measured[key] == pytest.approx(body_length(clips[0].morphology, clips), abs=1e-6)
+    assert main(["map", str(human), str(spot), "--json", "--no-cache", "--body-length", "0.5",
+                 "--human-body-length", "1.25"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["body_length"] == {"creature": 0.5, "human": 1.25}
+    assert main(["map", str(human), str(spot), "--no-cache", "--creature-length", "0.5"]) == 0  # the old spelling
+    assert "body lengths: spot_like 0.500 m" in capsys.readouterr().out
+    for bad in ("0", "-1", "nan", "inf"):
+        assert main(["map", str(human), str(spot), "--no-cache", "--body-length", bad]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("error: --body-length must be a finite length > 0") and "Traceback" not in err
