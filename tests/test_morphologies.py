@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from morphkit.conventions import quat_from_axis_angle, quat_rotate, transform_multiply
-from morphkit.errors import DescriptionError, MorphkitError
+from morphkit.errors import DescriptionError
 from morphkit.graph import BaseType, EndEffectorRole, JointType, Morphology, Shape, ShapeType
 from morphkit.io.shipped import resolve_morphology, shipped_names, shipped_path
 
@@ -59,17 +59,11 @@ README_SECTIONS = ("provenance", "dimensions", "degrees of freedom", "end-effect
 
 # ---- helpers ---------------------------------------------------------------------------------
 def _read(name: str) -> Morphology:
-    try:
-        from morphkit.io import read_morphology
-    except ImportError:  # pragma: no cover - only while the readers are being written
-        pytest.skip("morphkit.io.read_morphology is not available yet")
+    """The shipped creature ``name``; a missing description fails the test (morphkit ships all of them)."""
+    from morphkit.io import read_morphology
+
     path = MORPHOLOGIES / name / f"{name}{EXPECTED[name]['suffix']}"
-    if not path.is_file():
-        pytest.skip(f"{path.name} is not there yet")
-    if path.suffix.startswith(".usd"):
-        pytest.importorskip("pxr")
-        if importlib.util.find_spec("morphkit.io.usd") is None:
-            pytest.skip("morphkit.io.usd is not available yet")
+    assert path.is_file(), f"the shipped description {path} is missing"
     return read_morphology(path)
 
 
@@ -234,8 +228,7 @@ def test_shipped_names_are_the_creature_folders() -> None:
 def test_folder_lint(name: str) -> None:
     folder = MORPHOLOGIES / name
     description = folder / f"{name}{EXPECTED[name]['suffix']}"
-    if not description.is_file():
-        pytest.skip(f"{description.name} is not there yet")
+    assert description.is_file(), f"the shipped description {description} is missing"
     readme = folder / "README.md"
     assert readme.is_file(), f"{folder} has no README.md"
     text = readme.read_text(encoding="utf-8").lower()
@@ -462,10 +455,7 @@ def test_native_round_trip(creature: Morphology, tmp_path: Path) -> None:
 
     suffix = EXPECTED[creature.name]["suffix"]
     path = tmp_path / f"{creature.name}{suffix}"
-    try:
-        write_morphology(creature, path)
-    except (ImportError, MorphkitError) as exc:  # pragma: no cover - writer not there yet
-        pytest.skip(f"cannot write {suffix} yet: {exc}")
+    write_morphology(creature, path)
     _compare_module().assert_morphology_equal(creature, read_morphology(path), tol=1e-6)
 
 
@@ -478,12 +468,6 @@ def test_stretch_usda_is_generated_by_its_script() -> None:
 
 def test_characteristic_lengths_differ_by_creature(creatures: dict[str, Morphology]) -> None:
     """Sanity across creatures: the human is the tallest, the crab the flattest."""
-    lengths = {}
-    for name in EXPECTED:
-        try:
-            lengths[name] = _get(creatures, name).characteristic_length
-        except pytest.skip.Exception:
-            continue
-    if {"human", "spot", "crab"} <= set(lengths):
-        assert lengths["human"] > lengths["spot"] > lengths["crab"]
+    lengths = {name: _get(creatures, name).characteristic_length for name in EXPECTED}
+    assert lengths["human"] > lengths["spot"] > lengths["crab"]
     assert all(math.isfinite(v) and v > 0 for v in lengths.values())
