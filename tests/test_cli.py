@@ -163,3 +163,10 @@ def test_convert_unknown_output_format_names_the_output(tmp_path):
     res = run_cli("convert", "spot", str(tmp_path / "spot.zzz"))
     assert res.returncode == 2 and "Traceback" not in res.stderr
     assert res.stderr.strip().startswith(f"error: {tmp_path / 'spot.zzz'}: unknown output format '.zzz'")
+
+
+@pytest.mark.parametrize("bad", ["0", "-0.5", "nan"])
+def test_train_body_length_is_validated_before_training(bad, capsys):
+    assert main(["train", "ace", "crab", "--body-length", bad, "--out", "/nonexistent/run"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: --body-length must be a finite length > 0") and "Traceback" not in err

@@ -32,6 +32,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--map", metavar="C=H", action="append", default=[],
                    help="override one end-effector pair, e.g. --map gripper=lwrist_end (repeatable)")
     p.add_argument("--map-file", metavar="FILE", help="YAML {creature_ee: human_ee} overriding the KL mapping")
+    p.add_argument("--body-length", type=float, metavar="M",
+                   help="the creature's body length [m], which Ψ divides its lengths by (default: its description's "
+                   "body_length, else its standing root height measured on its synthesised motion; "
+                   "see docs/concepts/body-length.md)")
     p.add_argument("--prior", metavar="DIR", help="reuse the prior stage of another run (e.g. RUN/prior)")
     p.add_argument("--device", default=None, help="torch device (default: cuda when present, else cpu)")
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
@@ -53,8 +57,11 @@ def parse_pairs(items: list[str], file: str | None) -> dict[str, str] | None:
 
 
 def run(args: argparse.Namespace) -> int:
+    import dataclasses
+    import math
     from pathlib import Path
 
+    from morphkit.errors import ConfigError
     from morphkit.io import read_morphology
     from morphkit.io.shipped import resolve_morphology
     from morphkit.retarget.ace.config import preset
@@ -62,6 +69,10 @@ def run(args: argparse.Namespace) -> int:
     from morphkit.retarget.config import replace_config
 
     creature = read_morphology(resolve_morphology(args.creature))
+    if args.body_length is not None:
+        if not (math.isfinite(args.body_length) and args.body_length > 0):
+            raise ConfigError(f"--body-length must be a finite length > 0 in metres, got {args.body_length}")
+        creature = dataclasses.replace(creature, declared_body_length=args.body_length)
     cfg = preset(args.preset)
     sets = list(args.set)
     if args.contact_weight > 0:
