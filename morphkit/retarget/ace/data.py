@@ -30,6 +30,7 @@ from morphkit.retarget.ace.config import DataConfig
 __all__ = [
     "StateWindows",
     "character_motions",
+    "evaluation_clips",
     "evaluation_split",
     "human_motions",
     "split_evaluation_clips",
@@ -127,6 +128,23 @@ def human_motions(
             raise MotionFormatError(f"every clip is in the evaluation split ({len(held)} clips)",
                                     location=SourceLocation(str(path)))
     return motions
+
+
+def evaluation_clips(path: str | os.PathLike[str] | None, data: DataConfig, *, limit: int | None = None,
+                     cache_dir: str | os.PathLike[str] | bool | None = True) -> list[Motion]:
+    """Clips to evaluate on, never trained on: the evaluation split's clips under ``path`` (every clip
+    when none of them is named in the split), or embedded default human clips of another seed.
+    """
+    if path is None:
+        from morphkit.synth import default_human_motion
+
+        clips = list(default_human_motion(frames=max(data.human_frames // 4, 300), seed=data.synth_seed + 1000,
+                                          fps=data.fps))
+    else:
+        motions = load_motions(path, cache_dir=cache_dir, fps=data.fps)
+        _, held = split_evaluation_clips(motions)
+        clips = held or motions
+    return clips[:limit] if limit is not None else clips
 
 
 @dataclass(eq=False)
