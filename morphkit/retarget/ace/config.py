@@ -45,8 +45,9 @@ class PriorConfig:
     dropout: float = 0.3
     kl_beta: float = 0.1
     """β of the VAE's KL term (averaged per latent element, as MotionVAE). MotionVAE's 1.0 collapses the
-    posterior on these states (measured on a synthesised quadruped: π's reconstruction is the same for any z, KL 0.002 per
-    element), and G can only steer the character through z; 0.1 keeps z informative (KL 0.5)."""
+    posterior on these states (measured on a synthesised quadruped: π's reconstruction is the same for
+    any z, KL 0.002 per element), and G can only steer the character through z; 0.1 keeps z
+    informative (KL 0.5 per element)."""
     rollout: int = 8
     """Steps of a scheduled-sampling rollout (MotionVAE: 8)."""
     teacher_fraction: float = 0.15
