@@ -12,7 +12,8 @@ def test_readme_two_setup_commands_and_ci_uses_the_test_line():
     assert block is not None and text.index(block.group(0)) < 200, "README must open with the set-up block"
     lines = [ln for ln in block.group(1).splitlines() if ln.strip()]
     assert len(lines) == 2
-    assert lines[0].startswith("pip install") and "morphkit" in lines[0]
+    # The first installs morphkit and runs the main job (ACE on the embedded default human motion).
+    assert lines[0].startswith("pip install") and "examples/ace_train.py" in lines[0]
     assert lines[1].startswith("pip install") and "pytest" in lines[1]
     ci = (ROOT / ".ci" / "run").read_text()
     # .ci/run picks the README line that installs and runs pytest; it must be this one.

@@ -14,8 +14,6 @@ the ground is the plane $z = z_g$ (z up, metres).
 
 from __future__ import annotations
 
-import threading
-import weakref
 from collections.abc import Sequence
 from dataclasses import dataclass, fields
 from typing import TYPE_CHECKING, Any
@@ -150,23 +148,12 @@ class _Compiled:
         return hit
 
 
-_compiled: dict[int, tuple[weakref.ref, _Compiled]] = {}
-_lock = threading.Lock()
-
-
 def _compile(morphology: Morphology) -> _Compiled:
-    """The compiled CPU model of ``morphology`` and its pairs, once per morphology object (clips share one)."""
-    key = id(morphology)
-    with _lock:
-        hit = _compiled.get(key)
-        if hit is not None and hit[0]() is morphology:
-            return hit[1]
-    from morphkit.model import compile_model
+    """The compiled CPU model of ``morphology`` (the motion layer's, shared by its clips) and its pairs."""
+    from morphkit.motion import compiled_model
 
-    out = _Compiled(compile_model(morphology, device="cpu"), {})
-    with _lock:
-        _compiled[key] = (weakref.ref(morphology, lambda _: _compiled.pop(key, None)), out)
-    return out
+    model = compiled_model(morphology)
+    return _Compiled(model, model.kernel_cache().setdefault("ufr_self_collision_pairs", {}))
 
 
 def _contact_over_difference(contact: np.ndarray) -> np.ndarray:

@@ -128,7 +128,7 @@ PRESETS: dict[str, AceConfig] = {
     "default": AceConfig(
         data=DataConfig(character_frames=60_000),
         prior=replace(_DEFAULT_PRIOR, epochs=16, steps_per_epoch=100, batch_size=128),
-        retarget=replace(_DEFAULT_RET, epochs=20, steps_per_epoch=60, batch_size=64),
+        retarget=replace(_DEFAULT_RET, epochs=20, steps_per_epoch=40, batch_size=64),
     ),
     # The paper's sizes (§6.4, §7.1).
     "paper": AceConfig(prior=PriorConfig(lr=1e-4, lr_final=1e-7)),

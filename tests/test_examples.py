@@ -1,0 +1,32 @@
+"""Every example runs in its --smoke mode, as a user would run it (a subprocess from the repository root)."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLES = sorted((ROOT / "examples").glob("*.py"))
+
+
+def test_every_example_has_a_header_with_its_command():
+    assert EXAMPLES
+    for path in EXAMPLES:
+        doc = path.read_text().split('"""')[1]
+        assert f"python examples/{path.name}" in doc, f"{path.name}: the docstring names no command"
+        assert "--smoke" in path.read_text(), f"{path.name}: no --smoke mode"
+
+
+@pytest.mark.parametrize("path", EXAMPLES, ids=[p.stem for p in EXAMPLES])
+def test_example_runs_in_smoke_mode(path: Path, tmp_path: Path):
+    env = {**os.environ, "MORPHKIT_CACHE_DIR": str(tmp_path / "cache"), "PYOPENGL_PLATFORM": "egl"}
+    proc = subprocess.run([sys.executable, str(path), "--smoke", "--out", str(tmp_path / "out")], cwd=tmp_path,
+                          env=env, capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert "done in" in proc.stdout
+    outputs = [p for p in (tmp_path / "out").rglob("*") if p.is_file()]
+    assert outputs, "the example wrote nothing"
