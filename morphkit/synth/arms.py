@@ -174,11 +174,16 @@ def other_joints(m: Morphology, plan: BodyPlan) -> tuple[list[int], list[int]]:
 
 
 def calibrate_arms(m: Morphology, plan: BodyPlan, solver: LimbSolver, q_stance: np.ndarray, cfg: ArmConfig,
-                   seed: int = 0) -> PosePool:
-    """The upper-body pose pool and its validated move graph, with the creature standing at ``q_stance`` [C]."""
+                   seed: int = 0, fixed_arms: Sequence[int] = ()) -> PosePool:
+    """The upper-body pose pool and its validated move graph, with the creature standing at ``q_stance`` [C].
+
+    Arms in ``fixed_arms`` (indices into ``plan.arms``; moved by something else, like
+    :mod:`~morphkit.synth.actions`) stay at their stance pose in every pooled pose.
+    """
     model = solver.model
     rng = np.random.default_rng(seed + 7919)
     arm_joints = [_moving_joints(m, arm.joints) for arm in plan.arms]
+    held = {j for a in fixed_arms for j in arm_joints[a]}
     others, carrying = other_joints(m, plan)
     flat_arm = [j for js in arm_joints for j in js]
     arm_coords, arm_quats = _joint_coords(m, flat_arm)
@@ -236,7 +241,8 @@ def calibrate_arms(m: Morphology, plan: BodyPlan, solver: LimbSolver, q_stance: 
             break
         q = np.repeat(q_stance[None], cfg.pool_size, axis=0)
         for ji in flat_arm:
-            _sample(rng, m, q, ji, cfg.joint_range, cfg.spherical_angle, cfg.continuous_angle)
+            if ji not in held:
+                _sample(rng, m, q, ji, cfg.joint_range, cfg.spherical_angle, cfg.continuous_angle)
         for ji in others:
             k = 1.0 / 3.0 if ji in carrying else 1.0
             _sample(rng, m, q, ji, cfg.other_range * k, cfg.other_angle * k, np.pi * k)

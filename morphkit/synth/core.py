@@ -25,9 +25,27 @@ from morphkit.motion.motion import Motion
 from morphkit.rotations import quat_from_rpy, quat_from_yaw, quat_rotate
 from morphkit.synth._ik import LimbSolver
 from morphkit.synth._util import nlerp, quat_delta_extrapolate
+from morphkit.synth.actions import (
+    ACTION_NAMES,
+    ActionConfig,
+    ActionRig,
+    ActionSpan,
+    arm_swing,
+    calibrate_actions,
+    draw_actions,
+    limit_speed,
+    neutral_stance,
+)
 from morphkit.synth.analysis import BodyPlan, analyse
 from morphkit.synth.arms import ArmConfig, PosePool, calibrate_arms, draw_upper_body
-from morphkit.synth.legged import LegConfig, LeggedController, LegRig, calibrate_legs
+from morphkit.synth.legged import (
+    LegConfig,
+    LeggedController,
+    LegRig,
+    calibrate_legs,
+    keep_knees_bent,
+    upright_root_height,
+)
 from morphkit.synth.locomotion_commands import (
     CMD_DH,
     CMD_PITCH,
@@ -65,6 +83,7 @@ class SynthConfig:
     commands: CommandConfig = field(default_factory=CommandConfig)
     legs: LegConfig = field(default_factory=LegConfig)
     arms: ArmConfig = field(default_factory=ArmConfig)
+    actions: ActionConfig = field(default_factory=ActionConfig)
 
 
 @dataclass(eq=False)
@@ -86,6 +105,8 @@ class SynthRig:
     """Size scale of the linear command ranges."""
     fps: float
     config: SynthConfig
+    actions: ActionRig | None = None
+    """Key poses of the arms that do upper-body actions and swing (None: no arm does)."""
 
     def summary(self) -> dict[str, Any]:
         """Calibration figures for reports (JSON-friendly)."""
@@ -111,6 +132,8 @@ class SynthRig:
             })
         if not self.arms.empty:
             out["upper_body_pool"] = self.arms.stats
+        if self.actions is not None:
+            out["actions"] = self.actions.stats
         return out
 
     def max_speed(self, direction: np.ndarray) -> float:
@@ -149,7 +172,11 @@ def prepare(m: Morphology, *, fps: float = 30.0, config: SynthConfig | None = No
         if loco == Locomotion.GLIDE:
             q_stance[2] = glide_height(m)
         scale = 1.0
-    arms = calibrate_arms(m, plan, solver, q_stance, config.arms)
+    actions = calibrate_actions(m, plan, q_stance, config.actions, upright=legs is not None and legs.upright,
+                                nominal_xy=legs.nominal_xy if legs is not None else None)
+    if actions is not None:
+        q_stance = neutral_stance(actions, q_stance)
+    arms = calibrate_arms(m, plan, solver, q_stance, config.arms, fixed_arms=actions.arms if actions else ())
     lat = cc.lateral_speed if lateral_allowed(m) else (0.0, 0.0)
     moving = loco != Locomotion.FIXED
     clamp: Callable[[np.ndarray], np.ndarray] | None = None
@@ -181,7 +208,7 @@ def prepare(m: Morphology, *, fps: float = 30.0, config: SynthConfig | None = No
         yaw_acceleration=cc.yaw_acceleration,
         clamp=clamp,
     )
-    rig = SynthRig(m, plan, loco, solver, legs, arms, q_stance, limits, float(scale), fps, config)
+    rig = SynthRig(m, plan, loco, solver, legs, arms, q_stance, limits, float(scale), fps, config, actions)
     _rig_cache.append((m, fps, config, rig))
     del _rig_cache[:-4]
     return rig
@@ -208,6 +235,11 @@ class SynthResult(Sequence[Motion]):
     seconds: float
     """Wall time of the generation [s] (calibration included)."""
     rig: SynthRig = field(repr=False)
+    actions: list[tuple[ActionSpan, ...]] = field(default_factory=list)
+    """Per motion: its upper-body actions in order (empty without acting arms)."""
+    action: list[np.ndarray] = field(default_factory=list)
+    """Per motion: [T] int8 action code per frame (:data:`~morphkit.synth.actions.ACTION_NAMES`; empty
+    without acting arms)."""
 
     def __len__(self) -> int:
         return len(self.motions)
@@ -229,8 +261,8 @@ class SynthResult(Sequence[Motion]):
         return self.frame_count / max(self.seconds, 1e-9)
 
     def extras(self, i: int) -> dict[str, np.ndarray]:
-        """Arrays stored beside motion ``i`` in its NPZ file."""
-        return {
+        """Arrays stored beside motion ``i`` in its NPZ file (``action`` and ``action_names`` with acting arms)."""
+        out = {
             "command": self.command[i].astype(np.float32),
             "command_target": self.target[i].astype(np.float32),
             "command_settled": self.settled[i],
@@ -239,6 +271,9 @@ class SynthResult(Sequence[Motion]):
             "gait": self.gait[i],
             "gait_names": np.array(self.gait_names if self.gait_names else ("none",)),
         }
+        if self.action:
+            out.update(action=self.action[i], action_names=np.array(ACTION_NAMES))
+        return out
 
     def save(self, path: str | os.PathLike[str]) -> list[Path]:
         """Write the motions as NPZ files (:func:`~morphkit.motion.write_npz_motion`) and return their paths.
@@ -255,10 +290,13 @@ class SynthResult(Sequence[Motion]):
                 raise ConfigError("nothing to save: no motion was synthesised")
             joined = Motion.concatenate(self.motions, name=p.stem)
             starts = np.cumsum([0] + [m.frame_count for m in self.motions[:-1]]).astype(np.int64)
-            ex = {k: np.concatenate([self.extras(i)[k] for i in range(len(self))], axis=0)
-                  for k in ("command", "command_target", "command_settled", "contact", "gait")}
+            per_frame = ("command", "command_target", "command_settled", "contact", "gait") + (
+                ("action",) if self.action else ())
+            ex = {k: np.concatenate([self.extras(i)[k] for i in range(len(self))], axis=0) for k in per_frame}
             ex.update(command_names=np.array(COMMAND_NAMES), gait_names=self.extras(0)["gait_names"],
                       clip_starts=starts)
+            if self.action:
+                ex["action_names"] = np.array(ACTION_NAMES)
             p.parent.mkdir(parents=True, exist_ok=True)
             write_npz_motion(joined, p, **ex)
             return [p]
@@ -303,20 +341,75 @@ def _run_batch(rig: SynthRig, seeds: Sequence[np.random.SeedSequence], lengths: 
         yaw0[:] = 0.0  # a fixed base stays where its description put it
     pad = int(np.ceil(cfg.look_ahead_seconds * fps))
     cmds = draw_commands(rngs, drawn + pad, fps, cfg.commands, rig.limits)
-    path_xy, path_yaw = integrate_root(cmds.command, fps, yaw0)
     pool = rig.arms
     ub = draw_upper_body(rngs, pool, drawn, fps, cfg.arms)
+    acts = None
+    if rig.actions is not None:
+        acts = draw_actions(rngs, rig.actions, drawn, fps, cfg.actions)
+        busy = acts.activity(drawn + pad, fps, cfg.actions.speed_ramp_seconds)
+        vmax = cfg.actions.max_speed * rig.scale
+        limit_speed(cmds.command, busy, vmax, cfg.actions.max_yaw_rate)
+        limit_speed(cmds.target, busy, vmax, cfg.actions.max_yaw_rate)
+        cmds.settled &= (busy == 0.0) | (busy == 1.0)
+    path_xy, path_yaw = integrate_root(cmds.command, fps, yaw0)
     direct = pool.coords[pool.direct]
     n_arm = len(pool.arm_coords)
     solver = rig.solver
-    legs = None
     NL = len(rig.plan.legs)
+    feet = foot_yaw = stance = None
+    z_upright = None
     if rig.legs is not None:
+        # footsteps depend on the root path only: plan them for every frame first
         legs = LeggedController(rig.legs, cfg.legs, fps, path_xy[:, 0], path_yaw[:, 0])
+        feet = np.empty((R, frames, NL, 3))
+        foot_yaw = np.empty((R, frames, NL))
+        stance = np.empty((R, frames, NL), dtype=bool)
+        gait_code = np.empty((R, frames), dtype=np.int8)
+        for t in range(frames):
+            c = cmds.command[:, t]
+            legs.step(t, path_xy, path_yaw, c[:, [CMD_VX, CMD_VY]], c[:, CMD_WZ], cmds.choice[:, t])
+            feet[:, t] = legs.feet()
+            foot_yaw[:, t] = legs.foot_yaw
+            stance[:, t] = legs.stance
+            gait_code[:, t] = legs.clock.gait_code
+        if rig.legs.upright:
+            c = cmds.command[:, :frames]
+            yaw_t = path_yaw[:, :frames]
+            rot_t = quat_from_rpy(np.stack([c[..., CMD_ROLL], c[..., CMD_PITCH], yaw_t], axis=-1))
+            ik_pts = feet - rig.solver.ankle_offsets(foot_yaw.reshape(R * frames, NL)).reshape(R, frames, NL, 3)
+            z_upright = upright_root_height(rig.legs, ik_pts, path_xy[:, :frames], rot_t,
+                                            rig.legs.stance_height + c[..., CMD_DH], fps,
+                                            cfg.legs.upright_smoothing_seconds)
+        if acts is not None and rig.actions is not None and rig.actions.swing:
+            stride = 2.0 * cfg.legs.stroke_usage * float(rig.legs.semi_axes[:, 0].mean())
+            speed = np.linalg.norm(cmds.command[:, :frames, :2], axis=-1)
+            acts.swing = arm_swing(rig.actions, rig.legs.nominal_xy, stride, feet[..., :2], path_xy[:, :frames],
+                                   path_yaw[:, :frames], speed, cfg.actions.swing_full_speed * rig.scale, fps,
+                                   cfg.actions)
+    # IK end-effectors: legs and the arms that actions do not move
+    ik_ee, ik_mask, ik_key, free_arms = solver.all_ee, solver.all_mask, "all", np.arange(len(rig.plan.arms))
+    if acts is not None and rig.actions is not None:
+        free_arms = np.array([a for a in range(len(rig.plan.arms)) if a not in rig.actions.arms], dtype=np.int64)
+        ik_mask = solver.leg_mask.copy()
+        qd = m.joint_qd_start
+        for a in free_arms:
+            for n in rig.plan.arms[a].joints:
+                ji = m.joint_index(n)
+                if m.joints[ji].mimic is None:
+                    ik_mask[qd[ji]:qd[ji + 1]] = True
+        ik_ee = np.concatenate([solver.leg_ee, solver.arm_ee[free_arms]]).astype(np.int64)
+        ik_key = "legs+free_arms"
     C = m.coordinate_count
     nb = m.base_coordinate_count
     scalar, quats = _scalar_and_quat_coords(m)
     leg_balls = np.array([c[0] for c in solver.ball_constraints], dtype=np.int64)
+    knees: list[tuple[int, int, float]] = []
+    if rig.legs is not None and rig.legs.upright:
+        # nearly straight legs: keep ball knees on the side they bend to at stance
+        for s, ax, h in solver.ball_constraints:
+            if h == -2:
+                th = 2.0 * np.arctan2(rig.q_stance[s + ax], rig.q_stance[s + 3])
+                knees.append((int(s), int(ax), 1.0 if th >= 0 else -1.0))
     lower, upper = m.coordinate_limits
     lo_s, hi_s = lower[scalar], upper[scalar]
     out_q = np.empty((R, frames, C))
@@ -341,22 +434,23 @@ def _run_batch(rig: SynthRig, seeds: Sequence[np.random.SeedSequence], lengths: 
                 q[:, s:s + 4] = nlerp(q[:, s:s + 4], np.broadcast_to(rig.q_stance[s:s + 4], (R, 4)),
                                       np.full(R, cfg.legs.ball_posture_gain))
         solver.constrain(q)
+        if knees:
+            keep_knees_bent(q, knees, cfg.legs.upright_knee_margin)
         if rig.locomotion == Locomotion.LEGGED:
-            assert legs is not None and rig.legs is not None
-            legs.step(t, path_xy, path_yaw, c[:, [CMD_VX, CMD_VY]], c[:, CMD_WZ], cmds.choice[:, t])
-            z = rig.legs.stance_height + c[:, CMD_DH]
+            assert stance is not None and rig.legs is not None
+            z = rig.legs.stance_height + c[:, CMD_DH] if z_upright is None else z_upright[:, t]
             rot = quat_from_rpy(np.stack([c[:, CMD_ROLL], c[:, CMD_PITCH], yaw], axis=-1))
             q[:, :nb] = base_coordinates(m, xy, yaw, z, rot)
-            contact[:, t] = legs.stance
-            gait[:, t] = legs.clock.gait_code
+            contact[:, t] = stance[:, t]
+            gait[:, t] = gait_code[:, t]
         else:
             z = np.full(R, glide_z)
             rot = quat_from_yaw(yaw)
             q[:, :nb] = base_coordinates(m, xy, yaw, z, rot)
         targets = []
         if NL:
-            assert legs is not None
-            targets.append(legs.feet() - solver.ankle_offsets(legs.foot_yaw))
+            assert feet is not None and foot_yaw is not None
+            targets.append(feet[:, t] - solver.ankle_offsets(foot_yaw[:, t]))
         if not pool.empty:
             post = ub.posture(pool, t)
             q[:, direct] = post[:, pool.direct]
@@ -367,23 +461,28 @@ def _run_batch(rig: SynthRig, seeds: Sequence[np.random.SeedSequence], lengths: 
                 for o in pool.arm_quat_offsets:
                     new[:, o:o + 4] = nlerp(cur[:, o:o + 4], ref[:, o:o + 4], np.full(R, gain))
                 q[:, pool.arm_coords] = new
-                root_pos = np.concatenate([xy, z[:, None]], axis=1)
-                targets.append(root_pos[:, None, :] + quat_rotate(rot[:, None, :], ub.tips(pool, t)))
+                if free_arms.size:
+                    root_pos = np.concatenate([xy, z[:, None]], axis=1)
+                    tips = ub.tips(pool, t)[:, free_arms]
+                    targets.append(root_pos[:, None, :] + quat_rotate(rot[:, None, :], tips))
+        if acts is not None and rig.actions is not None:
+            for coords, post_a in zip(rig.actions.coords, acts.posture(rig.actions, t), strict=True):
+                q[:, coords] = post_a
         if targets:
             tg = np.concatenate(targets, axis=1)
             weight = np.ones(tg.shape[:2])
             if NL:
-                assert legs is not None
+                assert stance is not None
                 # swinging feet and arms need no sub-millimetre accuracy: iterate for stance feet
-                weight[:, :NL] = np.where(legs.stance, 1.0, 0.02)
+                weight[:, :NL] = np.where(stance[:, t], 1.0, 0.02)
                 weight[:, NL:] = 0.02
             else:
                 weight[:] = 0.02
-            q = solver.solve(q, tg, key="all", ee=solver.all_ee, mask=solver.all_mask,
+            q = solver.solve(q, tg, key=ik_key, ee=ik_ee, mask=ik_mask,
                              min_iterations=cfg.ik_iterations, max_iterations=cfg.ik_max_iterations,
                              tolerance=cfg.ik_tolerance, weight=weight)
-            if legs is not None:
-                q = solver.level_ankles(q, legs.foot_yaw)
+            if foot_yaw is not None:
+                q = solver.level_ankles(q, foot_yaw[:, t])
         out_q[:, t] = q
         q_prev2, q_prev = q_prev, q
         tick(int((t < active).sum()))
@@ -395,6 +494,8 @@ def _run_batch(rig: SynthRig, seeds: Sequence[np.random.SeedSequence], lengths: 
         "contact": contact,
         "gait": gait,
         "clamped": cmds.clamped[:, :frames],
+        "action": acts.code[:, :frames] if acts is not None else None,
+        "spans": acts.spans if acts is not None else None,
     }
 
 
@@ -449,6 +550,8 @@ def synthesize(morphology: Morphology, *, frames: int, fps: float = 30.0, seed: 
 
     motions: list[Motion] = []
     res: dict[str, list[np.ndarray]] = {k: [] for k in ("command", "target", "settled", "contact", "gait", "clamped")}
+    spans: list[tuple[ActionSpan, ...]] = []
+    action: list[np.ndarray] = []
     try:
         for b in range(nbatch):
             idx = list(range(b * size, min(count, (b + 1) * size)))
@@ -458,9 +561,16 @@ def synthesize(morphology: Morphology, *, frames: int, fps: float = 30.0, seed: 
                 motions.append(Motion(morphology, fps, out["q"][k, :L], f"{morphology.name}_synth_{seed}_{i:04d}"))
                 for key, values in res.items():
                     values.append(out[key][k, :L])
+                if out["action"] is not None:
+                    action.append(out["action"][k, :L])
+                    spans.append(tuple(_clip_span(sp, L) for sp in out["spans"][k] if sp.start < L))
     finally:
         if bar is not None:
             bar.close()
     gait_names = (rig.legs and tuple(dict.fromkeys(g.name for b in rig.legs.bands for g in b.gaits))) or ()
     return SynthResult(motions, res["command"], res["target"], res["settled"], res["contact"], res["gait"],
-                       gait_names, res["clamped"], time.perf_counter() - start, rig)
+                       gait_names, res["clamped"], time.perf_counter() - start, rig, spans, action)
+
+
+def _clip_span(span: ActionSpan, frames: int) -> ActionSpan:
+    return span if span.stop <= frames else ActionSpan(span.kind, span.start, frames, span.arms)

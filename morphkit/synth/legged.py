@@ -15,6 +15,16 @@
    short strides in the direction they would collide.
 4. *Swing height*: ``swing_height`` of the reach, lowered until the raised foot is reachable.
 
+**Upright bipeds** (two legs hanging straight down at rest, :func:`is_upright_biped`): a body held
+at one height must leave every foot of the step region reachable, so a fixed-height biped walks
+with bent knees (at the 0.88 extension above, about 1.1 rad for a human). Instead the step region
+is calibrated at that lower height, but the biped stands at ``upright_extension`` of its legs'
+chain lengths (knees about 0.18 rad) and its root rides over the stance legs: each frame it is as
+high as commanded where no leg would be stretched beyond ``upright_max_extension``, lower where a
+foot far ahead or behind needs it (:func:`upright_root_height`) — the vertical bob of a walking
+person, lowest in double support. Commanded body pitch and roll are scaled by
+``upright_pose_scale``, height offsets by ``upright_height_scale``.
+
 **Stepping** (:class:`LeggedController`, vectorised over rollouts and legs): the gait clock
 (:mod:`morphkit.synth.gait`) says when a stance foot may lift; the cycle frequency is the
 creature's cadence $f_0 = c\\sqrt{g/h}/2\\pi$ or faster, so that each stance uses at most
@@ -54,7 +64,8 @@ from morphkit.synth._util import rotate2, smoothstep
 from morphkit.synth.analysis import BodyPlan
 from morphkit.synth.gait import GaitBand, GaitClock, gait_bands
 
-__all__ = ["LegConfig", "LegRig", "LeggedController", "calibrate_legs"]
+__all__ = ["LegConfig", "LegRig", "LeggedController", "calibrate_legs", "is_upright_biped", "keep_knees_bent",
+           "upright_root_height"]
 
 GRAVITY = 9.81
 
@@ -64,7 +75,27 @@ class LegConfig:
     """Stance, stepping and calibration parameters (see the module docstring)."""
 
     stance_extension: float | None = None
-    """Largest hip-to-foot distance at stance as a fraction of reach (None: 0.8, bipeds 0.88)."""
+    """Largest hip-to-foot distance at stance as a fraction of reach (None: 0.8, bipeds 0.88). Upright
+    bipeds (see ``upright``) calibrate their step region at this height and stand taller."""
+    upright: bool | None = None
+    """Stand tall and let the root ride over straight stance legs (see "Upright bipeds" in the module
+    docstring); None decides from the graph (:func:`is_upright_biped`)."""
+    upright_extension: float = 0.996
+    """Upright bipeds: hip-to-ankle distance at stance as a fraction of the leg's chain length (knee
+    flexion $2\\arccos e$ for equal segments: 0.18 rad)."""
+    upright_max_extension: float = 0.998
+    """Upright bipeds: the most a leg is stretched when the root dips over a long stride (0.13 rad)."""
+    upright_pose_scale: float = 0.25
+    """Upright bipeds: commanded body pitch and roll are scaled by this (a person does not walk tilted)."""
+    upright_height_scale: float = 0.0
+    """Upright bipeds: commanded body height offsets are scaled by this (a person does not walk
+    crouched; near straight, 3 cm lower bends a human's knees from 0.18 to 0.58 rad)."""
+    upright_smoothing_seconds: float = 0.067
+    """Upright bipeds: half-width of the root height's minimum filter and of the average after it [s]
+    (two frames at 30 fps: wider is smoother but lower, and every centimetre lower bends the knees)."""
+    upright_knee_margin: float = 0.1
+    """Upright bipeds: a ball-jointed knee's warm start is kept bent at least this much [rad] the way
+    it bends at stance, so that IK of a nearly straight leg never flips it backward."""
     swing_height: float = 0.12
     """Swing apex as a fraction of the mean leg reach (lowered if unreachable)."""
     min_swing_seconds: float = 0.1
@@ -132,6 +163,15 @@ class LegRig:
     """Frame time [s] the rig was calibrated for."""
     stats: dict = field(default_factory=dict)
     """Calibration figures (ellipse factors, residuals) for reports."""
+    upright: bool = False
+    """The root rides over straight stance legs (:func:`upright_root_height`); ``stance_height`` is the
+    tall standing height."""
+    mount_xyz: np.ndarray | None = None
+    """Leg mount points in the root frame [NL, 3] [m] (upright bipeds)."""
+    leg_length: np.ndarray | None = None
+    """Mount-to-IK-point chain length per leg [NL] [m] (upright bipeds)."""
+    max_extension: float = 1.0
+    """Upright bipeds: the largest mount-to-IK-point distance as a fraction of ``leg_length``."""
 
     @property
     def leg_count(self) -> int:
@@ -278,6 +318,36 @@ def _prebend(m: Morphology, solver: LimbSolver, q: np.ndarray, plan: BodyPlan) -
     return q
 
 
+def is_upright_biped(plan: BodyPlan) -> bool:
+    """Two legs that hang nearly straight and vertical from their mounts at rest (a person's legs).
+
+    Each leg's mount-to-foot vector at rest points down, leans at most 0.25 of its height sideways
+    or fore-aft, and spans at least 95 % of the leg's summed segment lengths.
+    """
+    if len(plan.legs) != 2:
+        return False
+    for leg in plan.legs:
+        v = np.asarray(leg.tip_rest) - np.asarray(leg.mount_rest)
+        if v[2] >= 0 or np.hypot(v[0], v[1]) > 0.25 * abs(v[2]) or np.linalg.norm(v) < 0.95 * leg.reach:
+            return False
+    return True
+
+
+def _leg_lengths(m: Morphology, solver: LimbSolver, plan: BodyPlan, ik_rest: np.ndarray) -> np.ndarray:
+    """Chain length [NL] from each leg's mount through its moving joints to its IK point (at rest, root frame)."""
+    rest = m.rest_link_poses()
+    out = np.zeros(len(plan.legs))
+    for li, leg in enumerate(plan.legs):
+        mov = [m.joint_index(n) for n in leg.joints
+               if m.joint(n).type != JointType.FIXED and m.joint(n).mimic is None]
+        if solver.ankles[li] is not None:
+            mov = mov[:-1]
+        pts = [np.asarray(leg.mount_rest)] + [rest[m.link_index(m.joints[j].child), :3] for j in mov[1:]]
+        pts.append(ik_rest[li])
+        out[li] = sum(np.linalg.norm(b - a) for a, b in itertools.pairwise(pts))
+    return out
+
+
 def _ee_point(model, X: np.ndarray, ee: int) -> np.ndarray:
     T = X[int(model.ee_link[ee])]
     return T[:3] + quat_rotate(T[3:], np.asarray(model.ee_offset[ee], dtype=float))
@@ -304,6 +374,11 @@ def calibrate_legs(m: Morphology, plan: BodyPlan, solver: LimbSolver, cfg: LegCo
     feet_rest = np.array([leg.tip_rest for leg in plan.legs])
     nominal_xy = feet_rest[:, :2].copy()
     ext = cfg.stance_extension if cfg.stance_extension is not None else (0.88 if NL <= 2 else 0.8)
+    upright = is_upright_biped(plan) if cfg.upright is None else bool(cfg.upright)
+    if upright:
+        k, kh = cfg.upright_pose_scale, cfg.upright_height_scale
+        height_fraction = (kh * height_fraction[0], kh * height_fraction[1])
+        pitch, roll = k * pitch, k * roll
 
     q0 = _prebend(m, solver, q_rest, plan)
     # IK points at rest (foot, or ankle for levelled feet) and their chains' reach
@@ -352,8 +427,30 @@ def calibrate_legs(m: Morphology, plan: BodyPlan, solver: LimbSolver, cfg: LegCo
     if err.max() > 5e-4:  # keep the rest pose: feet on the ground by construction
         h = h_rest
         q_nom = cal.root_q(q_rest[None], np.array([h]), np.zeros(1), np.zeros(1))[0]
+    h_stand, q_stand = h, q_nom
+    lengths = mounts = None
+    if upright:
+        # stand tall: the step region is still calibrated at the lower height h (the root dips to
+        # where every stance foot is reachable, see upright_root_height), the stance is upright
+        ik_rest = feet_rest - ank
+        lengths = _leg_lengths(m, solver, plan, ik_rest)
+        mounts = np.array([leg.mount_rest for leg in plan.legs])
+        hh = h_rest
+        for li in range(NL):
+            dxy = np.hypot(*(ik_rest[li, :2] - mounts[li, :2]))
+            lim = cfg.upright_extension * lengths[li]
+            if dxy < lim:
+                hh = min(hh, float(np.sqrt(lim**2 - dxy**2) - mounts[li, 2] - ank[li, 2]))
+        if hh > h:
+            q_up, err_up = nominal(hh)
+            if err_up.max() <= 5e-4:
+                h_stand, q_stand = hh, q_up
+            else:
+                upright = False
+        else:
+            upright = False
 
-    hr = (height_fraction[0] * h, height_fraction[1] * h)
+    hr = (height_fraction[0] * h_stand, height_fraction[1] * h_stand)
     corners = np.array([*itertools.product(hr, (-pitch, pitch), (-roll, roll)), (0.0, 0.0, 0.0)])
     rng = np.random.default_rng(12345)
     rand_body = np.stack([
@@ -444,13 +541,18 @@ def calibrate_legs(m: Morphology, plan: BodyPlan, solver: LimbSolver, cfg: LegCo
             break
         H *= 0.75
     t_swing_min = max(cfg.min_swing_seconds, cfg.min_swing_frames / fps)
+    stats = {"ellipse_factors": (float(a), float(b)), "nominal_residual_m": float(err.max()),
+             "effective_reach_m": eff.round(4).tolist()}
+    if upright:
+        assert lengths is not None
+        stats.update(calibration_height_m=round(float(h), 4), leg_length_m=lengths.round(4).tolist())
     rig = LegRig(
         nominal_xy=nominal_xy,
-        stance_height=float(h),
+        stance_height=float(h_stand),
         semi_axes=np.stack([a * reach, b * reach], axis=1),
         swing_height=float(H),
-        q_nominal=q_nom,
-        cadence_hz=float(cfg.cadence * np.sqrt(GRAVITY / max(h, 1e-3)) / (2 * np.pi)),
+        q_nominal=q_stand,
+        cadence_hz=float(cfg.cadence * np.sqrt(GRAVITY / max(h_stand, 1e-3)) / (2 * np.pi)),
         bands=gait_bands(nominal_xy, 2.0 / (fps * t_swing_min)),
         height_range=(float(hr[0]), float(hr[1])),
         pitch=float(pitch),
@@ -458,10 +560,70 @@ def calibrate_legs(m: Morphology, plan: BodyPlan, solver: LimbSolver, cfg: LegCo
         extension=float(ext),
         t_swing_min=float(t_swing_min),
         dt=1.0 / fps,
-        stats={"ellipse_factors": (float(a), float(b)), "nominal_residual_m": float(err.max()),
-               "effective_reach_m": eff.round(4).tolist()},
+        stats=stats,
+        upright=upright,
+        mount_xyz=mounts if upright else None,
+        leg_length=lengths if upright else None,
+        max_extension=float(cfg.upright_max_extension) if upright else 1.0,
     )
     return rig
+
+
+def keep_knees_bent(q: np.ndarray, knees: list[tuple[int, int, float]], margin: float) -> np.ndarray:
+    """Turn hinge-only ball knees of poses ``q`` [B, C] to at least ``margin`` [rad] of bend, in place.
+
+    ``knees`` holds ``(q start, hinge axis, sign)`` per knee: its quaternion is a rotation by $\\theta$
+    about local axis ``hinge axis`` and it bends the right way while ``sign`` $\\theta$ >= ``margin``.
+    """
+    for s, ax, sign in knees:
+        th = wrap_angle(2.0 * np.arctan2(q[:, s + ax], q[:, s + 3]))
+        bad = sign * th < margin
+        if bad.any():
+            half = 0.5 * sign * margin
+            q[bad, s:s + 4] = 0.0
+            q[bad, s + ax] = np.sin(half)
+            q[bad, s + 3] = np.cos(half)
+    return q
+
+
+def upright_root_height(rig: LegRig, ik_points: np.ndarray, root_xy: np.ndarray, rot: np.ndarray,
+                        z_command: np.ndarray, fps: float, smoothing_seconds: float) -> np.ndarray:
+    r"""Root heights [R, T] of an upright biped: the commanded height where the legs allow it, lower
+    where a foot far ahead or behind needs the hip to come down.
+
+    For leg $l$ with mount $m_l$ (root frame), IK point $a_l$ (world) and chain length $L_l$, the root
+    height $z$ keeps $\lVert a_l - (p_{xy}, z) - R m_l \rVert \le e L_l$ ($e$ = ``max_extension``):
+    $z \le b_l = a_{l,z} - (R m_l)_z + \sqrt{(e L_l)^2 - d_l^2}$ with $d_l$ the horizontal distance.
+    The bound is taken over every leg, swinging ones included (a raised foot relaxes it, and a foot
+    about to touch down bounds the root where its stance will). A minimum filter of half-width $w$
+    then a moving average of the same width keep the result below the bound at every frame (each
+    averaged value is a minimum over a window that contains the frame) while rounding its kinks
+    (where the limiting leg changes, and where a swinging foot drops to the ground).
+
+    Args:
+        rig: An upright rig (``rig.upright``).
+        ik_points: World targets of the legs' IK points [R, T, NL, 3].
+        root_xy: Root positions [R, T, 2].
+        rot: Root orientations [R, T, 4] (xyzw).
+        z_command: Commanded root heights [R, T] [m].
+        fps: Frame rate [1/s].
+        smoothing_seconds: Half-width $w$ [s] (rounded to frames).
+    """
+    assert rig.mount_xyz is not None and rig.leg_length is not None
+    R, T, NL, _ = ik_points.shape
+    mount = quat_rotate(rot[:, :, None, :], np.broadcast_to(rig.mount_xyz, (R, T, NL, 3)))  # [R, T, NL, 3]
+    d = np.linalg.norm(ik_points[..., :2] - root_xy[:, :, None, :] - mount[..., :2], axis=-1)
+    lim = rig.max_extension * rig.leg_length
+    bound = ik_points[..., 2] - mount[..., 2] + np.sqrt(np.maximum(lim**2 - d**2, 0.0))  # [R, T, NL]
+    z = np.minimum(z_command, bound.min(axis=-1))
+    w = round(smoothing_seconds * fps)
+    if w < 1 or T < 2:
+        return z
+    pad = np.pad(z, ((0, 0), (w, w)), mode="edge")
+    win = np.lib.stride_tricks.sliding_window_view(pad, 2 * w + 1, axis=1)  # [R, T, 2w + 1]
+    low = np.pad(win.min(axis=-1), ((0, 0), (w, w)), mode="edge")
+    c = np.cumsum(np.pad(low, ((0, 0), (1, 0))), axis=1)
+    return (c[:, 2 * w + 1:] - c[:, :-(2 * w + 1)]) / (2 * w + 1)
 
 
 # ---------------------------------------------------------------------------------------------
