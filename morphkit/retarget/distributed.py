@@ -134,3 +134,26 @@ def all_gather_objects(obj: Any, context: DistributedContext) -> list[Any]:
     out: list[Any] = [None] * context.world_size
     dist.all_gather_object(out, obj)
     return out
+
+
+def broadcast_parameters(module: nn.Module, context: DistributedContext) -> None:
+    """Copy rank 0's parameters and buffers to every rank (what DDP does when it wraps a module)."""
+    if not context.is_distributed:
+        return
+    for t in [*module.parameters(), *module.buffers()]:
+        dist.broadcast(t.data, src=0)
+
+
+def average_gradients(module: nn.Module, context: DistributedContext) -> None:
+    """Average every parameter's gradient over the ranks, in place (a collective).
+
+    For modules DDP cannot wrap: its hooks do not cover a gradient penalty's double backward
+    through the discriminator, nor a network whose parameters are frozen for part of a step.
+    """
+    if not context.is_distributed:
+        return
+    for p in module.parameters():
+        if p.grad is None:
+            p.grad = torch.zeros_like(p)
+        dist.all_reduce(p.grad, op=dist.ReduceOp.SUM)
+        p.grad /= context.world_size

@@ -154,8 +154,10 @@ class Run(Generic[C]):
         if deterministic:
             os.environ.setdefault("CUBLAS_WORKSPACE_CONFIG", ":4096:8")
             torch.use_deterministic_algorithms(True, warn_only=True)
+        joined = torch.distributed.is_available() and torch.distributed.is_initialized()
         self.context: DistributedContext = init_distributed(device)
-        self._owns_group = self.context.is_distributed
+        # A group that existed before this run (a trainer running several stages) outlives it.
+        self._owns_group = self.context.is_distributed and not joined
         self.config: C = self._open_folder(config, set(allow_changes))
 
         rank_seed = derive_seed(self.seed, _TAG_RANK, self.context.rank)

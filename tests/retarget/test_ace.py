@@ -200,3 +200,38 @@ def test_bad_input_is_one_clear_error(tmp_path, human_dir, dog, cache, capsys):
     assert main(["train", "ace", str(noee), "--preset", "smoke", "--human-data", str(human_dir), "--out",
                  str(tmp_path / "c")]) == 2
     assert "no end-effectors" in capsys.readouterr().err
+
+
+_DDP_SCRIPT = """
+import hashlib, os, sys
+import torch
+from morphkit.io import read_morphology
+from morphkit.retarget.ace.config import preset
+from morphkit.retarget.ace.train import train_ace
+from morphkit.retarget.config import replace_config
+import morphkit.retarget.ace.train as T
+cfg = replace_config(preset("smoke"), {sets!r})
+captured = {{}}
+original = T.train_retargeter
+def keep(*a, **k):
+    captured["g"] = original(*a, **k)
+    return captured["g"]
+T.train_retargeter = keep
+train_ace(sys.argv[1], read_morphology({dog!r}), cfg, human_data={human!r}, progress=False, log=lambda s: None)
+h = hashlib.sha256(b"".join(p.detach().numpy().tobytes() for p in captured["g"].parameters())).hexdigest()
+open(os.path.join(sys.argv[2], "rank" + os.environ["RANK"]), "w").write(h)
+"""
+
+
+def test_torchrun_two_ranks_end_with_identical_parameters(tmp_path, human_dir, dog):
+    script = tmp_path / "ddp.py"
+    script.write_text(_DDP_SCRIPT.format(sets=TINY, dog=str(dog), human=str(human_dir)))
+    env = {**os.environ, "MORPHKIT_CACHE_DIR": str(tmp_path.parent / "ace_cache"), "OMP_NUM_THREADS": "1"}
+    cmd = [sys.executable, "-m", "torch.distributed.run", "--nproc_per_node", "2", "--master_port", "29613",
+           str(script), str(tmp_path / "run"), str(tmp_path)]
+    proc = subprocess.run(cmd, env=env, capture_output=True, check=False, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    a, b = (tmp_path / "rank0").read_text(), (tmp_path / "rank1").read_text()
+    assert a == b
+    # Rank 0 wrote the run; its checkpoint holds the same generator.
+    assert (tmp_path / "run" / "retarget" / "checkpoint.pt").is_file()

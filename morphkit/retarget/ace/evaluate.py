@@ -11,6 +11,7 @@
 
 from __future__ import annotations
 
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -19,7 +20,7 @@ import numpy as np
 from morphkit.metrics import UnrealisticFrames, diversity, feature_loss, fid, unrealistic_frame_ratio
 from morphkit.motion import Motion, features, human_state_from_motion, human_state_layout, motion_features
 
-__all__ = ["TableRow", "dataset_row", "evaluate_clips"]
+__all__ = ["STAGE_LABELS", "TableRow", "dataset_row", "evaluate_clips", "evaluate_run"]
 
 
 @dataclass(frozen=True)
@@ -70,3 +71,44 @@ def evaluate_clips(
     ufr = UnrealisticFrames.concatenate([unrealistic_frame_ratio(m) for m in retargeted])
     return TableRow(name, float(diversity(psi_r, rng=seed)), float(fid(psi_d, psi_r)),
                     float(feature_loss(psi_h, psi_r)), float(ufr.ratio), int(psi_r.shape[0]))
+
+
+STAGE_LABELS = {"retarget": "ACE", "retarget_wofea": "ACEwoFea", "retarget_woadv": "ACEwoAdv",
+                "retarget_contact": "ACE+contact"}
+"""Table-1 names of a run's retargeter stages."""
+
+
+def evaluate_run(run_dir: str | os.PathLike[str], clips: Sequence[Motion], *, stages: Sequence[str] | None = None,
+                 seed: int = 0, device: str = "cpu") -> tuple[list[TableRow], dict[str, list]]:
+    """The data set's row and one row per retargeter stage of an ACE run, on ``clips``.
+
+    Returns:
+        ``(rows, retargeted)``: the table rows and, per stage folder name, its
+        :class:`~morphkit.retarget.ace.retarget.RetargetedClip` list.
+    """
+    from pathlib import Path
+
+    from morphkit.retarget.ace.config import DataConfig
+    from morphkit.retarget.ace.data import character_motions
+    from morphkit.retarget.ace.retarget import AceRetargeter
+
+    run = Path(run_dir)
+    names = [s for s in (stages or STAGE_LABELS) if (run / s / "checkpoint.pt").is_file()]
+    rows: list[TableRow] = []
+    results: dict[str, list] = {}
+    character: list[Motion] | None = None
+    for name in names:
+        model = AceRetargeter(run, retarget_dir=run / name, device=device)
+        fmap = model.feature_map(clips[0])
+        if character is None:
+            d = model.meta.get("data", {})
+            data = DataConfig(character_frames=int(d.get("character_frames", DataConfig.character_frames)),
+                              fps=model.fps, synth_seed=int(d.get("synth_seed", 0)))
+            character = character_motions(model.creature, data, progress=False)
+            rows.append(dataset_row(character, fmap.creature_ees, fmap.creature_length, seed=seed))
+        out = model.retarget(clips)
+        results[name] = out
+        rows.append(evaluate_clips(STAGE_LABELS.get(name, name), [r.source for r in out], [r.motion for r in out],
+                                   character, creature_ees=fmap.creature_ees, human_ees=fmap.human_ees,
+                                   creature_length=fmap.creature_length, human_length=fmap.human_length, seed=seed))
+    return rows, results

@@ -49,6 +49,7 @@ from morphkit.motion import (
 from morphkit.retarget.ace.config import AceConfig, PriorConfig, RetargetConfig
 from morphkit.retarget.ace.data import StateWindows, character_motions, human_motions
 from morphkit.retarget.ace.model import Discriminator, FeatureMap, Generator, build_vae
+from morphkit.retarget.distributed import average_gradients, broadcast_parameters, init_distributed
 from morphkit.retarget.networks import MotionVAE, kl_divergence
 from morphkit.retarget.run import CHECKPOINT_FILE, Run
 
@@ -348,7 +349,10 @@ def train_retargeter(
         prior = _frozen_prior(vae.to(dev))
         gen = Generator(sh, sr, vae.prior.latent_features, rc).to(dev)
         disc = Discriminator(sr, rc).to(dev)
-        g_model, d_model = run.wrap(gen), run.wrap(disc)
+        # Not DDP: its hooks miss the gradient penalty's double backward; gradients are averaged by hand.
+        for module in (gen, disc):
+            broadcast_parameters(module, run.context)
+        g_model, d_model = gen, disc
         opt_g = torch.optim.Adam(gen.parameters(), lr=rc.lr_generator, betas=rc.betas)
         opt_d = torch.optim.Adam(disc.parameters(), lr=rc.lr_discriminator, betas=rc.betas)
         run.track(generator=gen, discriminator=disc, optimizer_g=opt_g, optimizer_d=opt_d)
@@ -369,6 +373,7 @@ def train_retargeter(
                         loss_d = F.softplus(-d_real).mean() + F.softplus(d_fake).mean() + 0.5 * rc.w_gp * gp
                         opt_d.zero_grad(set_to_none=True)
                         loss_d.backward()
+                        average_gradients(disc, run.context)
                         opt_d.step()
                     row |= {"loss_d": loss_d.detach(), "d_gp": gp.detach(),
                             "d_real_acc": (d_real > 0).float().mean(), "d_fake_acc": (d_fake < 0).float().mean()}
@@ -385,6 +390,7 @@ def train_retargeter(
                 loss_g = g_adv + g_fea + g_contact
                 opt_g.zero_grad(set_to_none=True)
                 loss_g.backward()
+                average_gradients(gen, run.context)
                 opt_g.step()
                 run.log(**row, loss_g=loss_g.detach(), loss_g_adv=g_adv.detach(), loss_g_fea=g_fea.detach(),
                         loss_g_contact=g_contact.detach(), feature_loss=fea.detach(), ee_fk_gap=gap.mean())
@@ -448,6 +454,8 @@ def train_ace(
         raise ConfigError(f"unknown ACE variant {variant!r}; expected one of: {', '.join(VARIANTS)}")
     run = Path(run_dir)
     folder, use_fea, use_adv = VARIANTS[variant]
+    # One process group for every stage under torchrun (a Run that created it would destroy it).
+    init_distributed(device)
     data = prepare(run, creature, cfg, human_data=human_data, mapping_override=mapping_override, progress=progress,
                    log=log)
     prior = Path(prior_dir) if prior_dir is not None else run / "prior"
