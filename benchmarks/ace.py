@@ -80,7 +80,7 @@ def _adversarial_step(data: Any, preset: str, batch: int, repeats: int, gflops: 
     rc = cfg.retarget
     fm = data.features
     sr, sh = fm.creature_layout.dim, fm.human_layout.dim
-    prior = T._frozen_prior(build_vae(sr, cfg.prior))
+    prior = T.frozen_prior(build_vae(sr, cfg.prior))
     gen, disc = Generator(sh, sr, cfg.prior.latent, rc), Discriminator(sr, rc)
     opt_g, opt_d = torch.optim.Adam(gen.parameters()), torch.optim.Adam(disc.parameters())
     window = rc.window
@@ -90,7 +90,7 @@ def _adversarial_step(data: Any, preset: str, batch: int, repeats: int, gflops: 
     def step() -> None:
         prev, fake = T.rollout(gen, prior, x_h, x0, tbptt=rc.tbptt)
         ft = torch.cat([prev, fake], -1).flatten(0, 1)
-        d_real, gp = T._gradient_penalty(disc, real)
+        d_real, gp = T.gradient_penalty(disc, real)
         loss_d = F.softplus(-d_real).mean() + F.softplus(disc(ft.detach())).mean() + 0.5 * rc.w_gp * gp
         opt_d.zero_grad(set_to_none=True)
         loss_d.backward()

@@ -56,6 +56,9 @@ from morphkit.retarget.run import CHECKPOINT_FILE, Run
 __all__ = [
     "VARIANTS",
     "AceData",
+    "disc_logits",
+    "frozen_prior",
+    "gradient_penalty",
     "prepare",
     "rollout",
     "sampling_probability",
@@ -248,7 +251,8 @@ def train_prior(
 # ---- stage 2: the retargeter ------------------------------------------------------------------
 
 
-def _frozen_prior(vae: MotionVAE) -> torch.nn.Module:
+def frozen_prior(vae: MotionVAE) -> torch.nn.Module:
+    """π of a trained VAE in eval mode with its parameters frozen (the retargeting stage never trains it)."""
     prior = vae.prior.eval()
     for p in prior.parameters():
         p.requires_grad_(False)
@@ -284,7 +288,8 @@ def rollout(
     return torch.stack(prevs, dim=1), torch.stack(outs, dim=1)
 
 
-def _gradient_penalty(disc: torch.nn.Module, real: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+def gradient_penalty(disc: torch.nn.Module, real: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """D's logits on real transitions [N, 2 Sr] and E‖∇_x D(x)‖² over them (Eq. 5, before the w_gp/2 weight)."""
     real = real.detach().requires_grad_(True)
     logits = disc(real)
     (grad,) = torch.autograd.grad(logits.sum(), real, create_graph=True)
@@ -346,7 +351,7 @@ def train_retargeter(
     with Run(retarget_dir, trainer=trainer, config=rc, creature=data.creature.name, seed=cfg.seed, device=device,
              progress=progress) as run:
         dev = run.device
-        prior = _frozen_prior(vae.to(dev))
+        prior = frozen_prior(vae.to(dev))
         gen = Generator(sh, sr, vae.prior.latent_features, rc).to(dev)
         disc = Discriminator(sr, rc).to(dev)
         # Not DDP: its hooks miss the gradient penalty's double backward; gradients are averaged by hand.
@@ -368,7 +373,7 @@ def train_retargeter(
                     for _ in range(rc.discriminator_steps):
                         real = reals.windows(torch.randint(len(reals), (fake_t.shape[0],), generator=run.generator),
                                              dev).flatten(1)
-                        d_real, gp = _gradient_penalty(d_model, real)
+                        d_real, gp = gradient_penalty(d_model, real)
                         d_fake = d_model(fake_t.detach())
                         loss_d = F.softplus(-d_real).mean() + F.softplus(d_fake).mean() + 0.5 * rc.w_gp * gp
                         opt_d.zero_grad(set_to_none=True)
