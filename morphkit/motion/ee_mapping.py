@@ -189,6 +189,7 @@ def map_end_effectors(
     human: Mapping[str, Gaussian],
     *,
     override: Mapping[str, str] | None = None,
+    roles: tuple[Mapping[str, Any], Mapping[str, Any]] | None = None,
 ) -> EndEffectorMapping:
     """Eq. 11: map each creature end-effector to ``argmin_i KL(p_r ‖ p_h_i)``.
 
@@ -196,6 +197,11 @@ def map_end_effectors(
         creature: Distributions of the creature's end-effectors (:func:`ee_distributions`).
         human: Distributions of the human's (source's) end-effectors.
         override: ``{creature_ee: human_ee}`` pairs that replace the automatic choice.
+        roles: ``(creature_roles, human_roles)``, ``{ee: EndEffectorRole}`` each: KL then chooses only
+            among human end-effectors of a compatible role (foot → foot, head → head, hand or tool →
+            hand), across roles only where the human has none of that role. ``None``: the paper's rule
+            (KL only). KL alone depends on how spread each data set is: a narrow human foot
+            distribution loses to a broad hand one even for a quadruped's feet.
 
     Raises:
         ConfigError: empty inputs, or an override naming an unknown end-effector (listing the valid ones).
@@ -209,8 +215,23 @@ def map_end_effectors(
         if h not in human:
             raise ConfigError(f"override: no human end-effector {h!r} (valid: {', '.join(human)})")
     kl = {c: {h: kl_divergence(pc, ph) for h, ph in human.items()} for c, pc in creature.items()}
-    mapping = {c: override.get(c, min(row, key=row.__getitem__)) for c, row in kl.items()}
+    mapping = {c: override.get(c, min(_candidates(c, row, roles), key=row.__getitem__)) for c, row in kl.items()}
     return EndEffectorMapping(mapping, kl, frozenset(override))
+
+
+def _role_group(role: Any) -> str:
+    name = str(getattr(role, "name", role)).lower()
+    return "hand" if name in ("hand", "tool") else name
+
+
+def _candidates(
+    c: str, row: Mapping[str, float], roles: tuple[Mapping[str, Any], Mapping[str, Any]] | None
+) -> list[str]:
+    if roles is None or c not in roles[0]:
+        return list(row)
+    want = _role_group(roles[0][c])
+    same = [h for h in row if h in roles[1] and _role_group(roles[1][h]) == want]
+    return same or list(row)
 
 
 def read_override(path: str | os.PathLike[str]) -> dict[str, str]:

@@ -158,3 +158,22 @@ def test_ee_distributions_from_motions_and_override_file(tmp_path: Path) -> None
         read_override(path)
     with pytest.raises(ConfigError, match="cannot read"):
         read_override(tmp_path / "missing.yaml")
+
+
+def test_roles_constrain_the_kl_choice() -> None:
+    """A broad creature foot next to a narrow human foot and a broad human hand: KL alone picks the hand,
+    roles keep it on the foot; a role the human lacks falls back to KL over all."""
+    rng = np.random.default_rng(3)
+    human = {"lfoot": fit_gaussian(rng.normal([0.0, 0.1, -1.0], 0.01, (3000, 3))),
+             "rhand": fit_gaussian(rng.normal([0.0, -0.3, -0.2], 0.4, (3000, 3)))}
+    creature = {"foot": fit_gaussian(rng.normal([0.5, 0.1, -1.0], 0.2, (3000, 3))),
+                "tail": fit_gaussian(rng.normal([-0.6, 0.0, -0.3], 0.2, (3000, 3)))}
+    assert map_end_effectors(creature, human).mapping["foot"] == "rhand"
+    roles = ({"foot": "foot", "tail": "tail"}, {"lfoot": "foot", "rhand": "hand"})
+    mapped = map_end_effectors(creature, human, roles=roles).mapping
+    assert mapped["foot"] == "lfoot"
+    assert mapped["tail"] == map_end_effectors(creature, human).mapping["tail"]
+    from morphkit.graph import EndEffectorRole as R
+
+    enums = ({"foot": R.FOOT, "tail": R.TOOL}, {"lfoot": R.FOOT, "rhand": R.HAND})
+    assert map_end_effectors(creature, human, roles=enums).mapping == {"foot": "lfoot", "tail": "rhand"}

@@ -94,6 +94,10 @@ class AceConfig:
     """Everything one ACE run needs; saved as ``config.yaml`` in its run folders."""
 
     seed: int = 0
+    kl_only_mapping: bool = False
+    """Map end-effectors by KL alone (the paper's Eq. 11). Default: KL chooses among human end-effectors
+    of a compatible role (foot → foot, head → head, hand/tool → hand), ours: KL alone maps a quadruped's
+    feet to the synthesised human's hands, whose positions are more spread than its feet's."""
     data: DataConfig = field(default_factory=DataConfig)
     prior: PriorConfig = field(default_factory=PriorConfig)
     retarget: RetargetConfig = field(default_factory=RetargetConfig)

@@ -127,7 +127,9 @@ def prepare(
     c_len, h_len = body_length(creature, character), body_length(human_m, human)
     c_dist = ee_distributions(character, length=c_len, max_frames_per_clip=300)
     h_dist = ee_distributions(human, length=h_len, max_frames_per_clip=300)
-    mapping = map_end_effectors(c_dist, h_dist, override=mapping_override)
+    roles = None if cfg.kl_only_mapping else ({e.name: e.role for e in creature.end_effectors},
+                                              {e.name: e.role for e in human_m.end_effectors})
+    mapping = map_end_effectors(c_dist, h_dist, override=mapping_override, roles=roles)
     c_stats, h_stats = NormStats.fit(c_states), NormStats.fit(h_states)
     c_ees, h_ees = mapping.feature_order()
     fmap = FeatureMap(creature, character_state_layout(creature), human_state_layout(human_m), c_stats, h_stats,
