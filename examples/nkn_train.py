@@ -8,7 +8,7 @@ retargeted clip (.npz/.bvh) and a side-by-side video. With ``--creature`` it tra
 cross-morphology mode (human → that creature, ACE's baseline) instead. Re-running resumes the run.
 
     python examples/nkn_train.py                                   # embedded default human and variants, quick
-    python examples/nkn_train.py --human-data ../shared/data/human/cmu --preset default
+    python examples/nkn_train.py --human-data ../shared/data/human/cmu --human-data ../shared/data/human/second_skeleton
     python examples/nkn_train.py --creature spot                   # cross-morphology mode
     python examples/nkn_train.py --smoke                           # seconds: the test suite's mode
 """
@@ -23,7 +23,9 @@ from pathlib import Path
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--human-data", metavar="DIR", help="human BVH folder (default: the embedded default human)")
+    p.add_argument("--human-data", metavar="DIR", action="append",
+                   help="human BVH folder, repeatable: later folders of another skeleton convention are mapped onto "
+                   "the first one's when morphkit ships a map (default: the embedded default human)")
     p.add_argument("--creature", help="cross-morphology mode: a shipped name or description file")
     p.add_argument("--preset", default="quick", help="smoke, quick, default or paper (default quick)")
     p.add_argument("--set", metavar="KEY=VALUE", action="append", default=[], help="override a config field")
@@ -60,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
         from morphkit.io.shipped import resolve_morphology
 
         creature = read_morphology(resolve_morphology(args.creature))
-    data = Path(args.human_data).name if args.human_data else "default"
+    data = "_".join(Path(d).name for d in args.human_data) if args.human_data else "default"
     out = Path(args.out) if args.out else Path("runs") / f"nkn_{data}{'_' + creature.name if creature else ''}_{name}"
     train_nkn(out, cfg, human_data=args.human_data, creature=creature, device=args.device)
 
@@ -83,7 +85,7 @@ def run(args: argparse.Namespace) -> int:
         if args.smoke:
             seen, unseen = seen[:1], unseen[:1]
         rows, plots = compare_with_baseline(model, clips, seen + unseen, plot_dir=out / "plots")
-        print(write_scores(rows, out / "metrics"))
+        print(write_scores(rows, out / "evaluation"))
         print(f"plots: {out / 'plots'} ({len(plots)} PNGs)")
         target = unseen[0][0]
         motion = model.retarget(clips[:1], target)[0]

@@ -275,3 +275,32 @@ def test_example_smoke_runs(tmp_path, data_dir):
     assert "done in" in proc.stdout and "| NKN |" in proc.stdout and "copy rotations" in proc.stdout
     assert len(list((tmp_path / "out" / "plots").glob("*.png"))) == 2
     assert list((tmp_path / "out" / "clips").glob("*.bvh"))
+
+
+@pytest.mark.skipif(not os.environ.get("MORPHKIT_DATA"), reason="MORPHKIT_DATA not set")
+def test_second_skeleton_maps_onto_the_cmu_topology_exactly():
+    """Bandai Namco clips re-expressed on CMU's 22 joints: every mapped link where the source's is, a T-pose rest."""
+    from morphkit.model import compile_model
+    from morphkit.motion import read_motion
+    from morphkit.retarget.nkn.mapping import find_link_map, map_motion
+    from morphkit.retarget.nkn.skeleton import topology_difference
+
+    root = Path(os.environ["MORPHKIT_DATA"]) / "human"
+    cmu = read_motion(root / "cmu" / "01_01.bvh").morphology
+    src = read_motion(sorted((root / "second_skeleton").glob("*walk*.bvh"))[0]).slice(0, 60)
+    link_map = find_link_map(src.morphology, cmu)
+    assert link_map is not None and find_link_map(cmu, cmu) is None
+    mapped = map_motion(src, cmu, link_map, skeleton_name="bandai")
+    assert topology_difference(cmu, mapped.morphology) is None
+    import morphkit.torch as mt
+
+    with torch.no_grad():
+        got = mt.link_positions(compile_model(mapped.morphology), torch.tensor(mapped.q)).numpy()
+        poses = mt.fk(compile_model(src.morphology), torch.tensor(src.q)).numpy()
+    for name, spec in link_map.links.items():
+        if isinstance(spec, str):
+            np.testing.assert_allclose(got[:, cmu.link_index(name)], poses[:, src.morphology.link_index(spec), :3],
+                                       atol=1e-9)
+    rest = mapped.morphology.rest_link_poses()[:, :3]
+    assert rest[cmu.link_index("lankle"), 2] < -0.7 and rest[cmu.link_index("lwrist"), 1] > 0.4  # T-pose
+    assert mapped.morphology.rest_stance_height == pytest.approx(0.87, abs=0.03)

@@ -34,14 +34,18 @@ from morphkit.retarget.nkn.skeleton import (
     check_same_topology,
     random_variants,
     skeleton_key,
+    topology_difference,
     with_offsets,
 )
 
 __all__ = [
     "Character",
     "ClipBank",
+    "HumanData",
+    "as_folders",
     "clip_features",
     "data_characters",
+    "embedded_characters",
     "evaluation_clips",
     "offset_stats",
     "test_clips",
@@ -91,23 +95,55 @@ def _check_topology(motions: Sequence[Motion], where: str | None = None) -> None
                                     location=SourceLocation(where) if where else None) from None
 
 
-def data_characters(path: str | os.PathLike[str], data: NknDataConfig, *, exclude_evaluation: bool = True,
+HumanData = str | os.PathLike[str] | Sequence[str | os.PathLike[str]]
+"""One human data folder or several (the first one's skeleton topology is the run's)."""
+
+
+def as_folders(human_data: HumanData | None) -> list[Path]:
+    """``human_data`` as a list of paths (empty for ``None``)."""
+    if human_data is None:
+        return []
+    if isinstance(human_data, (str, os.PathLike)):
+        return [Path(human_data)]
+    return [Path(p) for p in human_data]
+
+
+def data_characters(human_data: HumanData, data: NknDataConfig, *, exclude_evaluation: bool = True,
                     cache_dir: str | os.PathLike[str] | bool | None = True) -> list[Character]:
-    """The characters of a human data folder: its clips (resampled to ``data.fps``) grouped by skeleton.
+    """The characters of human data folders: their clips (resampled to ``data.fps``) grouped by skeleton.
+
+    The first folder's topology is the run's; a later folder of another convention is re-expressed on it
+    through a shipped link map (:mod:`~.mapping`, e.g. the Bandai Namco skeleton onto CMU's 22 joints).
 
     Raises:
-        MotionFormatError: no motion files, clips of several topologies, or only evaluation clips.
+        MotionFormatError: no motion files, clips of several topologies in one folder, a folder of another
+            topology without a link map, or only evaluation clips.
     """
     from morphkit.retarget.ace.data import split_evaluation_clips
+    from morphkit.retarget.nkn.mapping import find_link_map, map_motion
 
-    motions = load_motions(path, cache_dir=cache_dir, fps=data.fps)
-    _check_topology(motions, os.fspath(path))
-    if exclude_evaluation:
-        motions, held = split_evaluation_clips(motions)
-        if not motions:
-            raise MotionFormatError(f"every clip is in the evaluation split ({len(held)} clips)",
-                                    location=SourceLocation(os.fspath(path)))
-    return _group(motions, Path(path).name or "data", "data")
+    template: Morphology | None = None
+    out: list[Character] = []
+    for path in as_folders(human_data):
+        motions = load_motions(path, cache_dir=cache_dir, fps=data.fps)
+        _check_topology(motions, os.fspath(path))
+        if exclude_evaluation:
+            motions, held = split_evaluation_clips(motions)
+            if not motions:
+                raise MotionFormatError(f"every clip is in the evaluation split ({len(held)} clips)",
+                                        location=SourceLocation(os.fspath(path)))
+        label = path.name or "data"
+        if template is None:
+            template = motions[0].morphology
+        elif topology_difference(template, motions[0].morphology) is not None:
+            link_map = find_link_map(motions[0].morphology, template)
+            if link_map is None:
+                check_same_topology(template, motions[0].morphology, what=f"data folder {label!r}: skeleton")
+            motions = [map_motion(m, template, link_map, skeleton_name=label) for m in motions]  # type: ignore[arg-type]
+        out += _group(motions, label, "data")
+    if not out:
+        raise MotionFormatError("no human data folder given")
+    return out
 
 
 def _embedded_motion(frames: int, seed: int, fps: float) -> list[Motion]:
@@ -139,7 +175,7 @@ def embedded_characters(data: NknDataConfig, *, progress: bool = False,
     return out
 
 
-def training_characters(human_data: str | os.PathLike[str] | None, data: NknDataConfig, *,
+def training_characters(human_data: HumanData | None, data: NknDataConfig, *,
                         progress: bool = False, log: Callable[[str], None] = print) -> list[Character]:
     """Every training character: the data's (or the embedded default's), then the target-only variants."""
     if human_data is None:
@@ -156,15 +192,15 @@ def training_characters(human_data: str | os.PathLike[str] | None, data: NknData
     return out
 
 
-def evaluation_clips(human_data: str | os.PathLike[str] | None, data: NknDataConfig, *,
+def evaluation_clips(human_data: HumanData | None, data: NknDataConfig, *,
                      cache_dir: str | os.PathLike[str] | bool | None = True) -> list[Motion]:
-    """Clips never trained on: the evaluation split's clips of the folder (every clip when the folder
+    """Clips never trained on: the evaluation split's clips of the (first) folder (every clip when it
     holds none of them), or embedded default clips of another seed."""
     if human_data is None:
         return _embedded_motion(max(data.human_frames // 4, 2 * data.test_frames), data.synth_seed + 1000, data.fps)
     from morphkit.retarget.ace.data import split_evaluation_clips
 
-    motions = load_motions(human_data, cache_dir=cache_dir, fps=data.fps)
+    motions = load_motions(as_folders(human_data)[0], cache_dir=cache_dir, fps=data.fps)
     _, held = split_evaluation_clips(motions)
     return held or motions
 

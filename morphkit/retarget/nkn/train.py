@@ -48,7 +48,7 @@ from morphkit.graph import Morphology
 from morphkit.io import write_morphology
 from morphkit.motion import NormStats
 from morphkit.retarget.nkn.config import NknConfig
-from morphkit.retarget.nkn.data import Character, ClipBank, offset_stats, training_characters
+from morphkit.retarget.nkn.data import Character, ClipBank, HumanData, as_folders, offset_stats, training_characters
 from morphkit.retarget.nkn.losses import (
     discriminator_loss,
     generator_adversarial_loss,
@@ -110,7 +110,7 @@ def prepare(
     run_dir: str | os.PathLike[str],
     cfg: NknConfig,
     *,
-    human_data: str | os.PathLike[str] | None = None,
+    human_data: HumanData | None = None,
     creature: Morphology | None = None,
     cache_dir: str | os.PathLike[str] | None = None,
     progress: bool = False,
@@ -167,7 +167,7 @@ def prepare(
         meta = {
             "mode": mode,
             "creature": None if creature is None else creature.name,
-            "human_data": None if human_data is None else os.fspath(human_data),
+            "human_data": [os.fspath(f) for f in as_folders(human_data)] or None,
             "fps": float(cfg.data.fps),
             "template": template.name,
             "characters": [{"name": c.name, "origin": c.origin, "clips": len(c.clips),
@@ -216,7 +216,7 @@ def train_nkn(
     run_dir: str | os.PathLike[str],
     cfg: NknConfig,
     *,
-    human_data: str | os.PathLike[str] | None = None,
+    human_data: HumanData | None = None,
     creature: Morphology | None = None,
     device: str | torch.device | None = None,
     progress: bool = True,
@@ -239,7 +239,7 @@ def train_nkn(
         return _train(Path(run_dir), cfg, human_data, creature, device, progress, log)
 
 
-def _train(run: Path, cfg: NknConfig, human_data: str | os.PathLike[str] | None, creature: Morphology | None,
+def _train(run: Path, cfg: NknConfig, human_data: HumanData | None, creature: Morphology | None,
            device: str | torch.device | None, progress: bool, log: Callable[[str], None]) -> Path:
     setup = prepare(run, cfg, human_data=human_data, creature=creature, progress=progress, log=log)
     trainer = "nkn" if creature is None else "nkn-cross"
