@@ -13,7 +13,9 @@ What the paper and the release leave open is named here as morphkit's choice:
 * bone offsets are normalised with their own statistics over the training skeletons (the release
   reuses the joint-position statistics), with a floor of ``offset_min_std`` on the spread;
 * root height is an output of the head (the release takes it from the skeleton file), so a
-  crouch or a jump survives retargeting;
+  crouch or a jump survives retargeting; it and the root velocity are predicted per unit of the
+  target's leg length (the head's output times leg / mean training leg), so an untrained network
+  already stands a short-legged character lower and walks it slower, as the copy baseline does;
 * the discriminator's last convolution is global-average pooled, so clip lengths other than 60
   frames work (at 60 frames it is the release's single "valid" output);
 * the training skeletons: every skeleton of the data with motion, plus ``train_variants``

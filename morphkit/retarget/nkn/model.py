@@ -10,7 +10,8 @@ The head has one output block per coordinate of the **target** morphology (:clas
 so the target may have another joint count than the source (the cross-morphology mode): a ball
 joint or a floating base's orientation is a raw quaternion (bias: identity; the FK normalises it),
 a limited 1-DoF joint is $m + h \\tanh(a)$ inside its limits (bias: the data's mean value), an unlimited
-revolute joint an angle $\\operatorname{atan2}(s, c)$, a floating base's height an affine output.
+revolute joint an angle $\\operatorname{atan2}(s, c)$, a floating base's height an affine output. Root
+height and root velocity are scaled by the target's leg length over the mean training skeleton's.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
-from morphkit.graph import BaseType, JointType, Morphology
+from morphkit.graph import BaseType, EndEffectorRole, JointType, Morphology
 from morphkit.motion import NormStats
 from morphkit.retarget.nkn.config import NknConfig
 from morphkit.retarget.nkn.features import GLOBAL_DIM
@@ -117,14 +118,16 @@ class CoordinateHead(nn.Module):
         # Where the ball joints' quaternions sit among quat_raw (the floating base's comes first).
         self._joint_quats = slice(1, None) if m.base == BaseType.FLOATING else slice(None)
 
-    def decode(self, raw: torch.Tensor) -> torch.Tensor:
-        """Local coordinates ``q`` [..., C] from raw outputs [..., raw_dim]."""
+    def decode(self, raw: torch.Tensor, height_scale: torch.Tensor | None = None) -> torch.Tensor:
+        """Local coordinates ``q`` [..., C] of raw outputs [..., raw_dim] (height times ``height_scale`` [...])."""
         q = raw.new_zeros((*raw.shape[:-1], self.coordinate_count))
         dt = raw.dtype
         if self.quat_raw.numel():
             q = q.index_copy(-1, self.quat_q.flatten(), raw[..., self.quat_raw.flatten()])
         if self.height_raw >= 0:
             h = self.height[0].to(dt) + self.height[1].to(dt) * raw[..., self.height_raw : self.height_raw + 1]
+            if height_scale is not None:
+                h = h * height_scale[..., None]
             q = q.index_copy(-1, torch.tensor([2], device=raw.device), h)
         if self.lim_raw.numel():
             values = self.lim_mid.to(dt) + self.lim_half.to(dt) * torch.tanh(raw[..., self.lim_raw])
@@ -162,6 +165,23 @@ class Side(nn.Module):
         self.register_buffer("x_std", torch.tensor(features.std, dtype=torch.float32))
         self.register_buffer("offset_mean", torch.tensor(offsets.mean, dtype=torch.float32))
         self.register_buffer("offset_std", torch.tensor(offsets.std, dtype=torch.float32))
+        # Leg length as a weighted sum of bone lengths: the bones Morphology.leg_length adds up, per foot, averaged.
+        weights = np.zeros(template.joint_count)
+        feet = template.ee_by_role(EndEffectorRole.FOOT)
+        chains = template.end_effector_chains
+        uses: dict[str, int] = {}
+        for chain in chains.values():
+            for n in chain:
+                uses[n] = uses.get(n, 0) + 1
+        for ee in feet:
+            own = [n for n in chains[ee.name] if uses[n] == 1]
+            for n in own[1:]:
+                weights[template.joint_index(n)] += 1.0 / len(feet)
+        self.register_buffer("leg_weights", torch.tensor(weights, dtype=torch.float32), persistent=False)
+        mean_offsets = torch.tensor(offsets.mean, dtype=torch.float32).reshape(-1, 3)
+        reference = float((self.leg_weights * mean_offsets.norm(dim=-1)).sum())
+        self.leg_reference = reference if reference > 1e-9 else 0.0
+        """Leg length [m] of the mean training skeleton (0: no legs, no scaling)."""
 
     @property
     def feature_dim(self) -> int:
@@ -185,6 +205,12 @@ class Side(nn.Module):
         """``(p [..., L, 3], v [..., 4])`` from normalised features [..., 3L + 4]."""
         x = x * self.x_std.to(x.dtype) + self.x_mean.to(x.dtype)
         return x[..., :-GLOBAL_DIM].unflatten(-1, (self.link_count, 3)), x[..., -GLOBAL_DIM:]
+
+    def leg_scale(self, offsets: torch.Tensor) -> torch.Tensor:
+        """Leg length of skeletons with bone offsets [..., J, 3] over the mean training skeleton's, shape [...]."""
+        if self.leg_reference <= 0.0:
+            return offsets.new_ones(offsets.shape[:-2])
+        return (self.leg_weights.to(offsets.dtype) * offsets.norm(dim=-1)).sum(-1) / self.leg_reference
 
     def normalize_offsets(self, offsets: torch.Tensor) -> torch.Tensor:
         """Bone offsets [..., J, 3] [m] → normalised [..., 3J] (the decoder's and D's condition)."""
@@ -245,6 +271,10 @@ class NknGenerator(nn.Module):
         h_enc = self.encode(x)
         cond = side.normalize_offsets(offsets)  # [B, 3J]
         fk_offsets = offsets[:, None]  # [B, 1, J, 3]
+        # Root height and root velocity are predicted per unit of the target's leg length (morphkit's choice).
+        scale = side.leg_scale(offsets)  # [B]
+        v_mean, v_std = side.x_mean[-GLOBAL_DIM:].to(x.dtype), side.x_std[-GLOBAL_DIM:].to(x.dtype)
+        v_scale = torch.stack([scale, scale, scale, torch.ones_like(scale)], dim=-1)  # yaw rate unscaled
         hidden = [x.new_zeros(B, cell.hidden_size) for cell in self.decoder]
         prev = x.new_zeros(B, side.feature_dim)
         raws, xs, ps, qs = [], [], [], []
@@ -254,9 +284,9 @@ class NknGenerator(nn.Module):
                 hidden[i] = cell(self.decoder_dropout(inp), hidden[i])
                 inp = hidden[i]
             raw = self.head(inp)  # [B, raw_dim + 4]
-            q = side.head.decode(raw[:, : side.head.raw_dim])
+            q = side.head.decode(raw[:, : side.head.raw_dim], scale)
             p = side.fk(q[:, None], fk_offsets)[:, 0]  # [B, L, 3]
-            v_norm = raw[:, side.head.raw_dim :]
+            v_norm = ((v_mean + v_std * raw[:, side.head.raw_dim :]) * v_scale - v_mean) / v_std
             x_t = torch.cat([side.normalize(p, x.new_zeros(B, GLOBAL_DIM))[:, :-GLOBAL_DIM], v_norm], dim=-1)
             raws.append(raw)
             xs.append(x_t)
