@@ -1,4 +1,5 @@
-"""``morphkit train ace CREATURE``: train ACE (motion prior, then a retargeter) into a run folder."""
+"""``morphkit train ace CREATURE``: train ACE (motion prior, then a retargeter) into a run folder;
+``morphkit train nkn [CREATURE]``: train NKN (:mod:`._train_nkn`)."""
 
 from __future__ import annotations
 
@@ -15,8 +16,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
             "automatically), metrics.csv and TensorBoard logs. Under torchrun it trains with DDP."
         ),
     )
-    p.add_argument("trainer", choices=["ace"], help="the method (NKN comes with its own command)")
-    p.add_argument("creature", metavar="CREATURE",
+    p.add_argument("trainer", choices=["ace", "nkn"],
+                   help="the method: ace (needs CREATURE), or nkn (without CREATURE: the paper's NKN between the "
+                   "human skeletons and bone-length variants; with one: its cross-morphology mode)")
+    p.add_argument("creature", metavar="CREATURE", nargs="?",
                    help="a shipped name (spot, crab, stretch, human) or a description file")
     p.add_argument("--human-data", metavar="DIR",
                    help="human motion folder or file (BVH, NPZ, USD); default: the embedded default human motion; "
@@ -68,6 +71,12 @@ def run(args: argparse.Namespace) -> int:
     from morphkit.retarget.ace.train import train_ace, variant_of
     from morphkit.retarget.config import replace_config
 
+    if args.trainer == "nkn":
+        from morphkit.commands._train_nkn import run_nkn
+
+        return run_nkn(args)
+    if args.creature is None:
+        raise ConfigError("train ace needs a CREATURE (a shipped name or a description file)")
     creature = read_morphology(resolve_morphology(args.creature))
     if args.body_length is not None:
         if not (math.isfinite(args.body_length) and args.body_length > 0):

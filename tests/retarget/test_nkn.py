@@ -304,3 +304,12 @@ def test_second_skeleton_maps_onto_the_cmu_topology_exactly():
     rest = mapped.morphology.rest_link_poses()[:, :3]
     assert rest[cmu.link_index("lankle"), 2] < -0.7 and rest[cmu.link_index("lwrist"), 1] > 0.4  # T-pose
     assert mapped.morphology.rest_stance_height == pytest.approx(0.87, abs=0.03)
+
+
+def test_cli_train_nkn_rejects_ace_options(capsys):
+    from morphkit.cli import main
+
+    assert main(["train", "nkn", "--no-adversarial"]) == 2
+    assert "ACE options, not NKN's" in capsys.readouterr().err
+    assert main(["train", "ace", "--preset", "smoke"]) == 2
+    assert "needs a CREATURE" in capsys.readouterr().err

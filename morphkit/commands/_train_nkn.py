@@ -1,0 +1,42 @@
+"""``morphkit train nkn [CREATURE]``: the NKN half of the ``train`` command (parser in :mod:`.train`)."""
+
+from __future__ import annotations
+
+import argparse
+
+ACE_ONLY = ("no_feature_loss", "no_adversarial", "map", "map_file", "body_length", "prior")
+
+
+def run_nkn(args: argparse.Namespace) -> int:
+    """Train NKN: without CREATURE the paper's same-topology mode over the human skeletons, with one the
+    cross-morphology mode (human → CREATURE)."""
+    from pathlib import Path
+
+    from morphkit.errors import ConfigError
+    from morphkit.retarget.config import replace_config
+    from morphkit.retarget.nkn import preset, train_nkn
+
+    used = [f"--{n.replace('_', '-')}" for n in ACE_ONLY if getattr(args, n, None) not in (None, False, [], 0.0)]
+    if getattr(args, "contact_weight", 0.0):
+        used.append("--contact-weight")
+    if used:
+        raise ConfigError(f"{', '.join(used)}: ACE options, not NKN's")
+    creature = None
+    if args.creature is not None:
+        from morphkit.io import read_morphology
+        from morphkit.io.shipped import resolve_morphology
+
+        creature = read_morphology(resolve_morphology(args.creature))
+    cfg = preset(args.preset)
+    if args.set:
+        cfg = replace_config(cfg, args.set)
+    data = Path(args.human_data).name if args.human_data else "default"
+    suffix = f"_{creature.name}" if creature else ""
+    out = Path(args.out) if args.out else Path("runs") / f"nkn_{data}{suffix}_{args.preset}"
+    train_nkn(out, cfg, human_data=args.human_data, creature=creature, device=args.device,
+              progress=not args.no_progress)
+    mode = f"cross-morphology NKN onto {creature.name}" if creature else "NKN over the human skeletons"
+    print(f"trained {mode}: {out}")
+    print(f"retarget with: python -c \"from morphkit.retarget.nkn import NknRetargeter; NknRetargeter('{out}')\""
+          " or examples/nkn_train.py")
+    return 0
