@@ -36,8 +36,8 @@ __all__ = ["CoordinateHead", "GeneratorOutput", "NknDiscriminator", "NknGenerato
 class CoordinateHead(nn.Module):
     """Maps raw head outputs [..., raw_dim] to a morphology's local coordinates ``q`` [..., C].
 
-    Local: the base sits at the heading frame's origin (x = y = 0, no yaw for planar and wheeled
-    bases); a floating base keeps its height and its orientation in the heading frame.
+    Local: the base sits at the ground frame's origin (:mod:`~.features`) (x = y = 0, no yaw for planar and wheeled
+    bases); a floating base keeps its height and its orientation in the heading axes.
 
     Args:
         morphology: The target skeleton.

@@ -50,7 +50,7 @@ def world_motion(target: Morphology, q_local: np.ndarray, v: np.ndarray, fps: fl
     """A :class:`~morphkit.motion.Motion` of ``target`` from local coordinates [T, C] and global motion [T, 4].
 
     The base's ground position and heading come from integrating ``v``; a floating base keeps its
-    local height and its orientation in the heading frame; ball-joint quaternions are normalised.
+    local height and its orientation in the heading axes; ball-joint quaternions are normalised.
     """
     q = np.array(q_local, dtype=float, copy=True)
     xy, yaw = integrate_global_motion(v, fps, start_xy=start_xy, start_yaw=start_yaw)
