@@ -98,7 +98,9 @@ class AceRetargeter:
         self.layout = character_state_layout(self.creature)
         with np.load(_need(self.dir / "start_states.npz")) as f:
             self.start_states, self.start_psi = f["states"], f["psi"]
-        prior_dir = Path(prior_dir) if prior_dir is not None else self.dir / "prior"
+        if prior_dir is None:
+            prior_dir = meta.get("prior_dir") or self.dir / "prior"
+        prior_dir = Path(prior_dir)
         retarget_dir = Path(retarget_dir) if retarget_dir is not None else self.dir / "retarget"
         if not _stage_trainer(prior_dir).startswith("ace-prior"):
             raise RunError("not an ACE prior stage", location=SourceLocation(str(prior_dir / RUN_FILE)))

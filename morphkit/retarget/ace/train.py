@@ -466,6 +466,11 @@ def train_ace(
     data = prepare(run, creature, cfg, human_data=human_data, mapping_override=mapping_override, progress=progress,
                    log=log)
     prior = Path(prior_dir) if prior_dir is not None else run / "prior"
+    if prior_dir is not None and _main_process():
+        # A shared prior is recorded, so retargeting with this run finds it.
+        meta = yaml.safe_load((run / META_FILE).read_text()) or {}
+        meta["prior_dir"] = os.fspath(prior.resolve())
+        atomic_write_text(run / META_FILE, yaml.safe_dump(meta, sort_keys=False))
     log(f"motion prior: {prior}")
     vae = train_prior(prior, data, cfg, device=device, progress=progress)
     stage = run / folder
