@@ -236,3 +236,18 @@ def test_torchrun_two_ranks_end_with_identical_parameters(tmp_path, human_dir, d
     assert a == b
     # Rank 0 wrote the run; its checkpoint holds the same generator.
     assert (tmp_path / "run" / "retarget" / "checkpoint.pt").is_file()
+
+
+def test_a_shared_prior_is_found_when_retargeting(tmp_path, human_dir, dog, cache):
+    from morphkit.motion import load_motions
+    from morphkit.retarget.ace.retarget import AceRetargeter
+
+    cfg = replace_config(preset("smoke"), TINY)
+    creature = read_morphology(dog)
+    train_ace(tmp_path / "a", creature, cfg, human_data=human_dir, progress=False, log=lambda s: None)
+    train_ace(tmp_path / "b", creature, cfg, variant="ace-wofea", human_data=human_dir,
+              prior_dir=tmp_path / "a" / "prior", progress=False, log=lambda s: None)
+    assert not (tmp_path / "b" / "prior").exists()
+    model = AceRetargeter(tmp_path / "b", retarget_dir=tmp_path / "b" / "retarget_wofea")
+    assert model.trainer == "ace-wofea"
+    assert len(model.retarget(load_motions(human_dir)[:1])) == 1
