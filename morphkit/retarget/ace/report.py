@@ -2,14 +2,11 @@
 
 from __future__ import annotations
 
-import csv
-import io
 import os
 from collections.abc import Sequence
-from pathlib import Path
 
-from morphkit._atomic import atomic_write_text
 from morphkit.retarget.ace.evaluate import TableRow
+from morphkit.retarget.tables import write_table_files
 
 __all__ = ["format_table", "write_table"]
 
@@ -31,13 +28,4 @@ def format_table(rows: Sequence[TableRow]) -> str:
 
 def write_table(rows: Sequence[TableRow], stem: str | os.PathLike[str]) -> str:
     """Write ``stem.md`` and ``stem.csv`` (atomically); returns the markdown."""
-    stem = Path(stem)
-    stem.parent.mkdir(parents=True, exist_ok=True)
-    text = format_table(rows)
-    atomic_write_text(stem.with_suffix(".md"), text + "\n")
-    buf = io.StringIO()
-    writer = csv.DictWriter(buf, fieldnames=list(rows[0].as_dict()), lineterminator="\n")
-    writer.writeheader()
-    writer.writerows(r.as_dict() for r in rows)
-    atomic_write_text(stem.with_suffix(".csv"), buf.getvalue())
-    return text
+    return write_table_files(stem, format_table(rows), [r.as_dict() for r in rows])

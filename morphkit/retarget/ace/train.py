@@ -29,7 +29,7 @@ import torch
 import yaml
 from torch.nn import functional as F
 
-from morphkit._atomic import atomic_write_text
+from morphkit._atomic import atomic_path, atomic_write_text
 from morphkit.errors import ConfigError, RunError, SourceLocation
 from morphkit.graph import EndEffectorRole, Morphology
 from morphkit.io import write_morphology
@@ -42,6 +42,7 @@ from morphkit.motion import (
     character_state_from_motion,
     character_state_layout,
     ee_distributions,
+    features,
     human_state_from_motion,
     human_state_layout,
     map_end_effectors,
@@ -166,11 +167,7 @@ def _save_start_states(path: Path, states: Sequence[np.ndarray], fmap: FeatureMa
     rng = np.random.default_rng(seed)
     pick = rng.choice(flat.shape[0], size=min(START_STATES, flat.shape[0]), replace=False)
     x = flat[np.sort(pick)]
-    from morphkit.motion import features
-
     psi = features(x, fmap.creature_layout, length=fmap.creature_length, ee_names=fmap.creature_ees)
-    from morphkit._atomic import atomic_path
-
     with atomic_path(path) as tmp, open(tmp, "wb") as f:
         np.savez(f, states=x, psi=psi)
 

@@ -177,21 +177,9 @@ def format_scores(rows: Sequence[Score]) -> str:
 
 def write_scores(rows: Sequence[Score], stem: str | os.PathLike[str]) -> str:
     """Write ``stem.md`` and ``stem.csv`` (atomically); returns the markdown."""
-    import csv
-    import io
+    from morphkit.retarget.tables import write_table_files
 
-    from morphkit._atomic import atomic_write_text
-
-    stem = Path(stem)
-    stem.parent.mkdir(parents=True, exist_ok=True)
-    text = format_scores(rows)
-    atomic_write_text(stem.with_suffix(".md"), text + "\n")
-    buf = io.StringIO()
-    writer = csv.DictWriter(buf, fieldnames=list(rows[0].as_dict()), lineterminator="\n")
-    writer.writeheader()
-    writer.writerows(r.as_dict() for r in rows)
-    atomic_write_text(stem.with_suffix(".csv"), buf.getvalue())
-    return text
+    return write_table_files(stem, format_scores(rows), [r.as_dict() for r in rows])
 
 
 def plot_end_effector_heights(source: Motion, results: Mapping[str, Motion], path: str | os.PathLike[str], *,
