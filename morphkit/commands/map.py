@@ -16,7 +16,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         description=(
             "Fit a Gaussian to every end-effector's positions (root heading frame, divided by body length) "
             "over each dataset and map each creature end-effector to the human end-effector with the smallest "
-            "KL(p_creature || p_human) (ACE, Li et al. 2023, Eq. 11)."
+            "KL(p_creature || p_human) (ACE, Li et al. 2023, Eq. 11) among those of a compatible role (foot to "
+            "foot, head to head, hand or tool to hand; all of them where the human has none of that role), never "
+            "two of one role on one human end-effector while another is free. --kl-only keeps the paper's rule "
+            "(KL alone); the report shows both."
         ),
     )
     p.add_argument("human", metavar="HUMAN_DATA", nargs="+",
@@ -26,7 +29,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="YAML {creature_ee: human_ee} (optionally under 'mapping:') replacing the automatic choice")
     p.add_argument("--set", metavar="C=H", action="append", default=[],
                    help="override one pair on the command line, e.g. --set gripper=lwrist_end (repeatable)")
-    p.add_argument("--json", action="store_true", help='print {"mapping": {...}, "kl": {...}} as JSON')
+    p.add_argument("--kl-only", action="store_true",
+                   help="the paper's rule: KL alone, ignoring roles (the role-aware mapping is still reported)")
+    p.add_argument("--json", action="store_true",
+                   help='print {"mapping", "rule", "kl_only", "by_role", "roles", "kl", "data", "body_length"} as JSON')
     p.add_argument("--max-frames", type=int, default=300, metavar="N",
                    help="use at most N evenly spaced frames per clip (default 300)")
     p.add_argument("--human-facing", default="auto",
@@ -48,6 +54,21 @@ def _bvh_options(paths: list[str], facing: str) -> dict[str, str]:
 
     files = expand_motion_paths(paths)
     return {"facing": facing} if all(f.suffix.lower() == ".bvh" for f in files) else {}
+
+
+def _label(paths: list[str], clips: list) -> str:
+    """What to call a data set: its morphology's name, unless that is only the first clip's name (a BVH
+    skeleton is named after its file), then the folders or files given (``cmu``, not ``01_01``)."""
+    from pathlib import Path
+
+    name = clips[0].morphology.name
+    if name != clips[0].name or len(clips) == 1:
+        return name
+    return " + ".join(Path(p).name if Path(p).is_dir() else Path(p).stem for p in paths)
+
+
+def _clips(clips: list) -> str:
+    return f"{len(clips)} clip{'s' * (len(clips) != 1)}"
 
 
 def run(args: argparse.Namespace) -> int:
@@ -78,19 +99,22 @@ def run(args: argparse.Namespace) -> int:
         }
         human = ee_distributions(humans, max_frames_per_clip=args.max_frames, length=lengths["human"])
         creature = ee_distributions(creatures, max_frames_per_clip=args.max_frames, length=lengths["creature"])
+    roles = tuple({e.name: e.role for e in clips[0].morphology.end_effectors} for clips in (creatures, humans))
     try:
-        result = map_end_effectors(creature, human, override=override)
+        result = map_end_effectors(creature, human, override=override, roles=roles, kl_only=args.kl_only)
     except ConfigError as exc:
         where = SourceLocation(args.override) if args.override and exc.location is None else exc.location
         raise ConfigError(exc.message, location=where) from None
+    c_name, h_name = _label([args.creature], creatures), _label(args.human, humans)
     if args.json:
         doc = result.to_json()
+        doc["data"] = {"creature": {"label": c_name, "clips": len(creatures)},
+                       "human": {"label": h_name, "clips": len(humans)}}
         doc["body_length"] = {k: round(v, 6) for k, v in lengths.items()}
         json.dump(doc, sys.stdout, indent=2)
         sys.stdout.write("\n")
         return 0
-    c_name, h_name = creatures[0].morphology.name, humans[0].morphology.name
-    print(f"{c_name} ({len(creatures)} clips) -> {h_name} ({len(humans)} clips); KL(p_creature || p_human)")
+    print(f"{c_name} ({_clips(creatures)}) -> {h_name} ({_clips(humans)}); KL(p_creature || p_human)")
     print(f"body lengths: {c_name} {lengths['creature']:.3f} m, {h_name} {lengths['human']:.3f} m")
     print(result.format_table())
     return 0

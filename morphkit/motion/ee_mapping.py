@@ -12,6 +12,13 @@ end-effector ``i`` that minimises ``KL(p_r_j ‖ p_h_i)``:
 Several creature end-effectors may map to one human end-effector (four feet to two). A manual
 override (``{creature_ee: human_ee}``, from a dict or a small YAML file) replaces the automatic
 choice for the end-effectors it names; the KL table is still reported for all of them.
+
+Given both creatures' end-effector roles, the mapping respects them (morphkit's default; the
+paper's KL-only rule stays available): a foot goes to a human foot, a head to the head, a hand or
+tool to a hand, and KL chooses within the role — across all roles only where the human has none
+of that role. Within a role the choice is one assignment of least total KL in which no human
+end-effector takes two creature end-effectors while another of that role is free (two creature
+hands go to both human hands; four feet share two, two each or three and one as KL prefers).
 """
 
 from __future__ import annotations
@@ -141,14 +148,24 @@ class EndEffectorMapping:
     """Which human end-effector each creature end-effector follows, and the evidence.
 
     Attributes:
-        mapping: ``{creature_ee: human_ee}`` in the creature's end-effector order.
+        mapping: ``{creature_ee: human_ee}`` in the creature's end-effector order: the chosen rule's
+            mapping, manual overrides applied.
         kl: ``{creature_ee: {human_ee: KL(p_r ‖ p_h)}}`` for every pair.
         overridden: Creature end-effectors whose mapping came from a manual override.
+        rule: ``"roles"`` (KL within compatible roles, one human end-effector per creature
+            end-effector of a role while another is free) or ``"kl"`` (the paper's rule: KL alone).
+        kl_only: The paper's rule, ``argmin_h KL`` per creature end-effector (overrides applied).
+        by_role: The role-aware mapping (overrides applied); ``None`` when no roles were given.
+        roles: ``{creature_ee: role name}`` when roles were given (``"foot"``, ``"hand"``, ...).
     """
 
     mapping: dict[str, str]
     kl: dict[str, dict[str, float]]
     overridden: frozenset[str] = field(default_factory=frozenset)
+    rule: str = "kl"
+    kl_only: dict[str, str] = field(default_factory=dict)
+    by_role: dict[str, str] | None = None
+    roles: dict[str, str] | None = None
 
     def feature_order(self) -> tuple[tuple[str, ...], tuple[str, ...]]:
         """``(creature_ees, human_ees)``: the end-effector lists Ψ takes, paired index by index.
@@ -159,26 +176,50 @@ class EndEffectorMapping:
         return tuple(self.mapping), tuple(self.mapping.values())
 
     def to_json(self) -> dict[str, Any]:
-        """``{"mapping": {...}, "kl": {...}}`` (plus ``"overridden"`` when any), JSON-serialisable."""
-        out: dict[str, Any] = {"mapping": dict(self.mapping), "kl": {k: dict(v) for k, v in self.kl.items()}}
+        """``{"mapping", "rule", "kl_only", "kl"}`` plus ``"by_role"`` and ``"roles"`` when roles were
+        given and ``"overridden"`` when any, JSON-serialisable."""
+        out: dict[str, Any] = {"mapping": dict(self.mapping), "rule": self.rule, "kl_only": dict(self.kl_only)}
+        if self.by_role is not None:
+            out["by_role"] = dict(self.by_role)
+        if self.roles is not None:
+            out["roles"] = dict(self.roles)
+        out["kl"] = {k: dict(v) for k, v in self.kl.items()}
         if self.overridden:
             out["overridden"] = sorted(self.overridden)
         return out
 
     def format_table(self) -> str:
-        """A text table: one row per creature end-effector, one column per human end-effector."""
+        """A text table: one row per creature end-effector, one column per human end-effector.
+
+        With roles, a ``role`` column and the other rule's choice (``KL only`` or ``by role``) come
+        after the chosen mapping; ``!`` marks rows where the two rules differ.
+        """
         humans = list(next(iter(self.kl.values())).keys()) if self.kl else []
         w0 = max([len("creature ee"), *(len(c) for c in self.kl)])
         w = max([9, *(len(h) for h in humans)])
-        lines = [
-            f"{'creature ee':<{w0}}  {'-> human ee':<{w + 3}}  " + "  ".join(f"{h:>{w}}" for h in humans),
-        ]
+        other_name, other = ("KL only", self.kl_only) if self.rule == "roles" else ("by role", self.by_role)
+        with_roles = self.roles is not None and other is not None
+        wr = max([4, *(len(r) for r in (self.roles or {}).values())])
+        head = f"{'creature ee':<{w0}}  "
+        if with_roles:
+            head += f"{'role':<{wr}}  "
+        head += f"{'-> human ee':<{w + 5}}  "
+        if with_roles:
+            head += f"{other_name:<{w + 1}}  "
+        lines = [head + "  ".join(f"{h:>{w}}" for h in humans)]
         for c, row in self.kl.items():
             mark = " *" if c in self.overridden else "  "
-            target = self.mapping[c] + mark
-            lines.append(
-                f"{c:<{w0}}  {'-> ' + target:<{w + 3}}  " + "  ".join(f"{row[h]:>{w}.3f}" for h in humans)
-            )
+            line = f"{c:<{w0}}  "
+            if with_roles:
+                line += f"{self.roles.get(c, ''):<{wr}}  "  # type: ignore[union-attr]
+            line += f"{'-> ' + self.mapping[c] + mark:<{w + 5}}  "
+            if with_roles:
+                differs = "!" if other[c] != self.mapping[c] else " "  # type: ignore[index]
+                line += f"{other[c] + differs:<{w + 1}}  "  # type: ignore[index]
+            lines.append(line + "  ".join(f"{row[h]:>{w}.3f}" for h in humans))
+        if with_roles:
+            rule = "KL within roles" if self.rule == "roles" else "KL only (the paper's rule)"
+            lines.append(f"mapping: {rule}; {other_name}: the other rule's choice (! where it differs)")
         if self.overridden:
             lines.append("* manual override")
         return "\n".join(lines)
@@ -190,18 +231,23 @@ def map_end_effectors(
     *,
     override: Mapping[str, str] | None = None,
     roles: tuple[Mapping[str, Any], Mapping[str, Any]] | None = None,
+    kl_only: bool = False,
 ) -> EndEffectorMapping:
-    """Eq. 11: map each creature end-effector to ``argmin_i KL(p_r ‖ p_h_i)``.
+    """Eq. 11: map each creature end-effector to ``argmin_i KL(p_r ‖ p_h_i)``, within roles when given.
 
     Args:
         creature: Distributions of the creature's end-effectors (:func:`ee_distributions`).
         human: Distributions of the human's (source's) end-effectors.
         override: ``{creature_ee: human_ee}`` pairs that replace the automatic choice.
-        roles: ``(creature_roles, human_roles)``, ``{ee: EndEffectorRole}`` each: KL then chooses only
-            among human end-effectors of a compatible role (foot → foot, head → head, hand or tool →
-            hand), across roles only where the human has none of that role. ``None``: the paper's rule
-            (KL only). KL alone depends on how spread each data set is: a narrow human foot
-            distribution loses to a broad hand one even for a quadruped's feet.
+        roles: ``(creature_roles, human_roles)``, ``{ee: EndEffectorRole}`` each (or role names): KL then
+            chooses only among human end-effectors of a compatible role (foot → foot, head → head, hand
+            or tool → hand), across roles only where the human has none of that role, and never puts two
+            creature end-effectors of one role on one human end-effector while another is free (see the
+            module docstring). ``None``: the paper's rule (KL only). KL alone depends on how spread each
+            data set is: a narrow human foot distribution loses to a broad hand one even for a
+            quadruped's feet.
+        kl_only: With ``roles``, still choose by the paper's rule (the role-aware mapping is kept in
+            :attr:`EndEffectorMapping.by_role` for comparison).
 
     Raises:
         ConfigError: empty inputs, or an override naming an unknown end-effector (listing the valid ones).
@@ -215,23 +261,62 @@ def map_end_effectors(
         if h not in human:
             raise ConfigError(f"override: no human end-effector {h!r} (valid: {', '.join(human)})")
     kl = {c: {h: kl_divergence(pc, ph) for h, ph in human.items()} for c, pc in creature.items()}
-    mapping = {c: override.get(c, min(_candidates(c, row, roles), key=row.__getitem__)) for c, row in kl.items()}
-    return EndEffectorMapping(mapping, kl, frozenset(override))
+    paper = {c: override.get(c, min(row, key=row.__getitem__)) for c, row in kl.items()}
+    by_role = role_names = None
+    if roles is not None:
+        by_role = _assign_by_role(kl, roles, override)
+        role_names = {c: _role_name(roles[0][c]) for c in kl if c in roles[0]}
+    rule = "roles" if by_role is not None and not kl_only else "kl"
+    chosen = by_role if rule == "roles" else paper
+    return EndEffectorMapping(dict(chosen), kl, frozenset(override), rule, paper, by_role, role_names)  # type: ignore[arg-type]
+
+
+def _role_name(role: Any) -> str:
+    return str(getattr(role, "name", role)).lower()
 
 
 def _role_group(role: Any) -> str:
-    name = str(getattr(role, "name", role)).lower()
+    name = _role_name(role)
     return "hand" if name in ("hand", "tool") else name
 
 
-def _candidates(
-    c: str, row: Mapping[str, float], roles: tuple[Mapping[str, Any], Mapping[str, Any]] | None
-) -> list[str]:
-    if roles is None or c not in roles[0]:
-        return list(row)
-    want = _role_group(roles[0][c])
-    same = [h for h in row if h in roles[1] and _role_group(roles[1][h]) == want]
-    return same or list(row)
+def _assign_by_role(
+    kl: Mapping[str, Mapping[str, float]],
+    roles: tuple[Mapping[str, Any], Mapping[str, Any]],
+    override: Mapping[str, str],
+) -> dict[str, str]:
+    """The role-aware mapping (module docstring): one least-total-KL assignment per role group."""
+    from scipy.optimize import linear_sum_assignment
+
+    creature_roles, human_roles = roles
+    humans = list(next(iter(kl.values())))
+    groups: dict[str, list[str]] = {}
+    out: dict[str, str] = {}
+    for c in kl:
+        if c in creature_roles:
+            groups.setdefault(_role_group(creature_roles[c]), []).append(c)
+        else:  # no role known: KL over all, as the paper
+            out[c] = override.get(c, min(kl[c], key=kl[c].__getitem__))
+    for group, members in groups.items():
+        candidates = [h for h in humans if h in human_roles and _role_group(human_roles[h]) == group] or humans
+        taken = {override[c] for c in members if c in override}
+        out.update({c: override[c] for c in members if c in override})
+        members = [c for c in members if c not in override]
+        free = [h for h in candidates if h not in taken] or candidates
+        if not members:
+            continue
+        cost = np.array([[kl[c][h] for h in free] for c in members])
+        extra = len(members) - len(free)
+        if extra > 0:
+            # Every free end-effector takes one creature end-effector; the rest go wherever KL
+            # is least among the candidates (extra columns costing each row's best).
+            best = np.array([min(kl[c][h] for h in candidates) for c in members])
+            cost = np.concatenate([cost, np.repeat(best[:, None], extra, axis=1)], axis=1)
+        rows, cols = linear_sum_assignment(cost)
+        for r, k in zip(rows, cols, strict=True):
+            c = members[r]
+            out[c] = free[k] if k < len(free) else min(candidates, key=kl[c].__getitem__)
+    return {c: out[c] for c in kl}
 
 
 def read_override(path: str | os.PathLike[str]) -> dict[str, str]:

@@ -177,3 +177,58 @@ def test_roles_constrain_the_kl_choice() -> None:
 
     enums = ({"foot": R.FOOT, "tail": R.TOOL}, {"lfoot": R.FOOT, "rhand": R.HAND})
     assert map_end_effectors(creature, human, roles=enums).mapping == {"foot": "lfoot", "tail": "rhand"}
+
+
+def _brute_force(kl: dict[str, dict[str, float]], members: list[str], candidates: list[str]) -> float:
+    """Least total KL over every map of ``members`` onto ``candidates`` that leaves no candidate free
+    while another takes two (injective when there are fewer members, onto when there are more)."""
+    import itertools
+
+    best = np.inf
+    for choice in itertools.product(candidates, repeat=len(members)):
+        used = set(choice)
+        if len(used) < min(len(members), len(candidates)):
+            continue
+        best = min(best, sum(kl[c][h] for c, h in zip(members, choice, strict=True)))
+    return best
+
+
+def test_roles_never_stack_two_on_one_while_another_is_free() -> None:
+    """Two creature hands that both prefer the right wrist get one wrist each; five feet on two human feet
+    use both; each group's total KL is the least such a map allows (brute force over every map)."""
+    rng = np.random.default_rng(5)
+    human = {"lwrist": fit_gaussian(rng.normal([0.1, 0.3, 0.0], 0.1, (2000, 3))),
+             "rwrist": fit_gaussian(rng.normal([0.1, -0.3, 0.0], 0.1, (2000, 3))),
+             "lfoot": fit_gaussian(rng.normal([0.0, 0.1, -0.5], 0.05, (2000, 3))),
+             "rfoot": fit_gaussian(rng.normal([0.0, -0.1, -0.5], 0.05, (2000, 3))),
+             "head": fit_gaussian(rng.normal([0.0, 0.0, 0.4], 0.05, (2000, 3)))}
+    creature = {"claw_a": fit_gaussian(rng.normal([0.2, -0.25, 0.0], 0.08, (2000, 3))),
+                "claw_b": fit_gaussian(rng.normal([0.3, -0.35, 0.1], 0.08, (2000, 3))),
+                **{f"foot{i}": fit_gaussian(rng.normal([0.3 - 0.15 * i, -0.2, -0.5], 0.06, (2000, 3)))
+                   for i in range(5)},
+                "nose": fit_gaussian(rng.normal([0.2, -0.3, 0.0], 0.05, (2000, 3)))}
+    c_roles = {"claw_a": "hand", "claw_b": "tool", "nose": "head", **{f"foot{i}": "foot" for i in range(5)}}
+    h_roles = {"lwrist": "hand", "rwrist": "hand", "lfoot": "foot", "rfoot": "foot", "head": "head"}
+    paper = map_end_effectors(creature, human)
+    assert paper.mapping["claw_a"] == paper.mapping["claw_b"] == "rwrist"  # KL alone stacks them
+    assert paper.mapping["nose"] == "rwrist" and "lfoot" not in paper.mapping.values()
+    result = map_end_effectors(creature, human, roles=(c_roles, h_roles))
+    got = result.mapping
+    assert {got["claw_a"], got["claw_b"]} == {"lwrist", "rwrist"}
+    assert got["nose"] == "head"
+    feet = [f"foot{i}" for i in range(5)]
+    assert {got[f] for f in feet} == {"lfoot", "rfoot"}
+    for members, candidates in ((["claw_a", "claw_b"], ["lwrist", "rwrist"]), (feet, ["lfoot", "rfoot"])):
+        total = sum(result.kl[c][got[c]] for c in members)
+        assert total == pytest.approx(_brute_force(result.kl, members, candidates), rel=1e-12)
+    # Both rules are kept: the paper's in kl_only, the chosen one names its rule; --kl-only flips them.
+    assert result.rule == "roles" and result.kl_only == paper.mapping and result.by_role == got
+    flipped = map_end_effectors(creature, human, roles=(c_roles, h_roles), kl_only=True)
+    assert flipped.rule == "kl" and flipped.mapping == paper.mapping and flipped.by_role == got
+    js = flipped.to_json()
+    assert js["mapping"] == paper.mapping and js["by_role"] == got and js["roles"]["claw_b"] == "tool"
+    table = result.format_table()
+    assert "KL only" in table and "rwrist!" in table.splitlines()[1 + list(creature).index("nose")]
+    # An override occupies its human end-effector: the other claw takes the free wrist.
+    over = map_end_effectors(creature, human, roles=(c_roles, h_roles), override={"claw_b": "rwrist"})
+    assert over.mapping["claw_b"] == "rwrist" and over.mapping["claw_a"] == "lwrist"
