@@ -263,6 +263,22 @@ def test_resolve_morphology(tmp_path: Path) -> None:
         resolve_morphology(tmp_path)
 
 
+def test_read_morphology_takes_the_names_the_cli_takes(creatures: dict[str, Morphology], tmp_path: Path) -> None:
+    """``read_morphology`` resolves shipped names and creature folders as the CLI does."""
+    from morphkit.io import read_morphology
+
+    for name in ("human", "spot"):
+        by_name, by_path = read_morphology(name), _get(creatures, name)
+        assert by_name.name == name and by_name.coordinate_names == by_path.coordinate_names
+        assert by_name.source == by_path.source
+    assert read_morphology(MORPHOLOGIES / "crab").coordinate_names == _get(creatures, "crab").coordinate_names
+    with pytest.raises(DescriptionError, match="no shipped creature of that name") as err:
+        read_morphology("no_such_creature")
+    assert "human" in err.value.message
+    with pytest.raises(DescriptionError, match="not found"):
+        read_morphology(tmp_path / "missing.yaml")
+
+
 def test_unrelated_folder_does_not_hide_a_shipped_name(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     (tmp_path / "spot").mkdir()
     (tmp_path / "spot" / "renders.txt").write_text("output of an earlier run")

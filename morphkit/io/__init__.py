@@ -12,6 +12,7 @@ from pathlib import Path
 
 from morphkit.errors import DescriptionError, SourceLocation
 from morphkit.graph import Morphology
+from morphkit.io.shipped import resolve_morphology
 
 __all__ = ["READ_SUFFIXES", "WRITE_SUFFIXES", "read_morphology", "write_morphology"]
 
@@ -61,13 +62,18 @@ def read_morphology(path: str | os.PathLike[str]) -> Morphology:
     """Read a creature description, choosing the format by suffix.
 
     Args:
-        path: A ``.yaml``/``.yml``, ``.urdf``, ``.usd``/``.usda``/``.usdc`` or ``.bvh`` file.
+        path: A ``.yaml``/``.yml``, ``.urdf``, ``.usd``/``.usda``/``.usdc`` or ``.bvh`` file, a creature
+            folder ``x/`` holding ``x/x.<ext>``, or the name of a shipped creature (``"spot"``,
+            ``"human"``; see :func:`~morphkit.io.shipped.shipped_names`), as the CLI accepts them.
 
     Raises:
         DescriptionError: unknown suffix (listing the supported ones), missing file, or bad content.
         GraphError: the description is structurally invalid.
     """
     p = Path(path)
+    if not p.is_file() and (p.is_dir() or not p.suffix):
+        # A folder or a bare name: resolve as the CLI does (its error lists the shipped names).
+        p = path = resolve_morphology(path)
     where = SourceLocation(str(path))
     read = _reader(p.suffix.lower())
     if read is None:
