@@ -17,7 +17,9 @@ from morphkit.motion._fk import compiled_model as compiled_model
 from morphkit.motion.codec import ClampReport as ClampReport
 from morphkit.motion.codec import character_state_from_q as character_state_from_q
 from morphkit.motion.codec import decode_character_states as decode_character_states
+from morphkit.motion.codec import ground_path as ground_path
 from morphkit.motion.codec import human_state_from_q as human_state_from_q
+from morphkit.motion.codec import world_end_effectors as world_end_effectors
 from morphkit.motion.ee_mapping import EndEffectorMapping as EndEffectorMapping
 from morphkit.motion.ee_mapping import Gaussian as Gaussian
 from morphkit.motion.ee_mapping import ee_distributions as ee_distributions
@@ -73,6 +75,7 @@ __all__ = [
     "features",
     "fit_gaussian",
     "ground_motion",
+    "ground_path",
     "heading_frame",
     "human_state",
     "human_state_from_motion",
@@ -93,6 +96,7 @@ __all__ = [
     "write_bvh_motion",
     "write_motion",
     "write_npz_motion",
+    "world_end_effectors",
     "write_usd_motion",
 ]
 

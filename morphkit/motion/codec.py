@@ -29,7 +29,7 @@ import numpy as np
 from morphkit.errors import MotionFormatError
 from morphkit.graph import BaseType, JointType, Morphology
 from morphkit.motion.motion import Motion
-from morphkit.motion.states import character_state, character_state_layout, human_state
+from morphkit.motion.states import StateLayout, character_state, character_state_layout, human_state
 from morphkit.rotations import (
     quat_canonical,
     quat_from_yaw,
@@ -44,7 +44,14 @@ if TYPE_CHECKING:
 
     from morphkit.model import KinematicModel
 
-__all__ = ["ClampReport", "character_state_from_q", "decode_character_states", "human_state_from_q"]
+__all__ = [
+    "ClampReport",
+    "character_state_from_q",
+    "decode_character_states",
+    "ground_path",
+    "human_state_from_q",
+    "world_end_effectors",
+]
 
 
 @dataclass(frozen=True)
@@ -112,17 +119,10 @@ def decode_character_states(
         )
     T = x.shape[0]
     xy0, yaw0 = _initial_xy_yaw(initial_pose)
-    # Yaw: psi_t = psi_{t-1} - yaw(previous_root_orientation_t); frame 0's prev. orientation is extrapolated.
-    prev = quat_normalize(x[:, layout.slice("previous_root_orientation")])
-    dyaw = -yaw_from_quat(prev)
-    dyaw[0] = 0.0
-    yaw = yaw0 + np.cumsum(dyaw)
+    xy, yaw = ground_path(x, layout)
+    xy = xy0 + quat_rotate(quat_from_yaw(np.full(T, yaw0)), np.pad(xy, ((0, 0), (0, 1))))[:, :2]
+    yaw = yaw0 + yaw
     heading_q = quat_from_yaw(yaw)
-    d = np.zeros((T, 3))
-    d[:, :2] = x[:, layout.slice("root_displacement")]
-    step = quat_rotate(heading_q, d)[:, :2]
-    step[0] = 0.0
-    xy = xy0 + np.cumsum(step, axis=0)
     b = morphology.base_coordinate_count
     q = np.zeros((T, morphology.coordinate_count))
     if morphology.base == BaseType.FLOATING:
@@ -136,6 +136,56 @@ def decode_character_states(
     q[:, b:] = x[:, layout.slice("joint_q")]
     report = _normalise_and_clamp(morphology, q)
     return Motion(morphology, fps, q, name), report
+
+
+def ground_path(states: Any, layout: StateLayout) -> tuple[Any, Any]:
+    """The root's ground path of character states [..., T, D] (NumPy or torch, differentiable).
+
+    Frame 0 sits at the origin facing +x; later frames integrate yaw from
+    ``previous_root_orientation`` (``ψ_t = ψ_{t-1} - yaw(q_{t-1} in frame t)``) and the position
+    from ``root_displacement`` (frame t's step, in frame t's heading axes). Frame 0's own step and
+    yaw change are ignored (they lead to a frame outside the window).
+
+    Returns:
+        ``(xy, yaw)``: ground positions [..., T, 2] [m] and headings [..., T] [rad].
+    """
+    torch_in = type(states).__module__.split(".", 1)[0] == "torch"
+    x = states if torch_in else np.asarray(states, dtype=float)
+    dyaw = -yaw_from_quat(quat_normalize(x[..., layout.slice("previous_root_orientation")]))
+    disp = x[..., layout.slice("root_displacement")]
+    if torch_in:
+        import torch
+
+        dyaw = torch.cat([torch.zeros_like(dyaw[..., :1]), dyaw[..., 1:]], dim=-1)
+        yaw = torch.cumsum(dyaw, dim=-1)
+        d3 = torch.cat([disp, torch.zeros_like(disp[..., :1])], dim=-1)
+        step = quat_rotate(quat_from_yaw(yaw), d3)[..., :2]
+        step = torch.cat([torch.zeros_like(step[..., :1, :]), step[..., 1:, :]], dim=-2)
+        return torch.cumsum(step, dim=-2), yaw
+    dyaw[..., 0] = 0.0
+    yaw = np.cumsum(dyaw, axis=-1)
+    d3 = np.concatenate([disp, np.zeros_like(disp[..., :1])], axis=-1)
+    step = quat_rotate(quat_from_yaw(yaw), d3)[..., :2]
+    step[..., 0, :] = 0.0
+    return np.cumsum(step, axis=-2), yaw
+
+
+def world_end_effectors(states: Any, layout: StateLayout, ee_local: Any) -> Any:
+    """End-effectors [..., T, E, 3] in the window's ground frame (:func:`ground_path`'s), z up from the ground.
+
+    ``ee_local`` [..., T, E, 3] are heading-frame positions (relative to the root, e.g. FK of the
+    states' joints); the root stands at ``root_height`` over its ground path. NumPy or torch.
+    """
+    xy, yaw = ground_path(states, layout)
+    height = states[..., layout.slice("root_height")]
+    if type(states).__module__.split(".", 1)[0] == "torch":
+        import torch
+
+        origin = torch.cat([xy, height], dim=-1)
+    else:
+        origin = np.concatenate([xy, np.asarray(height, dtype=float)], axis=-1)
+    rotated = quat_rotate(quat_from_yaw(yaw)[..., None, :], ee_local)
+    return origin[..., None, :] + rotated
 
 
 def _normalise_and_clamp(morphology: Morphology, q: np.ndarray) -> ClampReport:

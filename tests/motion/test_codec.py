@@ -145,3 +145,22 @@ def test_torch_twins_gradients_match_finite_differences():
     kh = compiled_model(h)
     qh = torch.tensor(random_q(kh, (1, 3), seed=6), requires_grad=True)
     assert torch.autograd.gradcheck(lambda v: human_state_from_q(h, v, 30.0), (qh,), atol=1e-5, rtol=1e-4)
+
+
+@pytest.mark.parametrize("name", ["spot", "crab", "stretch"])
+def test_world_end_effectors_equal_the_motions_own_in_frame_0s_ground_frame(synthesized, name):
+    """The ground path integrated from the states puts every end-effector where the motion's FK has it
+    (world positions re-expressed in frame 0's ground frame), in NumPy and in torch."""
+    from morphkit.motion import world_end_effectors
+    from morphkit.rotations import quat_from_yaw, quat_rotate_inverse, yaw_from_quat
+
+    motion = synthesized[name]
+    x = character_state_from_motion(motion)
+    lay = character_state_layout(motion.morphology)
+    local = x[:, lay.slice("ee_positions")].reshape(x.shape[0], -1, 3)
+    root = motion.root_pose()
+    rel = motion.end_effector_positions() - np.array([root[0, 0], root[0, 1], 0.0])
+    truth = quat_rotate_inverse(quat_from_yaw(np.full(rel.shape[:2], yaw_from_quat(root[0, 3:]))), rel)
+    np.testing.assert_allclose(world_end_effectors(x, lay, local), truth, atol=1e-6)
+    got = world_end_effectors(torch.tensor(x[None]), lay, torch.tensor(local[None]))[0].numpy()
+    np.testing.assert_allclose(got, truth, atol=1e-6)
