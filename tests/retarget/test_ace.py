@@ -251,3 +251,62 @@ def test_a_shared_prior_is_found_when_retargeting(tmp_path, human_dir, dog, cach
     model = AceRetargeter(tmp_path / "b", retarget_dir=tmp_path / "b" / "retarget_wofea")
     assert model.trainer == "ace-wofea"
     assert len(model.retarget(load_motions(human_dir)[:1])) == 1
+
+
+def _dog_feature_map(dog: Path, frames: int = 40):
+    from dataclasses import replace
+
+    from morphkit.motion import NormStats, character_state_from_motion, character_state_layout
+    from morphkit.retarget.ace.model import FeatureMap
+    from morphkit.synth import SynthConfig, synthesize
+
+    m = read_morphology(dog)
+    motion = synthesize(m, frames=frames, seed=1, config=replace(SynthConfig(), rollout_seconds=frames / 30, batch=1),
+                        progress=False).motions[0]
+    x = character_state_from_motion(motion)
+    lay = character_state_layout(m)
+    stats = NormStats.fit([x])
+    ees = tuple(e.name for e in m.end_effectors)
+    return FeatureMap(m, lay, lay, stats, stats, ees, ees, 0.4, 0.4), x
+
+
+def test_prior_foot_term_is_zero_on_data_and_the_squared_step_error_otherwise(dog):
+    """Data transitions score 0; moving π's root step by δ moves every foot's step by δ: (δ/L)² exactly."""
+    from morphkit.retarget.ace.train import foot_indices, prior_foot_term
+
+    fmap, x = _dog_feature_map(dog)
+    feet = foot_indices(fmap.creature)
+    assert len(feet) == 4
+    xn = torch.as_tensor(fmap.creature_stats.normalize(x), dtype=torch.float64)
+    prev, data = xn[:-1], xn[1:]
+    assert prior_foot_term(fmap, feet, prev, data, prev, data).item() < 1e-10
+    shifted = x[1:].copy()
+    delta = 0.02
+    shifted[:, fmap.creature_layout.slice("root_displacement")] += [delta, 0.0]
+    pred = torch.as_tensor(fmap.creature_stats.normalize(shifted), dtype=torch.float64)
+    got = prior_foot_term(fmap, feet, prev, pred, prev, data).item()
+    assert got == pytest.approx((delta / fmap.creature_length) ** 2, rel=1e-5)
+    # Raising the root by h lifts every predicted foot by h: the height term alone, (h/L)².
+    raised = x[1:].copy()
+    raised[:, fmap.creature_layout.slice("root_height")] += 0.01
+    pred = torch.as_tensor(fmap.creature_stats.normalize(raised), dtype=torch.float64)
+    # The root also rises between x_{t-1} and x_t, so the feet's step gains h vertically too.
+    want = 2 * (0.01 / fmap.creature_length) ** 2
+    assert prior_foot_term(fmap, feet, prev, pred, prev, data).item() == pytest.approx(want, rel=1e-5)
+
+
+def test_residual_prior_foot_term_and_exported_discriminator_train_and_log(tmp_path, human_dir, dog, cache):
+    """Our options (residual π, the prior's foot term, D on the exported motion): the logged prior loss is
+    exactly its weighted terms, and the adversarial stage still decomposes into its logged terms."""
+    cfg = replace_config(preset("smoke"), TINY + ["prior.residual=true", "prior.foot_weight=30",
+                                                  "retarget.discriminate_exported=true"])
+    stage = train_ace(tmp_path / "run", read_morphology(dog), cfg, human_data=human_dir, progress=False,
+                      log=lambda s: None)
+    prior = tmp_path / "run" / "prior" / "metrics.csv"
+    loss, recon, kl, foot = (_column(prior, k) for k in ("prior_loss", "prior_recon", "prior_kl", "prior_foot"))
+    np.testing.assert_allclose(loss, recon + cfg.prior.kl_beta * kl + 30 * foot, rtol=1e-5)
+    assert (foot > 0).all()
+    path = stage / "metrics.csv"
+    total, adv, fea = (_column(path, k) for k in ("loss_g", "loss_g_adv", "loss_g_fea"))
+    np.testing.assert_allclose(total, adv + fea, rtol=1e-6, atol=1e-7)
+    assert np.isfinite(_column(path, "loss_d")).all()

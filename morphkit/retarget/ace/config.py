@@ -48,6 +48,13 @@ class PriorConfig:
     posterior on these states (measured on a synthesised quadruped: π's reconstruction is the same for
     any z, KL 0.002 per element), and G can only steer the character through z; 0.1 keeps z
     informative (KL 0.5 per element)."""
+    residual: bool = False
+    """π predicts x_t − x_{t-1} (ours; the paper and MotionVAE predict x_t)."""
+    foot_weight: float = 0.0
+    """Beyond the paper: weight of the prior's foot term — the feet's ground-frame step between x_{t-1}
+    and π's x_t, through morphkit's FK of the predicted joints and the integrated root path, against
+    the data's step, and their height, in body lengths (0: off, as ACE). It is what makes π's
+    outputs keep a planted foot planted once decoded and exported."""
     rollout: int = 8
     """Steps of a scheduled-sampling rollout (MotionVAE: 8)."""
     teacher_fraction: float = 0.15
@@ -73,6 +80,10 @@ class RetargetConfig:
     w_fea: float = 1.0
     w_gp: float = 0.1
     """Gradient-penalty weight on real transitions (Eq. 5: 0.1)."""
+    discriminate_exported: bool = False
+    """D judges the exported motion (ours): the generated transitions it sees carry the end-effectors
+    of morphkit's FK of their joints instead of π's own ee slots, and G's adversarial gradient flows
+    through that FK. Off: D sees π's outputs as they are (the paper)."""
     w_contact: float = 0.0
     """Beyond the paper: foot sliding + ground penetration of the FK'd motion (0: off, as ACE)."""
     window: int = 32

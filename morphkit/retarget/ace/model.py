@@ -30,7 +30,7 @@ def build_vae(state_dim: int, cfg: PriorConfig) -> MotionVAE:
     """The encoder c and MANN prior π of ``cfg`` for states of ``state_dim``."""
     encoder = MotionEncoder(state_dim, cfg.latent, hidden=cfg.encoder_hidden, activation="leaky_relu")
     prior = MotionPrior(state_dim, cfg.latent, hidden=cfg.prior_hidden, expert_count=cfg.experts,
-                        gate_hidden=cfg.gate_hidden, dropout=cfg.dropout)
+                        gate_hidden=cfg.gate_hidden, dropout=cfg.dropout, residual=cfg.residual)
     return MotionVAE(encoder, prior)
 
 
@@ -125,5 +125,8 @@ class FeatureMap:
     def character_psi(self, x_norm: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """Ψ of normalised generated states [..., Sr] (ee from FK) and the state/FK gap [..., E] [m]."""
         fixed, gap = self.creature_with_fk(x_norm)
-        psi = features(fixed, self.creature_layout, length=self.creature_length, ee_names=self.creature_ees)
-        return psi, gap
+        return self.psi_of_fixed(fixed), gap
+
+    def psi_of_fixed(self, fixed: torch.Tensor) -> torch.Tensor:
+        """Ψ of denormalised states whose ee block is already FK's (:meth:`creature_with_fk`)."""
+        return features(fixed, self.creature_layout, length=self.creature_length, ee_names=self.creature_ees)

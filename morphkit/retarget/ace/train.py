@@ -46,6 +46,7 @@ from morphkit.motion import (
     human_state_from_motion,
     human_state_layout,
     map_end_effectors,
+    world_end_effectors,
 )
 from morphkit.retarget.ace.config import AceConfig, PriorConfig, RetargetConfig
 from morphkit.retarget.ace.data import StateWindows, character_motions, human_motions
@@ -58,9 +59,11 @@ __all__ = [
     "VARIANTS",
     "AceData",
     "disc_logits",
+    "foot_indices",
     "frozen_prior",
     "gradient_penalty",
     "prepare",
+    "prior_foot_term",
     "rollout",
     "sampling_probability",
     "train_ace",
@@ -213,6 +216,8 @@ def train_prior(
     """
     pc = cfg.prior
     windows = StateWindows.build(data.character_states, pc.rollout + 1, data.features.creature_stats)
+    feet = foot_indices(data.creature)
+    use_feet = pc.foot_weight > 0 and bool(feet)
     with Run(prior_dir, trainer="ace-prior", config=pc, creature=data.creature.name, seed=cfg.seed, device=device,
              progress=progress) as run:
         vae = build_vae(windows.states.shape[1], pc).to(run.device)
@@ -229,20 +234,27 @@ def train_prior(
                 idx = torch.randint(len(windows), (pc.batch_size,), generator=run.generator)
                 w = windows.windows(idx, run.device)
                 x_prev, recon, kl = w[:, 0], 0.0, 0.0
+                prevs, preds = [], []
                 for t in range(1, w.shape[1]):
                     out = model(x_prev, w[:, t], generator=None)
                     recon = recon + F.mse_loss(out.x, w[:, t])
                     kl = kl + kl_divergence(out.mu, out.logvar)
+                    prevs.append(x_prev)
+                    preds.append(out.x)
                     own = torch.rand(w.shape[0], 1, generator=run.generator).to(run.device) < p_own
                     x_prev = torch.where(own, out.x.detach(), w[:, t])
                 steps = w.shape[1] - 1
-                loss = (recon + pc.kl_beta * kl) / steps
+                foot = w.new_zeros(())
+                if use_feet:
+                    foot = steps * prior_foot_term(data.features, feet, torch.stack(prevs, 1), torch.stack(preds, 1),
+                                                   w[:, :-1], w[:, 1:])
+                loss = (recon + pc.kl_beta * kl + pc.foot_weight * foot) / steps
                 opt.zero_grad(set_to_none=True)
                 loss.backward()
                 opt.step()
                 sched.step()
                 run.log(prior_loss=loss.detach(), prior_recon=recon.detach() / steps, prior_kl=kl.detach() / steps,
-                        p_own=p_own, lr=sched.get_last_lr()[0])
+                        prior_foot=foot.detach() / steps, p_own=p_own, lr=sched.get_last_lr()[0])
     vae.eval()
     return vae
 
@@ -295,28 +307,44 @@ def gradient_penalty(disc: torch.nn.Module, real: torch.Tensor) -> tuple[torch.T
     return logits, grad.square().sum(-1).mean()
 
 
+def foot_indices(creature: Morphology) -> list[int]:
+    """Indices of the creature's end-effectors whose role is ``foot``."""
+    return [i for i, e in enumerate(creature.end_effectors) if e.role == EndEffectorRole.FOOT]
+
+
+def prior_foot_term(fmap: FeatureMap, feet: Sequence[int], prev: torch.Tensor, pred: torch.Tensor,
+                    prev_data: torch.Tensor, data: torch.Tensor) -> torch.Tensor:
+    """Beyond the paper: the prior's foot term (``PriorConfig.foot_weight``), in squared body lengths.
+
+    For each transition ``prev`` → ``pred`` (normalised states [..., Sr]; ``pred`` = π's output) the
+    feet's step in the transition's ground frame — FK of the predicted joints placed on the
+    integrated root path (:func:`~morphkit.motion.world_end_effectors`), as exported — is compared
+    with the data's step ``prev_data`` → ``data``, and the predicted feet's height with the data's.
+    A planted foot's data step is zero, so this is what keeps π's planted feet planted.
+    """
+    lay, stats = fmap.creature_layout, fmap.creature_stats
+    x = stats.denormalize(torch.stack([prev, pred], dim=-2))
+    p_hat = world_end_effectors(x, lay, fmap.fk_end_effectors(x))[..., feet, :]
+    d = stats.denormalize(torch.stack([prev_data, data], dim=-2))
+    p = world_end_effectors(d, lay, d[..., lay.slice("ee_positions")].unflatten(-1, (-1, 3)))[..., feet, :]
+    step_error = (p_hat[..., 1, :, :] - p_hat[..., 0, :, :]) - (p[..., 1, :, :] - p[..., 0, :, :])
+    height_error = p_hat[..., 1, :, 2] - p[..., 1, :, 2]
+    return (step_error.square().sum(-1).mean() + height_error.square().mean()) / fmap.creature_length**2
+
+
 def _contact_terms(data: AceData, fixed_states: torch.Tensor, fps: float) -> torch.Tensor:
     """Beyond the paper: foot sliding [m/s] and ground penetration [m] of the generated motion, through FK.
 
-    Feet are placed in a frame that integrates the root's ground displacement and yaw over the
-    window, so a planted foot must stay put while the body moves.
+    Feet are placed on the window's integrated root path (:func:`~morphkit.motion.world_end_effectors`),
+    so a planted foot must stay put while the body moves.
     """
     import morphkit.torch as mt
-    from morphkit.rotations import quat_from_yaw, quat_rotate, yaw_from_quat
 
-    fmap, lay = data.features, data.features.creature_layout
-    feet = [i for i, e in enumerate(data.creature.end_effectors) if e.role == EndEffectorRole.FOOT]
+    feet = foot_indices(data.creature)
     if not feet:
         return fixed_states.new_zeros(())
-    yaw = torch.cumsum(-yaw_from_quat(fixed_states[..., lay.slice("previous_root_orientation")]), dim=1)
-    disp = fixed_states[..., lay.slice("root_displacement")]
-    disp3 = torch.cat([disp, torch.zeros_like(disp[..., :1])], dim=-1)
-    heading = quat_from_yaw(yaw)
-    xy = torch.cumsum(quat_rotate(heading, disp3), dim=1)
-    ee_local = fmap.fk_end_effectors(fixed_states)  # heading frame, relative to the root
-    height = fixed_states[..., lay.slice("root_height")]
-    origin = torch.cat([xy[..., :2], height], dim=-1)
-    ee = origin[..., None, :] + quat_rotate(heading[..., None, :], ee_local)
+    fmap = data.features
+    ee = world_end_effectors(fixed_states, fmap.creature_layout, fmap.fk_end_effectors(fixed_states))
     slide = mt.sliding_speed(ee, fps, feet=feet).mean()
     pen = mt.penetration_depth(ee.flatten(0, 1), feet=feet).mean()
     return slide + 10.0 * pen
@@ -366,7 +394,13 @@ def train_retargeter(
                 x_h = humans.windows(torch.randint(len(humans), (b,), generator=run.generator), dev)
                 x0 = starts.windows(torch.randint(len(starts), (b,), generator=run.generator), dev)[:, 0]
                 prev, fake = rollout(g_model, prior, x_h, x0, tbptt=rc.tbptt)
-                fake_t = torch.cat([prev, fake], dim=-1).flatten(0, 1)  # [B·T, 2 Sr]
+                fixed, gap = fmap.creature_with_fk(fake)  # what is exported: ee from FK of the joints
+                if rc.discriminate_exported:
+                    shown = fmap.creature_stats.normalize(fixed)
+                    prev = torch.cat([x0[:, None], shown[:, :-1]], dim=1)
+                else:
+                    shown = fake
+                fake_t = torch.cat([prev, shown], dim=-1).flatten(0, 1)  # [B·T, 2 Sr]
                 row: dict[str, Any] = {}
                 if use_adversarial:
                     for _ in range(rc.discriminator_steps):
@@ -382,14 +416,13 @@ def train_retargeter(
                     row |= {"loss_d": loss_d.detach(), "d_gp": gp.detach(),
                             "d_real_acc": (d_real > 0).float().mean(), "d_fake_acc": (d_fake < 0).float().mean()}
                 psi_h = fmap.human_psi(x_h)
-                psi_r, gap = fmap.character_psi(fake)
+                psi_r = fmap.psi_of_fixed(fixed)
                 fea = feature_loss(psi_h, psi_r)
                 g_adv = rc.w_adv * F.softplus(-disc_logits(d_model, disc, fake_t)).mean() if use_adversarial \
                     else fea.new_zeros(())
                 g_fea = rc.w_fea * fea if use_feature_loss else fea.new_zeros(())
                 g_contact = fea.new_zeros(())
                 if rc.w_contact > 0:
-                    fixed, _ = fmap.creature_with_fk(fake)
                     g_contact = rc.w_contact * _contact_terms(data, fixed, cfg.data.fps)
                 loss_g = g_adv + g_fea + g_contact
                 opt_g.zero_grad(set_to_none=True)
