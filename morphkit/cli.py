@@ -2,7 +2,9 @@
 
 Each subcommand lives in ``morphkit.commands.<name>`` and exposes ``add_parser(subparsers)`` and
 ``run(args) -> int``. This module is the only place that turns a :class:`MorphkitError` into
-``error: <file>:<line>: <message>`` on stderr and exit code 2.
+``error: <file>:<line>: <message>`` on stderr and exit code 2, and prints each Python warning as
+one line ``warning: <message>`` (the messages name the user's file and line; the library's own
+source line would only confuse).
 """
 
 from __future__ import annotations
@@ -11,7 +13,9 @@ import argparse
 import importlib
 import os
 import sys
+import warnings
 from collections.abc import Sequence
+from typing import Any, TextIO
 
 from morphkit._version import __version__
 from morphkit.errors import MorphkitError
@@ -50,11 +54,28 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _show_warning(
+    message: Warning | str, category: type[Warning], filename: str, lineno: int, file: TextIO | None = None,
+    line: str | None = None, **_: Any,
+) -> None:
+    text = " ".join(part.strip() for part in str(message).splitlines() if part.strip())
+    try:
+        (file or sys.stderr).write(f"warning: {text}\n")
+    except OSError:  # stderr gone (a closed pipe): nothing useful to do with a warning
+        pass
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; returns the exit code (0 success, 2 bad input)."""
     parser = build_parser()
     args = parser.parse_args(argv)
     os.environ.setdefault("MORPHKIT_QUIET_WARP", "1")
+    with warnings.catch_warnings():
+        warnings.showwarning = _show_warning
+        return _run(args)
+
+
+def _run(args: argparse.Namespace) -> int:
     try:
         return int(args.run(args) or 0)
     except MorphkitError as exc:

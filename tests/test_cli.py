@@ -170,3 +170,40 @@ def test_train_body_length_is_validated_before_training(bad, capsys):
     assert main(["train", "ace", "crab", "--body-length", bad, "--out", "/nonexistent/run"]) == 2
     err = capsys.readouterr().err
     assert err.startswith("error: --body-length must be a finite length > 0") and "Traceback" not in err
+
+
+def test_warnings_are_one_line_naming_file_and_line(tmp_path, capsys):
+    """A missing mesh and a wheeled base without wheels are read with one `warning: FILE:LINE: ...` line each."""
+    text = (
+        "name: cart\n"
+        "base: wheeled\n"
+        "links:\n"
+        "  body: {shapes: [{type: mesh, file: meshes/body.stl}]}\n"
+        "  wheel_l: {}\n"
+        "joints:\n"
+        "  wheel_l: {type: continuous, parent: body, child: wheel_l, axis: [0, 1, 0]}\n"
+    )
+    path = tmp_path / "cart.yaml"
+    path.write_text(text)
+    lines = text.splitlines()
+    mesh_line = 1 + next(i for i, ln in enumerate(lines) if "meshes/body.stl" in ln)
+    base_line = 1 + lines.index("base: wheeled")
+    assert main(["info", str(path)]) == 0
+    err = capsys.readouterr().err.splitlines()
+    assert err == [
+        f"warning: {path}:{mesh_line}: mesh file not found: {tmp_path / 'meshes' / 'body.stl'}",
+        f"warning: {path}:{base_line}: wheeled base without wheels: the base drives but no joint turns with it; "
+        "name them with wheels: {joints: [...], radius: R} (continuous joints: wheel_l)",
+    ]
+    path.write_text(text + "wheels: {joints: [wheel_l], radius: 0.1}\n")
+    assert main(["info", str(path)]) == 0
+    assert "wheeled" not in capsys.readouterr().err
+
+
+def test_cli_prints_no_warp_cuda_chatter():
+    """With the CLI's MORPHKIT_QUIET_WARP, loading and running a kernel prints nothing: no Warp banner, no
+    module-load line, no note that a CPU-only machine has no CUDA driver."""
+    code = "import morphkit.kernels, warp; warp.zeros(3, device='cpu').numpy()"
+    env = {**os.environ, "MORPHKIT_QUIET_WARP": "1"}
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, env=env, check=False)
+    assert done.returncode == 0 and done.stdout == "" and done.stderr == "", done.stderr

@@ -71,7 +71,7 @@ def read_morphology(path: str | os.PathLike[str]) -> Morphology:
         GraphError: the description is structurally invalid.
     """
     p = Path(path)
-    if not p.is_file() and (p.is_dir() or not p.suffix):
+    if not p.is_file() and not p.suffix:
         # A folder or a bare name: resolve as the CLI does (its error lists the shipped names).
         p = path = resolve_morphology(path)
     where = SourceLocation(str(path))

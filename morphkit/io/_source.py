@@ -14,8 +14,9 @@ import warnings
 from pathlib import Path
 
 from morphkit.errors import DescriptionError, SourceLocation
+from morphkit.graph import BaseType, JointType, Morphology
 
-__all__ = ["location", "read_text", "relative_mesh_path", "resolve_mesh_path"]
+__all__ = ["location", "read_text", "relative_mesh_path", "resolve_mesh_path", "warn_wheeled_without_wheels"]
 
 
 def location(source: str | None, line: int | None) -> SourceLocation:
@@ -113,3 +114,26 @@ def relative_mesh_path(mesh: str, target: str | os.PathLike[str] | None) -> str:
         return Path(os.path.relpath(mesh, target_dir)).as_posix()
     except ValueError:  # different drives on Windows
         return mesh
+
+
+def warn_wheeled_without_wheels(m: Morphology, loc: SourceLocation | None, *, how: str) -> Morphology:
+    """Warn when a wheeled base names no wheels (allowed: the base drives, but nothing turns with it).
+
+    Args:
+        m: The morphology just read.
+        loc: Where the base was declared.
+        how: How the description names wheels, for the hint (``"wheels: {joints: [...], radius: R}"``).
+
+    Returns:
+        ``m``, unchanged.
+    """
+    if m.base != BaseType.WHEELED or m.wheels is not None:
+        return m
+    spinning = [j.name for j in m.joints if j.type == JointType.CONTINUOUS]
+    hint = f" (continuous joints: {', '.join(spinning)})" if spinning else ""
+    where = f"{loc}: " if loc is not None else ""
+    warnings.warn(
+        f"{where}wheeled base without wheels: the base drives but no joint turns with it; name them with {how}{hint}",
+        stacklevel=3,
+    )
+    return m

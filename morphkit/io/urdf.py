@@ -60,7 +60,7 @@ from morphkit.graph import (
     Transform,
 )
 from morphkit.graph.types import parse_enum
-from morphkit.io._source import read_text, relative_mesh_path, resolve_mesh_path
+from morphkit.io._source import read_text, relative_mesh_path, resolve_mesh_path, warn_wheeled_without_wheels
 
 __all__ = ["dump_urdf", "parse_urdf", "read_urdf", "write_urdf"]
 
@@ -242,7 +242,9 @@ class _Reader:
         if wheels is not None:
             names = self.attr(wheels, "joints", "wheels").split()
             b.set_wheels(names, self.number(wheels, "radius", "wheels"), location=self.loc(wheels))
-        return b.build()
+        return warn_wheeled_without_wheels(
+            b.build(), self.loc(base_el) if base_el is not None else None, how='<wheels joints="..." radius="R"/>'
+        )
 
     def _end(self, el: Any, tag: str, jname: str) -> str | None:
         sub = el.find(tag)

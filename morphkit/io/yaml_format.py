@@ -64,7 +64,7 @@ from morphkit.graph import (
     Transform,
 )
 from morphkit.graph.types import parse_enum
-from morphkit.io._source import read_text, relative_mesh_path, resolve_mesh_path
+from morphkit.io._source import read_text, relative_mesh_path, resolve_mesh_path, warn_wheeled_without_wheels
 
 __all__ = ["dump_yaml", "parse_yaml", "read_yaml", "write_yaml"]
 
@@ -395,7 +395,9 @@ class _Reader:
             names = [self.name(v, "wheels joint", jl.item_lines[i]) for i, v in enumerate(jl)]
             radius = self.number(m["radius"], "wheels radius", self.line_of(m, "radius"))
             b.set_wheels(names, radius, location=self.loc(line))
-        return b.build()
+        return warn_wheeled_without_wheels(
+            b.build(), self.loc(self.line_of(top, "base")), how="wheels: {joints: [...], radius: R}"
+        )
 
     def joint(self, b: MorphologyBuilder, joints: _Map, joint_name: Any, value: Any) -> None:
         line = joints.key_lines[joint_name]

@@ -11,6 +11,9 @@ import warp as _wp
 if _os.environ.get("MORPHKIT_QUIET_WARP"):
     # Set by the CLI, which owns stdout: Warp's banner and module-load lines would break --json output.
     _wp.config.log_level = _wp.LOG_WARNING
+    from morphkit.kernels.launch import init_warp_quietly as _init_quietly
+
+    _init_quietly()
 
 from morphkit.kernels.contact import SelfCollisionPairs as SelfCollisionPairs
 from morphkit.kernels.contact import eval_contact_flags as eval_contact_flags

@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import math
 import os
+import sys
+import tempfile
 import threading
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any
@@ -28,12 +30,16 @@ __all__ = [
     "as_shape",
     "cpu_pool",
     "cpu_thread_count",
+    "init_warp_quietly",
     "launch",
     "launch_chunks",
     "resolve_device",
     "set_cpu_thread_count",
     "tape_active",
 ]
+
+_NO_CUDA_DRIVER = "Could not find or load the NVIDIA CUDA driver"
+"""Warp's note on a machine without a CUDA driver: expected on CPU-only machines, so dropped."""
 
 _MIN_CHUNK = 2048
 """Smallest CPU chunk worth a thread of its own [poses]."""
@@ -51,6 +57,33 @@ class _CpuThreads:
 
 
 _cpu = _CpuThreads()
+
+
+def init_warp_quietly() -> None:
+    """Initialise Warp without its note that no CUDA driver was found (CPU-only machines run fine).
+
+    Warp's native library prints that note straight to file descriptor 2 (below Python's
+    ``sys.stderr``) while it initialises; the descriptor is pointed at a temporary file for that
+    call and whatever else Warp printed there is passed on. A no-op once Warp is initialised.
+    """
+    try:
+        sys.stderr.flush()
+        saved = os.dup(2)
+    except (OSError, ValueError):  # no real stderr (embedded interpreters): initialise as is
+        wp.init()
+        return
+    with tempfile.TemporaryFile() as caught:
+        os.dup2(caught.fileno(), 2)
+        try:
+            wp.init()
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+        caught.seek(0)
+        text = caught.read().decode("utf-8", "replace")
+    kept = [line for line in text.splitlines() if line.strip() and _NO_CUDA_DRIVER not in line]
+    if kept:
+        sys.stderr.write("\n".join(kept) + "\n")
 
 
 def cpu_thread_count() -> int:
