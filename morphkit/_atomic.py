@@ -6,12 +6,13 @@ A crash or a bad input never leaves a half-written file where a user's file was.
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
-__all__ = ["atomic_path", "atomic_write_bytes", "atomic_write_text"]
+__all__ = ["atomic_path", "atomic_write_bytes", "atomic_write_text", "check_writable"]
 
 
 @contextlib.contextmanager
@@ -35,6 +36,33 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     finally:
         if tmp_path.exists():
             tmp_path.unlink()
+
+
+def check_writable(path: str | os.PathLike[str]) -> None:
+    """Raise unless :func:`atomic_path` could write ``path``: call it before work whose result goes there.
+
+    ``path`` must not be a folder, and a file must be creatable in its folder (or, where that folder does
+    not exist yet, in the nearest one above it, which :func:`atomic_path` would create it from). A probe
+    file is created and removed; no folder is created.
+
+    Raises:
+        OSError: ``IsADirectoryError``, ``NotADirectoryError`` or the error creating the probe (for example
+            ``PermissionError``), with ``filename`` set to ``path``.
+    """
+    target = Path(path)
+    if target.is_dir():
+        raise IsADirectoryError(errno.EISDIR, "is a folder, not a file", os.fspath(path))
+    folder = target.absolute().parent
+    while not folder.exists() and folder.parent != folder:
+        folder = folder.parent
+    if not folder.is_dir():
+        raise NotADirectoryError(errno.ENOTDIR, f"{folder} is not a folder", os.fspath(path))
+    try:
+        fd, probe = tempfile.mkstemp(prefix=f".{target.stem}.", suffix=".probe", dir=folder)
+    except OSError as exc:
+        raise type(exc)(exc.errno, f"cannot write in {folder}: {exc.strerror or exc}", os.fspath(path)) from None
+    os.close(fd)
+    os.unlink(probe)
 
 
 def _umask() -> int:

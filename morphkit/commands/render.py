@@ -4,6 +4,7 @@ Examples::
 
     morphkit render spot --turntable --frames 72 --out spot.gif
     morphkit render spot --motion walk.npz --out walk.mp4
+    morphkit render spot --motion walk.npz --frames 60:180 --follow --azimuth 90 --out side.mp4
     morphkit render spot --motion walk.npz --compare human_walk.bvh --out compare.mp4
     morphkit render crab --turntable --contact-sheet --out crab.png
 """
@@ -11,6 +12,7 @@ Examples::
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 from typing import Any
 
@@ -36,9 +38,16 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--motion", metavar="M", help="motion to play: .npz (morphkit motion, or arrays q [T, C] and fps), .bvh, .usd"
     )
     p.add_argument(
-        "--compare", metavar="HUMAN_MOTION", help="with --motion: show this (human) motion on the left, in sync"
+        "--compare", metavar="HUMAN_MOTION",
+        help="with --motion: show this (human) motion on the left, aligned by time; ends with the shorter clip",
     )
-    p.add_argument("--frames", type=int, default=72, help="turntable views over 360° (default: 72)")
+    p.add_argument("--until-longer", action="store_true",
+                   help="with --compare: play until the longer clip ends (the shorter holds its last frame)")
+    p.add_argument(
+        "--frames", default=None, metavar="N | A:B",
+        help="turntable: N views over 360° (default: 72); --motion: frames A to B-1 of the clip (A:, :B and N, "
+        "the first N, too; with --compare the human clip shows the same time span)",
+    )
     p.add_argument(
         "--fps", type=float, default=None, help="output frame rate (default: 24 for turntables, else the motion's)"
     )
@@ -49,7 +58,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--azimuth", type=float, default=45.0, help="camera azimuth [deg]; 0 looks at the front, 90 at the left side"
     )
-    p.add_argument("--fixed-camera", action="store_true", help="do not follow the root; frame the whole clip")
+    camera = p.add_mutually_exclusive_group()
+    camera.add_argument("--fixed-camera", action="store_true", help="do not follow the root; frame the whole clip")
+    camera.add_argument(
+        "--follow", action="store_true",
+        help="turn the camera with the creature's heading (smoothed over 1 s): --azimuth is then relative to its "
+        "front, so --azimuth 90 keeps its left side in view while it turns",
+    )
     p.add_argument("--contact-sheet", action="store_true", help="write a PNG grid of 12 evenly spaced frames")
     p.add_argument(
         "--out", metavar="PATH", default=None, help="output file (.gif, .mp4, .png); a name is made up if omitted"
@@ -113,6 +128,45 @@ def _on_creature(motion: Any, creature: Any, path: str) -> Any:
     return Motion(creature, motion.fps, motion.q, name=getattr(motion, "name", ""))
 
 
+def _views(text: str | None) -> int:
+    """``--frames`` of a turntable: a view count (default 72)."""
+    if text is not None and ":" in text:
+        raise ConfigError(f"--frames {text}: a range selects frames of a --motion; a turntable takes a view count")
+    try:
+        n = 72 if text is None else int(text)
+    except ValueError:
+        raise ConfigError(f"--frames: expected a number of views, got {text!r}") from None
+    if n < 1:
+        raise ConfigError(f"--frames must be at least 1, got {n}")
+    return n
+
+
+def _frame_range(text: str | None) -> tuple[int | None, int | None]:
+    """``--frames`` of a motion: ``A:B`` (``A:``, ``:B``; ``N`` means ``:N``) as Python slice bounds."""
+    if text is None:
+        return None, None
+    a, sep, b = text.partition(":")
+    if not sep:
+        a, b = "", a
+    try:
+        start, stop = (int(a) if a.strip() else None), (int(b) if b.strip() else None)
+    except ValueError:
+        raise ConfigError(f"--frames: expected A:B (frame numbers from 0; A: and :B too), got {text!r}") from None
+    if (start is not None and start < 0) or (stop is not None and stop < 0):
+        raise ConfigError(f"--frames {text}: frame numbers count from 0")
+    if stop is not None and stop <= (start or 0):
+        raise ConfigError(f"--frames {text}: selects no frame (B must be greater than A)")
+    return start, stop
+
+
+def _same_span(human: Any, start: int | None, stop: int | None, fps: float) -> Any:
+    """The frames of ``human`` that cover the creature's frames ``start:stop`` at ``fps`` (same times)."""
+    t0 = (start or 0) / fps
+    first = math.floor(t0 * human.fps + 1e-9)
+    last = None if stop is None else max(first + 1, math.ceil(stop / fps * human.fps - 1e-9))
+    return human.slice(first, last)
+
+
 def _out(args: argparse.Namespace, name: str, what: str) -> str:
     if args.out is not None:
         if args.contact_sheet and Path(args.out).suffix.lower() != ".png":
@@ -125,7 +179,21 @@ def run(args: argparse.Namespace) -> int:
     from morphkit.io import read_morphology
     from morphkit.io.shipped import resolve_morphology
     from morphkit.render import RenderStyle, render_motion, render_side_by_side, turntable
+    from morphkit.render.video import check_output
 
+    if args.compare and not args.motion:
+        raise ConfigError("--compare needs --motion (the creature's clip to show beside the human one)")
+    if args.until_longer and not args.compare:
+        raise ConfigError("--until-longer needs --compare (it says which clip ends the comparison)")
+    if args.follow and not args.motion:
+        raise ConfigError("--follow needs --motion (a turntable already circles the creature)")
+    if args.fps is not None and not args.fps > 0:
+        raise ConfigError(f"--fps must be positive, got {args.fps}")
+    views = _views(args.frames) if args.motion is None else 0
+    start, stop = _frame_range(args.frames) if args.motion else (None, None)
+    if args.out is not None:  # before reading anything: a bad output is refused before any work
+        _out(args, "", "")
+        check_output(args.out)
     creature = read_morphology(resolve_morphology(args.creature))
     style = RenderStyle(
         shadows=not args.no_shadows,
@@ -133,28 +201,27 @@ def run(args: argparse.Namespace) -> int:
         elevation_deg=args.elevation,
         azimuth_deg=args.azimuth,
     )
-    if args.compare and not args.motion:
-        raise ConfigError("--compare needs --motion (the creature's clip to show beside the human one)")
-    if args.fps is not None and not args.fps > 0:
-        raise ConfigError(f"--fps must be positive, got {args.fps}")
 
     if args.motion is None:
-        if args.frames < 1:
-            raise ConfigError(f"--frames must be at least 1, got {args.frames}")
         out = _out(args, creature.name, "turntable")
+        check_output(out)
         still = Path(out).suffix.lower() == ".png" and not args.contact_sheet
-        frames = 1 if still else (min(args.frames, 12) if args.contact_sheet else args.frames)
+        views = 1 if still else (min(views, 12) if args.contact_sheet else views)
         path = turntable(
-            creature, out, frames=frames, fps=args.fps or 24.0, size=_size(args.size, (640, 480)), style=style
+            creature, out, frames=views, fps=args.fps or 24.0, size=_size(args.size, (640, 480)), style=style
         )
-        print(f"wrote {path} ({creature.name}: {'still' if frames == 1 else f'{frames} views'})")
+        print(f"wrote {path} ({creature.name}: {'still' if views == 1 else f'{views} views'})")
         return 0
 
     motion = _on_creature(_load_motion(args.motion, creature), creature, args.motion)
     follow = not args.fixed_camera
     if args.compare:
-        human = _load_motion(args.compare, None)
         out = _out(args, creature.name, "compare")
+        check_output(out)
+        human = _load_motion(args.compare, None)
+        if args.frames is not None:
+            human = _same_span(human, start, stop, motion.fps)
+            motion = motion.slice(start, stop)
         path = render_side_by_side(
             human,
             motion,
@@ -164,16 +231,22 @@ def run(args: argparse.Namespace) -> int:
             style=style,
             fps=args.fps,
             follow=follow,
+            follow_heading=args.follow,
+            until_longer=args.until_longer,
         )
         print(f"wrote {path} ({human.morphology.name} | {creature.name})")
         return 0
 
     out = _out(args, creature.name, Path(args.motion).stem)
+    check_output(out)
+    if args.frames is not None:
+        motion = motion.slice(start, stop)
     q, fps = motion.q, motion.fps
     if args.fps is not None and args.fps != fps:
         from morphkit.render.compare import sync_indices
 
         q, fps = q[sync_indices([len(q)], [fps], args.fps)[:, 0]], args.fps
-    path = render_motion(creature, q, fps, out=out, size=_size(args.size, (640, 480)), style=style, follow=follow)
+    path = render_motion(creature, q, fps, out=out, size=_size(args.size, (640, 480)), style=style, follow=follow,
+                         follow_heading=args.follow)
     print(f"wrote {path} ({creature.name}: {len(q)} frames at {fps:g} fps)")
     return 0

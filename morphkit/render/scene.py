@@ -8,6 +8,7 @@ Frames: world z up, x the creature's forward direction (see :mod:`morphkit.conve
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -173,6 +174,8 @@ def shape_trimesh(shape: Shape, *, source: str | None = None) -> Any:
         mesh = trimesh.creation.box(extents=shape.size)
     else:
         path = _resolve_mesh(str(shape.mesh), source)
+        if not path.is_file():
+            raise DescriptionError(f"mesh file not found: {path}")
         try:
             mesh = trimesh.load(path, force="mesh")
         except Exception as exc:  # trimesh raises assorted errors per format
@@ -313,12 +316,17 @@ class CreatureScene:
         self._link_nodes: list[tuple[int, Any]] = []
         corners: list[tuple[int, np.ndarray]] = []
         for i, link in enumerate(m.links):
-            if link.shapes:
+            meshes, failed = [], []
+            for shape in link.shapes:
                 try:
-                    meshes = [shape_trimesh(s, source=m.source) for s in link.shapes]
-                except DescriptionError as exc:
-                    raise DescriptionError(f"link {link.name!r}: {exc.message}", location=link.location) from None
-            else:
+                    meshes.append(shape_trimesh(shape, source=m.source))
+                except DescriptionError as exc:  # a missing or unreadable mesh: draw what there is, say so
+                    failed.append(exc.message)
+            if failed:
+                where = f"{link.location}: " if link.location is not None else ""
+                instead = "its other shapes" if meshes else "a stand-in (bones to its joints)"
+                warnings.warn(f"{where}link {link.name!r}: {'; '.join(failed)}; drawn with {instead}", stacklevel=2)
+            if not meshes:
                 meshes = _bone_trimeshes(m, i, 0.025 * length)
             merged = trimesh.util.concatenate([mesh.smooth_shaded for mesh in meshes])
             material = pyrender.MetallicRoughnessMaterial(

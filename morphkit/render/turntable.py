@@ -13,7 +13,7 @@ from morphkit.graph import Morphology
 from morphkit.render._gl import offscreen_renderer
 from morphkit.render._pose import link_poses
 from morphkit.render.scene import CreatureScene, RenderStyle, check_size, fit_distance
-from morphkit.render.video import progress_bar, write_frames
+from morphkit.render.video import check_output, progress_bar, write_frames
 
 __all__ = ["iter_turntable_frames", "turntable", "turntable_frames"]
 
@@ -95,9 +95,10 @@ def turntable(
 
     The format follows the suffix: ``.gif`` (always available), ``.mp4`` (needs ffmpeg, e.g. the
     ``imageio-ffmpeg`` package), ``.png`` (one frame: a still; several: a contact sheet). The file
-    is written atomically. Other arguments as :func:`iter_turntable_frames`; ``fps`` is the
-    playback rate of videos [frames/s].
+    is written atomically; one that cannot be written is refused before anything is drawn. Other
+    arguments as :func:`iter_turntable_frames`; ``fps`` is the playback rate of videos [frames/s].
     """
+    check_output(out)
     it = iter_turntable_frames(m, q=q, frames=frames, size=size, style=style, start_deg=start_deg, progress=progress)
     labels = [f"{(i * 360.0 / frames):.0f}°" for i in range(frames)]
     return write_frames(it, out, fps=fps, labels=labels if frames > 1 else None)

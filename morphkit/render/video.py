@@ -10,17 +10,21 @@ from typing import Any
 
 import numpy as np
 
-from morphkit._atomic import atomic_path
+from morphkit._atomic import atomic_path, check_writable
 from morphkit.errors import ConfigError, MotionFormatError
 from morphkit.graph import Morphology
 from morphkit.render._gl import offscreen_renderer
 from morphkit.render._pose import as_q, link_poses
 from morphkit.render.scene import CreatureScene, RenderStyle, check_size, fit_distance
 from morphkit.render.sheet import contact_sheet, sample_indices, write_image
+from morphkit.rotations import yaw_from_quat
 
 __all__ = [
+    "HEADING_SMOOTHING_S",
     "VIDEO_SUFFIXES",
     "MotionFraming",
+    "camera_azimuths",
+    "check_output",
     "ffmpeg_available",
     "iter_motion_frames",
     "motion_frames",
@@ -90,18 +94,13 @@ def write_frames(
 
     Raises:
         ConfigError: Unknown suffix, no ffmpeg for a video suffix, or no frames.
+        OSError: ``out`` cannot be written (checked before the first frame is drawn).
     """
     path = Path(out)
     suffix = path.suffix.lower()
     if not fps > 0:
         raise ConfigError(f"fps must be positive, got {fps}")
-    if suffix not in (*VIDEO_SUFFIXES, ".png"):
-        raise ConfigError(f"cannot write {path}: unknown output type {suffix!r}; use .gif, .mp4 or .png")
-    if suffix not in (".gif", ".png") and not ffmpeg_available():
-        raise ConfigError(
-            f"cannot write {path}: {suffix} needs ffmpeg (pip install imageio-ffmpeg, or install "
-            "morphkit[render]); write a .gif instead"
-        )
+    check_output(path)
 
     if suffix == ".png":
         kept = list(frames)
@@ -148,6 +147,26 @@ def write_frames(
     return path
 
 
+def check_output(out: str | os.PathLike[str]) -> None:
+    """Refuse an output the writers cannot write, before anything is drawn.
+
+    Raises:
+        ConfigError: Unknown suffix, or a video suffix without ffmpeg.
+        OSError: ``out`` is a folder or its folder is not writable
+            (:func:`~morphkit._atomic.check_writable`).
+    """
+    path = Path(out)
+    check_writable(path)
+    suffix = path.suffix.lower()
+    if suffix not in (*VIDEO_SUFFIXES, ".png"):
+        raise ConfigError(f"cannot write {path}: unknown output type {suffix!r}; use .gif, .mp4 or .png")
+    if suffix not in (".gif", ".png") and not ffmpeg_available():
+        raise ConfigError(
+            f"cannot write {path}: {suffix} needs ffmpeg (pip install imageio-ffmpeg, or install "
+            "morphkit[render]); write a .gif instead"
+        )
+
+
 # ---- motions --------------------------------------------------------------------------------
 def unpack_motion(motion: Any, q: Any = None, fps: float | None = None) -> tuple[Morphology, np.ndarray, float]:
     """``(morphology, q [T, coordinate_count], fps)`` from a Morphology plus ``q`` and ``fps``, or
@@ -185,8 +204,33 @@ def _smooth(x: np.ndarray, sigma: float) -> np.ndarray:
     return np.stack([np.convolve(padded[:, i], k, mode="valid") for i in range(x.shape[1])], axis=1)
 
 
+HEADING_SMOOTHING_S = 1.0
+"""σ [s] of the Gaussian smoothing of the heading a following camera turns with: it takes a creature's
+turns but not the sway of each step."""
+
+
+def camera_azimuths(poses: np.ndarray, fps: float, azimuth_deg: float, *, follow_heading: bool) -> np.ndarray:
+    """Camera azimuth [deg] per frame, shape [T]: ``azimuth_deg`` in the world, or with ``follow_heading``
+    relative to the root's heading (its +x on the ground; unwrapped, smoothed with σ =
+    :data:`HEADING_SMOOTHING_S`), so 90 keeps looking at the creature's left side while it turns."""
+    count = len(poses)
+    if not follow_heading:
+        return np.full(count, float(azimuth_deg))
+    yaw = np.unwrap(np.asarray(yaw_from_quat(np.asarray(poses[:, 0, 3:7], dtype=float)), dtype=float))
+    yaw = _smooth(yaw[:, None], HEADING_SMOOTHING_S * fps)[:, 0]
+    return float(azimuth_deg) + np.degrees(yaw)
+
+
+def _rotate_z(points: np.ndarray, angles: np.ndarray) -> np.ndarray:
+    """``points`` [T, N, 3] turned about z by ``-angles`` [T] [rad] (world into a frame turned by ``angles``)."""
+    c, s = np.cos(angles)[:, None], np.sin(angles)[:, None]
+    x, y = points[..., 0], points[..., 1]
+    return np.stack([c * x + s * y, -s * x + c * y, points[..., 2]], axis=-1)
+
+
 class MotionFraming:
-    """Camera targets, distance and ground for a clip: a fixed view direction, target following the root.
+    """Camera targets, azimuths, distance and ground for a clip: the target follows the root, and the
+    view direction is fixed in the world or turns with the creature's heading.
 
     Args:
         scene: The creature's scene (gives the framing points).
@@ -194,25 +238,42 @@ class MotionFraming:
         fps: Frame rate [frames/s] (sets the smoothing window).
         aspect: Image width / height.
         follow: Follow the root (smoothed, σ = 0.5 s); otherwise one fixed view of the whole clip.
+        follow_heading: Turn the camera with the creature's heading (:func:`camera_azimuths`): the
+            style's azimuth is then relative to the creature's front.
     """
 
-    def __init__(self, scene: CreatureScene, poses: np.ndarray, fps: float, aspect: float, *, follow: bool = True):
+    def __init__(
+        self,
+        scene: CreatureScene,
+        poses: np.ndarray,
+        fps: float,
+        aspect: float,
+        *,
+        follow: bool = True,
+        follow_heading: bool = False,
+    ):
         style = scene.style
+        self.azimuths = camera_azimuths(poses, fps, style.azimuth_deg, follow_heading=follow_heading)
+        """Camera azimuth of each frame [deg], shape [T]."""
         stride = max(1, len(poses) // 240)  # framing from ≤ ~240 frames is plenty and keeps long clips cheap
         points = scene.world_points(poses)  # [T, N, 3]
         lo, hi = points.min(axis=1), points.max(axis=1)
         centers = (lo + hi) / 2
         root = np.asarray(poses[:, 0, :3], dtype=float)
+        turn = np.radians(self.azimuths - style.azimuth_deg)  # the camera's turn from its first azimuth
         if follow:
-            # The box centre sits at a steady offset from the root; the root's path is smoothed so
-            # the camera glides instead of shaking with every step.
-            offset = np.median(centers - root, axis=0)
-            self.targets = _smooth(root, 0.5 * fps) + offset
+            # The box centre sits at a steady offset from the root (in the camera's turning frame); the
+            # root's path is smoothed so the camera glides instead of shaking with every step.
+            offset = np.median(_rotate_z((centers - root)[:, None], turn)[:, 0], axis=0)
+            offsets = _rotate_z(np.broadcast_to(offset, root.shape)[:, None], -turn)[:, 0]
+            self.targets = _smooth(root, 0.5 * fps) + offsets
             self.targets[:, 2] = float(np.median(centers[:, 2]))
         else:
             c = (lo.min(axis=0) + hi.max(axis=0)) / 2
             self.targets = np.repeat(c[None], len(poses), axis=0)
-        rel = (points - self.targets[:, None])[::stride].reshape(-1, 3)
+        rel = (points - self.targets[:, None])[::stride]
+        # Framing in the camera's turning frame: one distance fits every frame's view.
+        rel = _rotate_z(rel, turn[::stride]).reshape(-1, 3)
         self.distance = fit_distance(
             rel, style.azimuth_deg, style.elevation_deg, yfov_deg=style.yfov_deg, aspect=aspect, margin=style.margin
         )
@@ -235,13 +296,15 @@ def iter_motion_frames(
     size: tuple[int, int] = (640, 480),
     style: RenderStyle | None = None,
     follow: bool = True,
+    follow_heading: bool = False,
     frame_indices: Sequence[int] | None = None,
     progress: bool | None = None,
 ) -> Iterator[np.ndarray]:
     """Yield the frames of a motion, each RGB uint8 [H, W, 3].
 
-    The camera keeps ``style``'s azimuth and elevation and follows the root smoothly; the ground
-    lies under the clip's lowest point.
+    The camera keeps ``style``'s elevation and azimuth (in the world, or relative to the creature's
+    heading with ``follow_heading``) and follows the root smoothly; the ground lies under the clip's
+    lowest point.
 
     Args:
         motion: A Morphology (then ``q`` and ``fps`` are needed) or an object with ``.morphology``,
@@ -251,6 +314,7 @@ def iter_motion_frames(
         size: Image ``(width, height)`` [px].
         style: Drawing options.
         follow: Follow the root; otherwise one fixed view framing the whole clip.
+        follow_heading: Turn the camera with the creature's heading, smoothed (see :class:`MotionFraming`).
         frame_indices: Render only these frames (framing still uses the whole clip).
         progress: Progress bar on stderr; by default only for long renders on a terminal.
     """
@@ -259,7 +323,7 @@ def iter_motion_frames(
     style = style or RenderStyle()
     poses = link_poses(m, q_arr)
     scene = CreatureScene(m, style=style)
-    framing = MotionFraming(scene, poses, fps_f, width / height, follow=follow)
+    framing = MotionFraming(scene, poses, fps_f, width / height, follow=follow, follow_heading=follow_heading)
     idx = np.arange(len(poses)) if frame_indices is None else np.asarray(frame_indices, dtype=int)
     if idx.size and (idx.min() < 0 or idx.max() >= len(poses)):
         raise ConfigError(f"frame indices must lie in [0, {len(poses)}), got {idx.min()}..{idx.max()}")
@@ -269,7 +333,7 @@ def iter_motion_frames(
             scene.place_ground(
                 framing.targets[t, :2], framing.ground_z, framing.ground_radius, slack=framing.ground_slack
             )
-            scene.set_camera(framing.targets[t], framing.distance, style.azimuth_deg, width / height)
+            scene.set_camera(framing.targets[t], framing.distance, framing.azimuths[t], width / height)
             yield scene.render(renderer)
 
 
@@ -287,20 +351,20 @@ def render_motion(
     size: tuple[int, int] = (640, 480),
     style: RenderStyle | None = None,
     follow: bool = True,
+    follow_heading: bool = False,
     progress: bool | None = None,
 ) -> Path:
     """Render a motion to ``out`` (``.gif``, ``.mp4``, or ``.png`` contact sheet) and return the path.
 
     Arguments as :func:`iter_motion_frames`; videos play at the motion's ``fps``. For a ``.png``
-    only the contact sheet's frames are rendered.
+    only the contact sheet's frames are rendered. An output that cannot be written is refused before
+    anything is drawn (:func:`check_output`).
     """
     m, q_arr, fps_f = unpack_motion(motion, q, fps)
+    check_output(out)
+    kw: dict[str, Any] = {"size": size, "style": style, "follow": follow, "follow_heading": follow_heading}
     if Path(out).suffix.lower() == ".png" and len(q_arr) > 1:
         idx = sample_indices(len(q_arr), SHEET_FRAMES)
-        it = iter_motion_frames(
-            m, q_arr, fps_f, size=size, style=style, follow=follow, frame_indices=idx, progress=progress
-        )
-        frames = list(it)
+        frames = list(iter_motion_frames(m, q_arr, fps_f, frame_indices=idx, progress=progress, **kw))
         return write_image(contact_sheet(frames, labels=[f"t = {i / fps_f:.2f} s" for i in idx]), out)
-    it = iter_motion_frames(m, q_arr, fps_f, size=size, style=style, follow=follow, progress=progress)
-    return write_frames(it, out, fps=fps_f)
+    return write_frames(iter_motion_frames(m, q_arr, fps_f, progress=progress, **kw), out, fps=fps_f)

@@ -100,6 +100,102 @@ def test_sync_indices_align_clips_by_time():
     np.testing.assert_array_equal(idx[:, 1], np.arange(30) // 3)
 
 
+def test_sync_indices_end_with_the_shorter_clip_unless_asked():
+    """A 1 s clip at 30 fps beside a 0.5 s clip at 20 fps: 15 output frames at 30 fps, or 30 with until_longer,
+    the short clip then holding its last frame; each column shows the frame at the same instant."""
+    from morphkit.render.compare import sync_indices
+
+    short = sync_indices([30, 10], [30.0, 20.0], 30.0)
+    assert short.shape == (15, 2)
+    t = np.arange(15) / 30.0
+    np.testing.assert_array_equal(short[:, 0], np.arange(15))
+    np.testing.assert_array_equal(short[:, 1], np.floor(t * 20.0 + 1e-9).astype(int))
+    longer = sync_indices([30, 10], [30.0, 20.0], 30.0, until_longer=True)
+    assert longer.shape == (30, 2)
+    np.testing.assert_array_equal(longer[:15], short)
+    assert (longer[15:, 1] == 9).all()
+
+
+def test_camera_azimuths_turn_with_the_smoothed_heading():
+    """A root turning at a constant rate through ±180° (the heading wraps) swaying 2 Hz from side to side: the
+    following camera turns with the turn, unwrapped, and not with the sway; a world camera stays put."""
+    from morphkit.render.video import HEADING_SMOOTHING_S, camera_azimuths
+    from morphkit.rotations import quat_from_yaw
+
+    fps, T = 20.0, 200
+    t = np.arange(T) / fps
+    turn = 2.5 + 0.4 * t  # rad: passes π at t ≈ 1.6 s
+    poses = np.zeros((T, 1, 7))
+    poses[:, 0, 3:] = quat_from_yaw(turn + 0.2 * np.sin(2 * np.pi * 2.0 * t))
+    az = camera_azimuths(poses, fps, 90.0, follow_heading=True)
+    inner = slice(int(3 * HEADING_SMOOTHING_S * fps), T - int(3 * HEADING_SMOOTHING_S * fps))
+    np.testing.assert_allclose(az[inner], 90.0 + np.degrees(turn[inner]), atol=0.05)
+    assert np.abs(np.diff(az)).max() < 2.0  # no 360° jump where the heading wraps
+    np.testing.assert_array_equal(camera_azimuths(poses, fps, 90.0, follow_heading=False), np.full(T, 90.0))
+
+
+@pytest.fixture
+def read_only_dir(tmp_path: Path) -> Path:
+    """A folder no file can be created in: a chmod 555 folder, or /sys where chmod does not bind (root)."""
+    folder = tmp_path / "ro"
+    folder.mkdir()
+    folder.chmod(0o555)
+    for candidate in (folder, Path("/sys")):
+        try:
+            (candidate / ".probe").touch()
+        except OSError:
+            return candidate
+        (candidate / ".probe").unlink()
+    pytest.skip("no read-only folder to write into here")
+
+
+def test_render_refuses_an_unwritable_output_before_rendering(read_only_dir, tmp_path, monkeypatch, capsys):
+    """A read-only, folder or unknown-type output is one error line, exit 2, before any frame is drawn."""
+    import morphkit.render.scene as scene
+    from morphkit.cli import main
+
+    def drawn(*args, **kwargs):
+        raise AssertionError("rendering started")
+
+    monkeypatch.setattr(scene.CreatureScene, "__init__", drawn)
+    m = quadruped()
+    from morphkit.io import write_morphology
+
+    write_morphology(m, tmp_path / "quad.yaml")
+    np.savez(tmp_path / "walk.npz", q=np.repeat(m.rest_q()[None], 3, axis=0), fps=np.float64(10.0))
+    out = read_only_dir / "a.png"
+    motion = ["--motion", str(tmp_path / "walk.npz")]
+    for extra in ([], motion, [*motion, "--compare", str(tmp_path / "walk.npz")]):
+        assert main(["render", str(tmp_path / "quad.yaml"), *extra, "--out", str(out)]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith(f"error: {out}: cannot write in {read_only_dir}") and err.count("\n") == 1
+    assert main(["render", str(tmp_path / "quad.yaml"), "--out", str(tmp_path)]) == 2
+    assert "is a folder" in capsys.readouterr().err
+    assert main(["render", str(tmp_path / "quad.yaml"), "--out", str(tmp_path / "a.txt")]) == 2
+    assert "unknown output type" in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_render_frame_and_option_errors_are_one_line(tmp_path, capsys):
+    """Bad --frames values and options that need --motion or --compare are refused before any work."""
+    from morphkit.cli import main
+
+    walk = ["--motion", str(tmp_path / "walk.npz")]
+    cases = [
+        (["--frames", "5:2", *walk], "selects no frame"),
+        (["--frames", "a:b", *walk], "expected A:B"),
+        (["--frames=-1:", *walk], "count from 0"),
+        (["--frames", "2:5"], "a turntable takes a view count"),
+        (["--frames", "0"], "at least 1"),
+        (["--until-longer", *walk], "--until-longer needs --compare"),
+        (["--follow"], "--follow needs --motion"),
+    ]
+    for args, message in cases:
+        assert main(["render", "spot", *args, "--out", str(tmp_path / "x.gif")]) == 2
+        err = capsys.readouterr().err
+        assert message in err and err.count("\n") == 1, err
+
+
 def test_select_platform_names_missing_packages_when_no_gl():
     """Without a display, EGL or OSMesa, the error names libegl1 and libosmesa6."""
     code = textwrap.dedent(
@@ -371,6 +467,69 @@ def test_bone_geometry_for_shapeless_links(gl):
     assert silhouette(frame).mean() > 0.01
 
 
+def test_follow_keeps_the_same_side_in_view_while_the_creature_turns(gl):
+    """A creature walking a circle, seen at two instants half a turn apart: with the camera following its
+    heading both views show the same side (the same image), with a world-fixed camera they do not."""
+    from morphkit.render import RenderStyle, motion_frames
+    from morphkit.rotations import quat_from_yaw
+
+    m = quadruped()
+    fps, T = 10.0, 90
+    yaw = np.linspace(0.0, 0.9 * np.pi, T)
+    q = np.repeat(m.rest_q()[None], T, axis=0)
+    q[:, 0], q[:, 1] = 2.0 * np.sin(yaw), 2.0 * (1.0 - np.cos(yaw))  # forward along the circle
+    q[:, 3:7] = quat_from_yaw(yaw)
+    style = RenderStyle(ground=False, shadows=False, markers=False, azimuth_deg=70.0)
+    a, b = 32, 57  # more than 3 σ of heading smoothing from either end: the heading is followed exactly
+    kw = {"size": (64, 48), "style": style, "frame_indices": [a, b]}
+    turning = motion_frames(m, q, fps, follow_heading=True, **kw).astype(int)
+    fixed = motion_frames(m, q, fps, **kw).astype(int)
+    assert silhouette(turning[0]).mean() > 0.02
+    assert np.abs(turning[0] - turning[1]).mean() < 1.0
+    assert np.abs(fixed[0] - fixed[1]).mean() > 5 * max(np.abs(turning[0] - turning[1]).mean(), 0.2)
+
+
+def test_side_by_side_ends_with_the_shorter_clip(gl):
+    """Clips of 3 and 6 frames at one rate: 3 output frames, or 6 with until_longer."""
+    from morphkit.render import RenderStyle, side_by_side_frames
+
+    m = quadruped()
+    q = np.repeat(m.rest_q()[None], 6, axis=0)
+    q[:, 0] = np.linspace(0.0, 0.5, 6)
+    style = RenderStyle(ground=False, shadows=False)
+    clips = [(m, q[:3], 10.0), (m, q, 10.0)]
+    assert side_by_side_frames(clips, size=(32, 24), style=style).shape[0] == 3
+    assert side_by_side_frames(clips, size=(32, 24), style=style, until_longer=True).shape[0] == 6
+
+
+def test_missing_mesh_is_drawn_as_a_stand_in_with_one_warning(gl, tmp_path):
+    """A link whose only mesh is missing is drawn as bones, one whose mesh is missing beside a capsule with the
+    capsule; each says so once, naming the file and the link's line."""
+    from morphkit.io import read_morphology
+    from morphkit.render import RenderStyle, turntable_frames
+
+    path = tmp_path / "bot.yaml"
+    path.write_text(
+        "name: bot\n"
+        "links:\n"
+        "  body: {shapes: [{type: mesh, file: meshes/body.stl}]}\n"
+        "  leg: {shapes: [{type: capsule, radius: 0.03, length: 0.3}, {type: mesh, file: meshes/leg.obj}]}\n"
+        "joints:\n"
+        "  hip: {type: revolute, parent: body, child: leg, origin: {xyz: [0, 0, -0.3]}, axis: [0, 1, 0],"
+        " limit: {lower: -1, upper: 1}}\n"
+    )
+    with pytest.warns(UserWarning, match="mesh file not found"):
+        m = read_morphology(path)
+    with pytest.warns(UserWarning) as record:
+        frame = turntable_frames(m, frames=1, size=(64, 48), style=RenderStyle(ground=False, shadows=False))[0]
+    said = sorted(str(w.message) for w in record)
+    assert len(said) == 2
+    body, leg = said
+    assert body.startswith(f"{path}:3: link 'body': mesh file not found") and body.endswith("bones to its joints)")
+    assert leg.startswith(f"{path}:4: link 'leg': mesh file not found") and leg.endswith("its other shapes")
+    assert silhouette(frame).mean() > 0.01
+
+
 # ---- command line ----------------------------------------------------------------------------
 def test_cli_turntable_motion_and_errors(gl, tmp_path, capsys):
     """`morphkit render` writes a turntable and a motion clip; bad options exit 2 with one line."""
@@ -395,6 +554,20 @@ def test_cli_turntable_motion_and_errors(gl, tmp_path, capsys):
     )
     assert iio.imread(clip, index=None).shape[0] == 5
     capsys.readouterr()
+    walk = ["--motion", str(tmp_path / "walk.npz"), "--size", "32x24", "--no-shadows"]
+    assert main(["render", str(yaml), *walk, "--frames", "1:4", "--follow", "--out", str(clip)]) == 0
+    assert iio.imread(clip, index=None).shape[0] == 3
+    assert "3 frames at 5 fps" in capsys.readouterr().out
+    from morphkit.motion import Motion, write_motion
+
+    long = np.repeat(m.rest_q()[None], 20, axis=0)
+    long[:, 0] = np.linspace(0.0, 1.0, 20)
+    write_motion(Motion(m, 10.0, long, "long"), tmp_path / "long.npz")  # 2 s beside the creature's 1 s
+    compare = [*walk, "--compare", str(tmp_path / "long.npz"), "--out", str(clip)]
+    for extra, frames in (([], 10), (["--until-longer"], 20), (["--frames", "2:"], 6)):
+        # at the human's 10 fps: 1 s (the shorter), 2 s (the longer), the creature's frames 2..4 (0.6 s)
+        assert main(["render", str(yaml), *compare, *extra]) == 0
+        assert iio.imread(clip, index=None).shape[0] == frames
 
     assert main(["render", str(yaml), "--size", "64by48", "--out", str(tmp_path / "x.gif")]) == 2
     assert "--size" in capsys.readouterr().err
