@@ -22,3 +22,15 @@ def test_readme_two_setup_commands_and_ci_uses_the_test_line():
     matches = [ln for ln in text.splitlines() if re.search(pattern.group(1), ln)]
     assert matches and matches[0] == lines[1]
     assert "torch==2.13.0" in ci
+
+
+def test_readme_python_snippet_runs():
+    """The torch snippet runs as written (every name it uses is defined in it) and gradients reach q."""
+    text = (ROOT / "README.md").read_text()
+    blocks = re.findall(r"```python\n(.*?)```", text, re.S)
+    assert blocks, "README shows how to use morphkit from Python"
+    for block in blocks:
+        scope: dict = {}
+        exec(compile(block, "README.md", "exec"), scope)
+    q, feet = scope["q"], scope["feet"]
+    assert q.grad is not None and q.grad.shape == q.shape and feet.shape[-1] == 3
