@@ -404,6 +404,11 @@ class Run(Generic[C]):
             "creature": self.creature,
             "config_class": f"{type(config).__module__}.{type(config).__qualname__}",
         }
+        if (self.dir / CHECKPOINT_FILE).exists() and not (run_file.exists() and config_file.exists()):
+            # E.g. a SIGTERM checkpoint that landed in a folder deleted under the run: nothing says what it is.
+            missing = " and ".join(f.name for f in (run_file, config_file) if not f.exists())
+            raise RunError(f"a checkpoint without {missing}: not a complete run folder; use another folder",
+                           location=SourceLocation(str(self.dir / CHECKPOINT_FILE)))
         if run_file.exists():
             try:
                 saved = yaml.safe_load(run_file.read_text(encoding="utf-8")) or {}

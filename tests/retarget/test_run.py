@@ -58,6 +58,16 @@ def test_folder_of_another_trainer_or_creature_is_refused(tmp_path: Path):
         _run(tmp_path, creature="spider")
 
 
+def test_a_checkpoint_without_its_run_files_is_refused(tmp_path: Path):
+    """A checkpoint left alone in a folder (its run.yaml/config.yaml gone) is not resumed blindly."""
+    with _run(tmp_path) as run:
+        _train(run)
+    (tmp_path / "run.yaml").unlink()
+    with pytest.raises(RunError, match="checkpoint without run.yaml") as info:
+        _run(tmp_path)
+    assert str(tmp_path / "checkpoint.pt") in str(info.value)
+
+
 def test_changed_config_is_refused_unless_allowed(tmp_path: Path):
     """A different config is refused, naming the field; allow_changes lets it through and saves it."""
     _run(tmp_path).close()
