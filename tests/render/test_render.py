@@ -489,19 +489,6 @@ def test_follow_keeps_the_same_side_in_view_while_the_creature_turns(gl):
     assert np.abs(fixed[0] - fixed[1]).mean() > 5 * max(np.abs(turning[0] - turning[1]).mean(), 0.2)
 
 
-def test_side_by_side_ends_with_the_shorter_clip(gl):
-    """Clips of 3 and 6 frames at one rate: 3 output frames, or 6 with until_longer."""
-    from morphkit.render import RenderStyle, side_by_side_frames
-
-    m = quadruped()
-    q = np.repeat(m.rest_q()[None], 6, axis=0)
-    q[:, 0] = np.linspace(0.0, 0.5, 6)
-    style = RenderStyle(ground=False, shadows=False)
-    clips = [(m, q[:3], 10.0), (m, q, 10.0)]
-    assert side_by_side_frames(clips, size=(32, 24), style=style).shape[0] == 3
-    assert side_by_side_frames(clips, size=(32, 24), style=style, until_longer=True).shape[0] == 6
-
-
 def test_missing_mesh_is_drawn_as_a_stand_in_with_one_warning(gl, tmp_path):
     """A link whose only mesh is missing is drawn as bones, one whose mesh is missing beside a capsule with the
     capsule; each says so once, naming the file and the link's line."""
