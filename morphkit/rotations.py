@@ -384,7 +384,8 @@ def quat_slerp(q0: np.ndarray, q1: np.ndarray, t: np.ndarray | float) -> np.ndar
     """Spherical linear interpolation between unit quaternions (shortest arc). NumPy only.
 
     Args:
-        q0, q1: [..., 4] unit quaternions.
+        q0: [..., 4] unit quaternion at t = 0.
+        q1: [..., 4] unit quaternion at t = 1.
         t: Interpolation parameter in [0, 1], broadcast against ``q0[..., 0]``.
     """
     q0 = np.asarray(q0, dtype=float)

@@ -21,9 +21,18 @@ def test_every_example_has_a_header_with_its_command():
         assert "--smoke" in path.read_text(), f"{path.name}: no --smoke mode"
 
 
+@pytest.fixture(scope="module")
+def cache(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """One motion cache for every example, as on a user's machine: the embedded default human motion and a
+    creature's synthesised data are made by the first example that needs them (keys hash their inputs)."""
+    path = tmp_path_factory.getbasetemp() / "motion_cache"  # the same folder as tests/test_docs.py's guide test
+    path.mkdir(exist_ok=True)
+    return path
+
+
 @pytest.mark.parametrize("path", EXAMPLES, ids=[p.stem for p in EXAMPLES])
-def test_example_runs_in_smoke_mode(path: Path, tmp_path: Path):
-    env = {**os.environ, "MORPHKIT_CACHE_DIR": str(tmp_path / "cache"), "PYOPENGL_PLATFORM": "egl"}
+def test_example_runs_in_smoke_mode(path: Path, tmp_path: Path, cache: Path):
+    env = {**os.environ, "MORPHKIT_CACHE_DIR": str(cache), "PYOPENGL_PLATFORM": "egl"}
     cmd = [sys.executable, str(path), "--smoke", "--out", str(tmp_path / "out")]
     proc = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600, check=False)
     assert proc.returncode == 0, proc.stderr[-3000:]

@@ -1,0 +1,143 @@
+"""The documentation site builds with `mkdocs build --strict`, its API reference covers every public name, and the
+"define a new creature" guide works when followed literally: its commands are read from the page and run."""
+
+from __future__ import annotations
+
+import ast
+import importlib.util
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+DOCS_EXTRA = ("mkdocs", "material", "mkdocstrings", "mkdocstrings_handlers.python")
+GUIDE = ROOT / "docs" / "guides" / "new-creature.md"
+# The one change made to the guide's commands: the training preset (`quick` takes minutes).
+SUBSTITUTIONS = {"--preset quick": "--preset smoke"}
+
+
+def _missing_docs_extra() -> str | None:
+    for name in DOCS_EXTRA:
+        try:
+            if importlib.util.find_spec(name) is None:
+                return name
+        except ModuleNotFoundError:
+            return name
+    return None
+
+
+def _public_exports() -> dict[str, list[str]]:
+    """Every public module's literal ``__all__``, read from the source (the reference's contract)."""
+    out: dict[str, list[str]] = {}
+    for path in sorted((ROOT / "morphkit").rglob("*.py")):
+        parts = list(path.relative_to(ROOT).with_suffix("").parts)
+        if parts[-1] == "__init__":
+            parts.pop()
+        name = ".".join(parts)
+        if any(p.startswith("_") for p in parts) or name in ("morphkit", "morphkit.cli") or name.startswith(
+            "morphkit.commands"
+        ):
+            continue
+        for node in ast.parse(path.read_text()).body:
+            if isinstance(node, ast.Assign) and any(getattr(t, "id", None) == "__all__" for t in node.targets):
+                out[name] = list(ast.literal_eval(node.value))
+    return out
+
+
+@pytest.fixture(scope="module")
+def site(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    missing = _missing_docs_extra()
+    if missing:
+        pytest.skip(f"the docs extra is not installed ({missing}): pip install -e '.[docs]'")
+    out = tmp_path_factory.mktemp("site")
+    env = {**os.environ, "NO_MKDOCS_2_WARNING": "1"}
+    cmd = [sys.executable, "-m", "mkdocs", "build", "--strict", "--site-dir", str(out)]
+    proc = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=300, check=False)
+    assert proc.returncode == 0, proc.stderr[-4000:]
+    return out
+
+
+def test_mkdocs_build_strict_passes(site: Path):
+    assert (site / "index.html").is_file()
+    assert (site / "guides" / "new-creature" / "index.html").is_file()
+
+
+def test_api_reference_documents_every_public_name(site: Path):
+    html = "\n".join(p.read_text() for p in (site / "api").rglob("index.html"))
+    missing = []
+    for module, names in _public_exports().items():
+        parts = module.split(".")
+        owners = [".".join(parts[:i]) for i in range(2, len(parts) + 1)]  # the module or a package above it
+        for name in names:
+            if name.startswith("__"):
+                continue
+            if not any(f'id="{owner}.{name}"' in html for owner in owners):
+                missing.append(f"{module}.{name}")
+    assert not missing, f"not in the API reference: {missing[:20]}"
+
+
+def _fenced(text: str, lang: str) -> list[str]:
+    return re.findall(rf"^```{lang}\n(.*?)^```", text, re.S | re.M)
+
+
+def _shared_cache(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The motion cache the examples' test uses too (tests/test_examples.py): the embedded human motion and the
+    critter's synthesised data are made once per session, as on a user's machine."""
+    path = tmp_path_factory.getbasetemp() / "motion_cache"
+    path.mkdir(exist_ok=True)
+    return path
+
+
+def test_guide_yaml_is_the_examples_critter():
+    """The creature written by the guide is the one examples/new_creature.py uses."""
+    first = _fenced(GUIDE.read_text(), "bash")[0]
+    heredoc = re.search(r"<<'EOF'\n(.*?)^EOF$", first, re.S | re.M)
+    assert heredoc is not None, "the guide's first command writes critter.yaml with a heredoc"
+    assert heredoc.group(1) == (ROOT / "examples" / "critter.yaml").read_text()
+
+
+def test_guide_error_example_is_what_the_reader_says(tmp_path: Path, monkeypatch: pytest.MonkeyPatch):
+    """The guide's example error (the knee's limits swapped) is the reader's message, line included."""
+    from morphkit.errors import MorphkitError
+    from morphkit.io import read_morphology
+
+    shown = next(b for b in _fenced(GUIDE.read_text(), "text") if b.startswith("error:")).strip()
+    joint, lower, upper = re.search(r"joint '(\w+)': limit lower (\S+) > upper (\S+)", shown).groups()
+    lines = (ROOT / "examples" / "critter.yaml").read_text().splitlines()
+    at = next(i for i, ln in enumerate(lines) if ln.lstrip().startswith(f"{joint}:"))
+    span = next(i for i in range(at, len(lines)) if "limit:" in lines[i])
+    original = f"lower: {upper}, upper: {lower}"
+    assert original in lines[span]
+    lines[span] = lines[span].replace(original, f"lower: {lower}, upper: {upper}")  # swapped
+    (tmp_path / "critter.yaml").write_text("\n".join(lines) + "\n")
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(MorphkitError) as err:
+        read_morphology("critter.yaml")
+    assert f"error: {err.value}" == shown
+
+
+def test_new_creature_guide_runs_as_written(tmp_path: Path, tmp_path_factory: pytest.TempPathFactory):
+    """Every fenced bash block of the guide, in order, in an empty folder, as one script that stops at the first
+    failing command (the only change: SUBSTITUTIONS)."""
+    for module in ("pyrender", "imageio"):
+        if importlib.util.find_spec(module) is None:
+            pytest.skip(f"the render extra is not installed ({module}): pip install -e '.[render]'")
+    blocks = _fenced(GUIDE.read_text(), "bash")
+    assert len(blocks) >= 6, "the guide lost its commands"
+    script = "\n".join(blocks)
+    for old, new in SUBSTITUTIONS.items():
+        assert old in script, f"the guide no longer says {old!r}: update SUBSTITUTIONS"
+        script = script.replace(old, new)
+    env = {**os.environ, "MORPHKIT_CACHE_DIR": str(_shared_cache(tmp_path_factory)), "PYOPENGL_PLATFORM": "egl",
+           "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}"}
+    proc = subprocess.run(["bash", "-euo", "pipefail", "-c", script], cwd=tmp_path, env=env, capture_output=True,
+                          text=True, timeout=900, check=False)
+    assert proc.returncode == 0, f"{proc.stdout[-2000:]}\n{proc.stderr[-3000:]}"
+    for name in ("critter.png", "critter_walk.npz", "critter_walk.png", "critter_clip.npz", "critter_clip.bvh",
+                 "compare.png"):
+        assert (tmp_path / name).stat().st_size > 0, f"the guide promises {name}"
+    assert (tmp_path / "runs" / "critter" / "retarget" / "checkpoint.pt").is_file()
