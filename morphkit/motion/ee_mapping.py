@@ -197,9 +197,10 @@ class EndEffectorMapping:
         humans = list(next(iter(self.kl.values())).keys()) if self.kl else []
         w0 = max([len("creature ee"), *(len(c) for c in self.kl)])
         w = max([9, *(len(h) for h in humans)])
-        other_name, other = ("KL only", self.kl_only) if self.rule == "roles" else ("by role", self.by_role)
-        with_roles = self.roles is not None and other is not None
-        wr = max([4, *(len(r) for r in (self.roles or {}).values())])
+        other_name, other = ("KL only", self.kl_only) if self.rule == "roles" else ("by role", self.by_role or {})
+        roles = self.roles or {}
+        with_roles = bool(roles) and bool(other)
+        wr = max([4, *(len(r) for r in roles.values())])
         head = f"{'creature ee':<{w0}}  "
         if with_roles:
             head += f"{'role':<{wr}}  "
@@ -211,11 +212,11 @@ class EndEffectorMapping:
             mark = " *" if c in self.overridden else "  "
             line = f"{c:<{w0}}  "
             if with_roles:
-                line += f"{self.roles.get(c, ''):<{wr}}  "  # type: ignore[union-attr]
+                line += f"{roles.get(c, ''):<{wr}}  "
             line += f"{'-> ' + self.mapping[c] + mark:<{w + 5}}  "
             if with_roles:
-                differs = "!" if other[c] != self.mapping[c] else " "  # type: ignore[index]
-                line += f"{other[c] + differs:<{w + 1}}  "  # type: ignore[index]
+                differs = "!" if other[c] != self.mapping[c] else " "
+                line += f"{other[c] + differs:<{w + 1}}  "
             lines.append(line + "  ".join(f"{row[h]:>{w}.3f}" for h in humans))
         if with_roles:
             rule = "KL within roles" if self.rule == "roles" else "KL only (the paper's rule)"
@@ -262,13 +263,12 @@ def map_end_effectors(
             raise ConfigError(f"override: no human end-effector {h!r} (valid: {', '.join(human)})")
     kl = {c: {h: kl_divergence(pc, ph) for h, ph in human.items()} for c, pc in creature.items()}
     paper = {c: override.get(c, min(row, key=row.__getitem__)) for c, row in kl.items()}
-    by_role = role_names = None
-    if roles is not None:
-        by_role = _assign_by_role(kl, roles, override)
-        role_names = {c: _role_name(roles[0][c]) for c in kl if c in roles[0]}
-    rule = "roles" if by_role is not None and not kl_only else "kl"
-    chosen = by_role if rule == "roles" else paper
-    return EndEffectorMapping(dict(chosen), kl, frozenset(override), rule, paper, by_role, role_names)  # type: ignore[arg-type]
+    if roles is None:
+        return EndEffectorMapping(dict(paper), kl, frozenset(override), "kl", paper)
+    by_role = _assign_by_role(kl, roles, override)
+    role_names = {c: _role_name(roles[0][c]) for c in kl if c in roles[0]}
+    rule, chosen = ("kl", paper) if kl_only else ("roles", by_role)
+    return EndEffectorMapping(dict(chosen), kl, frozenset(override), rule, paper, by_role, role_names)
 
 
 def _role_name(role: Any) -> str:
