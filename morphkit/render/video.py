@@ -260,7 +260,7 @@ class MotionFraming:
         lo, hi = points.min(axis=1), points.max(axis=1)
         centers = (lo + hi) / 2
         root = np.asarray(poses[:, 0, :3], dtype=float)
-        turn = np.radians(self.azimuths - style.azimuth_deg)  # the camera's turn from its first azimuth
+        turn = np.radians(self.azimuths - style.azimuth_deg)  # how far the camera has turned [rad]
         if follow:
             # The box centre sits at a steady offset from the root (in the camera's turning frame); the
             # root's path is smoothed so the camera glides instead of shaking with every step.
