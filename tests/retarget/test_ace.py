@@ -267,14 +267,14 @@ def _dog_feature_map(dog: Path, frames: int = 40):
     lay = character_state_layout(m)
     stats = NormStats.fit([x])
     ees = tuple(e.name for e in m.end_effectors)
-    return FeatureMap(m, lay, lay, stats, stats, ees, ees, 0.4, 0.4), x
+    return FeatureMap(m, lay, lay, stats, stats, ees, ees, 0.4, 0.4), x, motion
 
 
 def test_prior_foot_term_is_zero_on_data_and_the_squared_step_error_otherwise(dog):
     """Data transitions score 0; moving π's root step by δ moves every foot's step by δ: (δ/L)² exactly."""
     from morphkit.retarget.ace.train import foot_indices, prior_foot_term
 
-    fmap, x = _dog_feature_map(dog)
+    fmap, x, motion = _dog_feature_map(dog)
     feet = foot_indices(fmap.creature)
     assert len(feet) == 4
     xn = torch.as_tensor(fmap.creature_stats.normalize(x), dtype=torch.float64)
@@ -286,6 +286,12 @@ def test_prior_foot_term_is_zero_on_data_and_the_squared_step_error_otherwise(do
     pred = torch.as_tensor(fmap.creature_stats.normalize(shifted), dtype=torch.float64)
     got = prior_foot_term(fmap, feet, prev, pred, prev, data).item()
     assert got == pytest.approx((delta / fmap.creature_length) ** 2, rel=1e-5)
+    # Feet the data has planted weigh 1 + boost: the planted fraction from the motion's own world FK.
+    ee = motion.end_effector_positions()[:, feet]
+    planted = (np.linalg.norm(ee[1:] - ee[:-1], axis=-1) < 0.002) & (ee[1:, :, 2] < 0.02)
+    assert 0.2 < planted.mean() < 0.9
+    boosted = prior_foot_term(fmap, feet, prev, pred, prev, data, planted_boost=10.0).item()
+    assert boosted == pytest.approx((delta / fmap.creature_length) ** 2 * (1 + 10 * planted.mean()), rel=1e-5)
     # Raising the root by h lifts every predicted foot by h: the height term alone, (h/L)².
     raised = x[1:].copy()
     raised[:, fmap.creature_layout.slice("root_height")] += 0.01

@@ -55,6 +55,12 @@ class PriorConfig:
     and π's x_t, through morphkit's FK of the predicted joints and the integrated root path, against
     the data's step, and their height, in body lengths (0: off, as ACE). It is what makes π's
     outputs keep a planted foot planted once decoded and exported."""
+    foot_planted_boost: float = 10.0
+    """Extra weight of the foot term's step error on feet the data has planted (ours, as the contact
+    losses of motion-diffusion models: a planted foot's step must be 0, a swing foot's only close)."""
+    planted_step: float = 0.002
+    """A data foot is planted over a transition when its ground step is below this [m] and it is below
+    the contact height (2 cm, the contact kernels' default)."""
     rollout: int = 8
     """Steps of a scheduled-sampling rollout (MotionVAE: 8)."""
     teacher_fraction: float = 0.15

@@ -247,7 +247,8 @@ def train_prior(
                 foot = w.new_zeros(())
                 if use_feet:
                     foot = steps * prior_foot_term(data.features, feet, torch.stack(prevs, 1), torch.stack(preds, 1),
-                                                   w[:, :-1], w[:, 1:])
+                                                   w[:, :-1], w[:, 1:], planted_boost=pc.foot_planted_boost,
+                                                   planted_step=pc.planted_step)
                 loss = (recon + pc.kl_beta * kl + pc.foot_weight * foot) / steps
                 opt.zero_grad(set_to_none=True)
                 loss.backward()
@@ -313,23 +314,28 @@ def foot_indices(creature: Morphology) -> list[int]:
 
 
 def prior_foot_term(fmap: FeatureMap, feet: Sequence[int], prev: torch.Tensor, pred: torch.Tensor,
-                    prev_data: torch.Tensor, data: torch.Tensor) -> torch.Tensor:
+                    prev_data: torch.Tensor, data: torch.Tensor, *, planted_boost: float = 0.0,
+                    planted_step: float = 0.002, contact_height: float = 0.02) -> torch.Tensor:
     """Beyond the paper: the prior's foot term (``PriorConfig.foot_weight``), in squared body lengths.
 
     For each transition ``prev`` → ``pred`` (normalised states [..., Sr]; ``pred`` = π's output) the
     feet's step in the transition's ground frame — FK of the predicted joints placed on the
     integrated root path (:func:`~morphkit.motion.world_end_effectors`), as exported — is compared
     with the data's step ``prev_data`` → ``data``, and the predicted feet's height with the data's.
-    A planted foot's data step is zero, so this is what keeps π's planted feet planted.
+    A planted foot's data step is zero, so this is what keeps π's planted feet planted; feet the
+    data has planted (step below ``planted_step``, below ``contact_height``) weigh ``1 + planted_boost``.
     """
     lay, stats = fmap.creature_layout, fmap.creature_stats
     x = stats.denormalize(torch.stack([prev, pred], dim=-2))
     p_hat = world_end_effectors(x, lay, fmap.fk_end_effectors(x))[..., feet, :]
     d = stats.denormalize(torch.stack([prev_data, data], dim=-2))
     p = world_end_effectors(d, lay, d[..., lay.slice("ee_positions")].unflatten(-1, (-1, 3)))[..., feet, :]
-    step_error = (p_hat[..., 1, :, :] - p_hat[..., 0, :, :]) - (p[..., 1, :, :] - p[..., 0, :, :])
+    step = p[..., 1, :, :] - p[..., 0, :, :]
+    step_error = (p_hat[..., 1, :, :] - p_hat[..., 0, :, :]) - step
+    planted = (step.norm(dim=-1) < planted_step) & (p[..., 1, :, 2] < contact_height)
+    weight = 1.0 + planted_boost * planted.to(step.dtype)
     height_error = p_hat[..., 1, :, 2] - p[..., 1, :, 2]
-    return (step_error.square().sum(-1).mean() + height_error.square().mean()) / fmap.creature_length**2
+    return ((weight * step_error.square().sum(-1)).mean() + height_error.square().mean()) / fmap.creature_length**2
 
 
 def _contact_terms(data: AceData, fixed_states: torch.Tensor, fps: float) -> torch.Tensor:
