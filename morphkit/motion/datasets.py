@@ -28,6 +28,7 @@ from morphkit._version import __version__
 from morphkit.errors import ConfigError, MorphkitError, MotionFormatError, SourceLocation
 from morphkit.graph import Morphology
 from morphkit.motion.io_npz import read_npz_motion_with_extra, write_npz_motion
+from morphkit.motion.manifest import MANIFEST_NAME, manifest_files
 from morphkit.motion.motion import Motion
 from morphkit.motion.states import (
     NormStats,
@@ -60,18 +61,35 @@ def default_cache_dir() -> Path:
     return (Path(root) if root else Path.home() / ".cache" / "morphkit") / "motions"
 
 
+def _folder_motion_files(folder: Path) -> list[Path]:
+    """Motion files of a folder: those its manifest lists (:mod:`~morphkit.motion.manifest`), else every
+    one below it (sorted), less the files a sub-folder's manifest does not list."""
+    listed = manifest_files(folder)
+    if listed is not None:
+        return [f for f in listed if f.suffix.lower() in _SUFFIXES]
+    files = sorted(f for f in folder.rglob("*") if f.suffix.lower() in _SUFFIXES and f.is_file())
+    for man in folder.rglob(MANIFEST_NAME):
+        sub = manifest_files(man.parent)
+        if sub is not None:
+            allowed = set(sub)
+            files = [f for f in files if f in allowed or not f.is_relative_to(man.parent)]
+    return files
+
+
 def expand_motion_paths(paths: str | os.PathLike[str] | Iterable[str | os.PathLike[str]]) -> list[Path]:
-    """Files behind ``paths``: files as given, folders searched recursively for motion files (sorted).
+    """Files behind ``paths``: files as given, folders searched recursively for motion files (sorted);
+    a folder with a manifest (``morphkit synth --out DIR``) gives only the files its manifest lists.
 
     Raises:
-        MotionFormatError: a path that does not exist, or no motion file at all.
+        MotionFormatError: a path that does not exist, no motion file at all, or a folder whose
+            manifest says its run has not finished or lists a missing file.
     """
     items = [paths] if isinstance(paths, (str, os.PathLike)) else list(paths)
     out: list[Path] = []
     for item in items:
         p = Path(item)
         if p.is_dir():
-            out.extend(sorted(f for f in p.rglob("*") if f.suffix.lower() in _SUFFIXES and f.is_file()))
+            out.extend(_folder_motion_files(p))
         elif p.is_file():
             out.append(p)
         else:
