@@ -41,9 +41,43 @@ def _exports(path: Path) -> list[str] | None:
     return None
 
 
-def public_modules(root: Path) -> dict[str, list[str]]:
-    """Dotted module name -> its ``__all__``, for every public module under ``root/morphkit``."""
-    modules: dict[str, list[str]] = {}
+def _bindings(path: Path) -> tuple[set[str], dict[str, str]]:
+    """Names a module binds so that griffe sees them (defs, classes, ``x = ...``, imports), and names bound
+    together by tuple unpacking (``A, B = range(2)``: griffe does not see them) -> the statement's source."""
+    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    plain: set[str] = set()
+    tuples: dict[str, str] = {}
+    for node in tree.body:
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+            plain.add(node.name)
+        elif isinstance(node, (ast.Import, ast.ImportFrom)):
+            plain.update((a.asname or a.name).split(".")[0] for a in node.names)
+        elif isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name):
+            plain.add(node.target.id)
+        elif isinstance(node, ast.Assign):
+            for t in node.targets:
+                if isinstance(t, ast.Name):
+                    plain.add(t.id)
+                elif isinstance(t, ast.Tuple):
+                    tuples.update({e.id: ast.unparse(node) for e in t.elts if isinstance(e, ast.Name)})
+    return plain, tuples
+
+
+class _Module:
+    def __init__(self, name: str, path: Path, exports: list[str]) -> None:
+        self.name, self.path, self.exports = name, path, exports
+        self.is_package = path.name == "__init__.py"
+        self.plain, self.tuples = _bindings(path)
+        submodules = {p.stem for p in path.parent.glob("*.py")} | {p.name for p in path.parent.iterdir() if p.is_dir()}
+        # What griffe renders under this module's name: bound here, and not hidden by a submodule of the same
+        # name (`morphkit.motion.features` is the submodule to griffe, the function at run time). Names exported
+        # lazily (module __getattr__) or so hidden are documented in the module that defines them.
+        self.visible = [n for n in exports if n in self.plain and not (self.is_package and n in submodules)]
+
+
+def public_modules(root: Path) -> dict[str, _Module]:
+    """Dotted module name -> its source and ``__all__``, for every public module under ``root/morphkit``."""
+    modules: dict[str, _Module] = {}
     for path in sorted((root / PACKAGE).rglob("*.py")):
         parts = list(path.relative_to(root).with_suffix("").parts)
         if parts[-1] == "__init__":
@@ -53,7 +87,7 @@ def public_modules(root: Path) -> dict[str, list[str]]:
             continue
         names = _exports(path)
         if names:
-            modules[name] = names
+            modules[name] = _Module(name, path, names)
     return modules
 
 
@@ -61,21 +95,30 @@ def api_pages(root: Path) -> dict[str, str]:
     """Page path (relative to docs/) -> markdown, one page per public module with names of its own."""
     modules = public_modules(root)
     pages: dict[str, str] = {}
-    for name, exports in modules.items():
+    for name, mod in modules.items():
         parts = name.split(".")
         ancestors = [".".join(parts[:i]) for i in range(2, len(parts))]  # not the top-level package
-        higher = {n for a in ancestors for n in modules.get(a, [])}
-        own = [n for n in exports if n not in higher and not n.startswith("__")]
+        higher = {n for a in ancestors if a in modules for n in modules[a].visible}
+        own = [n for n in mod.exports if n not in higher and not n.startswith("__")]
         if name == PACKAGE:
             pages[f"{API_DIR}/{name}.md"] = _top_page(own)
-        elif own:
-            pages[f"{API_DIR}/{name}.md"] = _module_page(name, own)
+            continue
+        rendered = [n for n in own if n in mod.visible or (not mod.is_package and n not in mod.tuples)]
+        elsewhere = {n: _definer(modules, name, n) for n in own if mod.is_package and n not in mod.visible}
+        tupled = {n: mod.tuples[n] for n in own if n in mod.tuples and n not in mod.plain}
+        if rendered or tupled or elsewhere:
+            pages[f"{API_DIR}/{name}.md"] = _module_page(name, rendered, tupled, elsewhere)
     return pages
 
 
-def _module_page(name: str, members: list[str]) -> str:
+def _definer(modules: dict[str, _Module], package: str, name: str) -> str | None:
+    """The submodule of ``package`` whose ``__all__`` holds ``name`` (where its documentation is)."""
+    return next((m for m, mod in modules.items() if m.startswith(package + ".") and name in mod.exports), None)
+
+
+def _module_page(name: str, members: list[str], tupled: dict[str, str], elsewhere: dict[str, str | None]) -> str:
     listed = ", ".join(f'"{m}"' for m in members)
-    return (
+    text = (
         f"# `{name}`\n\n"
         f"::: {name}\n"
         "    options:\n"
@@ -84,6 +127,13 @@ def _module_page(name: str, members: list[str]) -> str:
         "      members_order: alphabetical\n"
         f"      members: [{listed}]\n"
     )
+    for stmt in dict.fromkeys(tupled.values()):  # one section per statement, one heading per name
+        text += f"\n## Bound together\n\n```python\n{stmt}\n```\n\n"
+        text += "".join(f"### `{n}` {{#{name}.{n}}}\n\n" for n, s in tupled.items() if s == stmt)
+    if elsewhere:
+        text += "\n## Also exported here\n\nDocumented in the module that defines them:\n\n"
+        text += "\n".join(f"- [`{n}`][{d}.{n}]" if d else f"- `{n}`" for n, d in elsewhere.items()) + "\n"
+    return text
 
 
 def _top_page(members: list[str]) -> str:
