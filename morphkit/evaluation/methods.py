@@ -1,0 +1,147 @@
+"""The methods of a comparison: every finished retargeter of the given run folders, by Table-1 name.
+
+An ACE run folder (``ace.yaml``) gives one method per finished retargeter stage (``retarget/`` is
+ACE, ``retarget_wofea/`` ACEwoFea, ``retarget_woadv/`` ACEwoAdv, ``retarget_contact/`` ACE+contact);
+a stage folder given directly gives that stage only. An NKN run folder (``nkn.yaml``) of the
+cross-morphology mode gives NKN. A folder that holds run folders gives all of theirs. Runs of one
+method and several seeds are averaged in the report.
+"""
+
+from __future__ import annotations
+
+import os
+import warnings
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import yaml
+
+from morphkit.errors import RunError, SourceLocation
+from morphkit.retarget.ace.evaluate import STAGE_LABELS
+from morphkit.retarget.ace.train import META_FILE as ACE_META
+from morphkit.retarget.checkpoint import load_checkpoint
+from morphkit.retarget.nkn.train import META_FILE as NKN_META
+from morphkit.retarget.run import CHECKPOINT_FILE, CONFIG_FILE, RUN_FILE
+
+__all__ = ["METHOD_ORDER", "Method", "find_methods", "method_order"]
+
+METHOD_ORDER = ("ACE", "NKN", "ACEwoFea", "ACEwoAdv", "ACE+contact")
+"""Row order of the table (the paper's Table 1, then morphkit's ACE+contact); other names follow."""
+
+
+@dataclass(frozen=True)
+class Method:
+    """One trained retargeter."""
+
+    name: str
+    """Table-1 name: ``ACE``, ``ACEwoFea``, ``ACEwoAdv``, ``ACE+contact`` or ``NKN``."""
+    kind: str
+    """``"ace"`` or ``"nkn"``."""
+    run: Path
+    """The run folder (ACE: holds ``ace.yaml``; NKN: ``nkn.yaml``)."""
+    stage: Path
+    """The folder of the trained networks (ACE: ``run/retarget*``; NKN: ``run``)."""
+    creature: str
+    seed: int
+
+
+def method_order(name: str) -> tuple[int, str]:
+    """Sort key of a method name: :data:`METHOD_ORDER` first, then alphabetical."""
+    return (METHOD_ORDER.index(name), "") if name in METHOD_ORDER else (len(METHOD_ORDER), name)
+
+
+def _yaml(path: Path) -> dict:
+    try:
+        return yaml.safe_load(path.read_text(encoding="utf-8")) or {}
+    except (OSError, yaml.YAMLError) as exc:
+        raise RunError(f"cannot read it: {exc}", location=SourceLocation(str(path))) from exc
+
+
+def _progress(stage: Path) -> tuple[int, int, int]:
+    """``(epoch reached, epochs configured, seed)`` of a Run folder."""
+    position = load_checkpoint(stage / CHECKPOINT_FILE)["position"]
+    epochs = int((_yaml(stage / CONFIG_FILE) if (stage / CONFIG_FILE).is_file() else {}).get("epochs", 0))
+    return int(position["epoch"]), epochs, int(position.get("seed", 0))
+
+
+def _finished(stage: Path, label: str) -> int | None:
+    """The seed of a finished stage; ``None`` (with a warning) for one still training."""
+    epoch, epochs, seed = _progress(stage)
+    if epoch < epochs:
+        warnings.warn(f"{stage}: {label} has trained {epoch} of {epochs} epochs; left out of the comparison",
+                      stacklevel=3)
+        return None
+    return seed
+
+
+def _ace_methods(run: Path, stages: Sequence[str] | None) -> list[Method]:
+    creature = str(_yaml(run / ACE_META).get("creature"))
+    out = []
+    for folder, label in STAGE_LABELS.items():
+        if stages is not None and folder not in stages:
+            continue
+        stage = run / folder
+        if not (stage / CHECKPOINT_FILE).is_file():
+            continue
+        seed = _finished(stage, label)
+        if seed is not None:
+            out.append(Method(label, "ace", run, stage, creature, seed))
+    return out
+
+
+def _nkn_method(run: Path) -> list[Method]:
+    meta = _yaml(run / NKN_META)
+    if meta.get("mode") != "cross":
+        raise RunError("an NKN run over human skeletons retargets human to human; the comparison needs its "
+                       "cross-morphology mode (morphkit train nkn CREATURE)", location=SourceLocation(str(run)))
+    if not (run / CHECKPOINT_FILE).is_file():
+        raise RunError("NKN run without a checkpoint (not trained yet)", location=SourceLocation(str(run)))
+    seed = _finished(run, "NKN")
+    return [] if seed is None else [Method("NKN", "nkn", run, run, str(meta.get("creature")), seed)]
+
+
+def _methods_of(path: Path) -> list[Method]:
+    if not path.exists():
+        raise RunError("no such run folder", location=SourceLocation(str(path)))
+    if (path / ACE_META).is_file():
+        return _ace_methods(path, None)
+    if (path / NKN_META).is_file():
+        return _nkn_method(path)
+    if (path / RUN_FILE).is_file() and (path.parent / ACE_META).is_file():
+        if path.name not in STAGE_LABELS:
+            raise RunError(f"not a retargeter stage of an ACE run (stages: {', '.join(STAGE_LABELS)})",
+                           location=SourceLocation(str(path)))
+        return _ace_methods(path.parent, [path.name])
+    children = sorted(p for p in path.iterdir() if (p / ACE_META).is_file() or (p / NKN_META).is_file()) \
+        if path.is_dir() else []
+    if not children:
+        raise RunError(f"not an ACE or NKN run folder (no {ACE_META} or {NKN_META}), nor a folder of run folders",
+                       location=SourceLocation(str(path)))
+    return [m for child in children for m in _methods_of(child)]
+
+
+def find_methods(paths: Sequence[str | os.PathLike[str]]) -> list[Method]:
+    """Every finished retargeter of ``paths`` (run folders, ACE stage folders, folders of run folders),
+    sorted by :func:`method_order`, then seed.
+
+    Raises:
+        RunError: a missing path, a folder that is no run, an NKN run of the skeletons mode, runs of
+            different creatures, or no finished retargeter at all.
+    """
+    methods: list[Method] = []
+    seen: set[Path] = set()
+    for p in paths:
+        for m in _methods_of(Path(p)):
+            if m.stage.resolve() not in seen:
+                seen.add(m.stage.resolve())
+                methods.append(m)
+    if not methods:
+        raise RunError("no finished retargeter in the given run folders",
+                       location=SourceLocation(os.fspath(paths[0])) if paths else None)
+    first = methods[0]
+    for m in methods[1:]:
+        if m.creature != first.creature:
+            raise RunError(f"run of creature {m.creature!r}, but {first.run} is of {first.creature!r}: one "
+                           "comparison holds runs of one creature", location=SourceLocation(str(m.run)))
+    return sorted(methods, key=lambda m: (method_order(m.name), m.seed, str(m.stage)))

@@ -1,0 +1,306 @@
+"""Reproduce ACE's Table 1 for one creature: train every method, evaluate them on held-out clips, report.
+
+Stages, in order (``OUT`` is the creature's folder)::
+
+    data                  the creature's synthesised data set (cached by content hash)  OUT/runs/data/
+    prior                 ACE's motion prior, trained once                              OUT/runs/ace_seed0/prior/
+    ACE, ACEwoFea,        the ACE retargeters of seed s, all from that prior            OUT/runs/ace_seed<s>/retarget*/
+    ACEwoAdv, ACE+contact
+    NKN                   NKN's cross-morphology mode, seed s                           OUT/runs/nkn_seed<s>/
+    evaluate              Table 1, charts, videos, index.html                           OUT/report/
+
+A stage is done when its folder holds ``done.json`` (written atomically once it finished) recording
+the same configuration; a re-run skips it. A stage interrupted midway resumes exactly where it
+stopped (its run folder's checkpoint). The evaluation is redone whenever a stage before it ran or
+its options changed. Another preset or override into the same folder is not taken for done: its
+training stage reopens the run folder, which refuses a different config (use another ``--out``).
+
+NKN trains on the same human data, the same synthesised creature frames and at the same frame rate
+as ACE (its ``data.human_frames``, ``data.character_frames``, ``data.synth_seed`` and ``data.fps``
+are set to ACE's), so the two see the same motion. Seeds vary the retargeters and NKN; the prior is
+seed 0's (trained once, as the paper's ablations share it).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from morphkit._atomic import atomic_write_text
+from morphkit.evaluation.evaluate import evaluate_methods, reference_for
+from morphkit.evaluation.methods import find_methods
+from morphkit.evaluation.report import write_report
+from morphkit.graph import Morphology
+from morphkit.retarget.ace.config import AceConfig
+from morphkit.retarget.ace.config import preset as ace_preset
+from morphkit.retarget.ace.data import character_motions
+from morphkit.retarget.ace.train import VARIANTS, prepare, train_ace, train_prior
+from morphkit.retarget.config import config_to_dict, replace_config
+from morphkit.retarget.nkn import NknConfig, train_nkn
+from morphkit.retarget.nkn import preset as nkn_preset
+
+__all__ = ["DONE_FILE", "ReproduceConfig", "Stage", "evaluate_runs", "plan_stages", "reproduce_table1", "run_stages",
+           "stage_done"]
+
+DONE_FILE = "done.json"
+"""A stage's completion marker (in its folder)."""
+
+ACE_STAGES = (("ACE", "ace"), ("ACEwoFea", "ace-wofea"), ("ACEwoAdv", "ace-woadv"), ("ACE+contact", "ace-contact"))
+"""Table-1 name and ACE variant of each ACE stage, in training order."""
+
+
+@dataclass(frozen=True)
+class ReproduceConfig:
+    """What :func:`reproduce_table1` trains and how it reports."""
+
+    preset: str = "default"
+    """ACE and NKN preset (``smoke``, ``quick``, ``default``, ``paper``)."""
+    seeds: int = 1
+    """Seeds 0 … seeds − 1 of every retargeter and of NKN."""
+    contact_weight: float = 1.0
+    """``retarget.w_contact`` of ACE+contact (foot sliding [m/s] + 10 × penetration [m], as ``--contact-weight``)."""
+    ace_overrides: tuple[str, ...] = ()
+    """``KEY=VALUE`` overrides of the ACE config (as ``morphkit train --set``)."""
+    nkn_overrides: tuple[str, ...] = ()
+    """``KEY=VALUE`` overrides of the NKN config, applied after the shared data fields."""
+    clips: int | None = None
+    """Evaluate on the first this many held-out clips (``None``: all)."""
+    videos: int = 3
+    """Clips with a side-by-side video."""
+    video_suffix: str | None = None
+    """``.mp4``, ``.gif`` or ``.png`` (a contact sheet); default ``.mp4`` when ffmpeg is there, else ``.gif``."""
+    video_seconds: float = 10.0
+    """Longest video [s]."""
+    video_size: tuple[int, int] = (240, 240)
+    """Size of each video panel, width × height in pixels."""
+    device: str | None = None
+    """Torch device of training (default: CUDA when present, else CPU)."""
+    progress: bool = True
+    """Training progress bars."""
+
+
+@dataclass(frozen=True)
+class Stage:
+    """One resumable step of the pipeline."""
+
+    name: str
+    folder: Path
+    """Where its ``done.json`` goes."""
+    action: Callable[[], Any]
+    key: dict[str, Any] = field(default_factory=dict)
+    """Recorded in ``done.json``; a marker with another key does not count as done (the stage's config and
+    data: another preset or override into the same folder is not taken for done)."""
+    downstream: bool = False
+    """Redo it whenever a stage before it ran in the same :func:`run_stages` call (the evaluation)."""
+
+
+def stage_done(stage: Stage) -> bool:
+    """Whether ``stage``'s folder holds a completion marker with its key."""
+    marker = stage.folder / DONE_FILE
+    if not marker.is_file():
+        return False
+    try:
+        saved = json.loads(marker.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return False  # a damaged marker: redo the stage
+    return saved.get("key", {}) == json.loads(json.dumps(stage.key))
+
+
+def run_stages(stages: Sequence[Stage], *, log: Callable[[str], None] = print) -> list[str]:
+    """Run the stages in order, skipping those done (:func:`stage_done`; a ``downstream`` stage is redone
+    after any stage ran); write each one's marker when it returns.
+
+    Returns:
+        The names of the stages that ran.
+    """
+    ran = []
+    for i, stage in enumerate(stages):
+        where = f"[{i + 1}/{len(stages)}] {stage.name}"
+        if stage_done(stage) and not (stage.downstream and ran):
+            log(f"{where}: done, skipped ({stage.folder})")
+            continue
+        log(f"{where}: running ({stage.folder})")
+        started = time.perf_counter()
+        stage.action()
+        seconds = time.perf_counter() - started
+        stage.folder.mkdir(parents=True, exist_ok=True)
+        marker = {"stage": stage.name, "seconds": round(seconds, 3), "finished": time.strftime("%Y-%m-%dT%H:%M:%S"),
+                  "key": stage.key}
+        atomic_write_text(stage.folder / DONE_FILE, json.dumps(marker, indent=1) + "\n")
+        log(f"{where}: done in {seconds:.0f} s")
+        ran.append(stage.name)
+    return ran
+
+
+def _ace_config(cfg: ReproduceConfig, seed: int) -> AceConfig:
+    return replace_config(ace_preset(cfg.preset), [*cfg.ace_overrides, f"seed={seed}"])
+
+
+def _nkn_config(cfg: ReproduceConfig, ace: AceConfig, seed: int) -> NknConfig:
+    shared = {"seed": seed, "data.human_frames": ace.data.human_frames, "data.fps": ace.data.fps,
+              "data.character_frames": ace.data.character_frames, "data.synth_seed": ace.data.synth_seed}
+    base = replace_config(nkn_preset(cfg.preset), shared)
+    return replace_config(base, list(cfg.nkn_overrides)) if cfg.nkn_overrides else base
+
+
+def evaluate_runs(
+    runs: Sequence[str | os.PathLike[str]],
+    out: str | os.PathLike[str] | None = None,
+    *,
+    human_data: str | os.PathLike[str] | None = None,
+    clips: int | None = None,
+    videos: int = 3,
+    video_suffix: str | None = None,
+    video_seconds: float = 10.0,
+    video_size: tuple[int, int] = (240, 240),
+    device: str = "cpu",
+    log: Callable[[str], None] = print,
+) -> Path:
+    """Evaluate every finished retargeter of ``runs`` on held-out clips and write the report into ``out``.
+
+    Args:
+        runs: Run folders (ACE, NKN cross-morphology), ACE stage folders or folders of run folders.
+        out: The report folder (default ``evaluation_<creature>``).
+        human_data: Human motion folder whose evaluation split is retargeted (default: the runs' own
+            human data; the embedded default's evaluation clips when they were trained on it).
+        clips: Use the first this many clips (``None``: all).
+        videos: Clips with a side-by-side video (0: none).
+        video_suffix: ``.mp4``, ``.gif`` or ``.png`` (see :func:`~morphkit.evaluation.report.render_videos`).
+        video_seconds: Longest video [s].
+        video_size: Size of each video panel, width × height in pixels.
+        device: Torch device of the retargeters.
+        log: Where progress lines go.
+
+    Returns:
+        The report folder.
+
+    Raises:
+        RunError: a missing or foreign run folder, runs of different creatures.
+        MotionFormatError: evaluation clips of another human skeleton than the runs were trained on.
+        ConfigError: ``clips`` < 1, ``videos`` < 0, ``video_seconds`` <= 0.
+    """
+    from morphkit.errors import ConfigError
+
+    if clips is not None and clips < 1:
+        raise ConfigError(f"--clips must be at least 1, got {clips}")
+    if videos < 0 or not video_seconds > 0:
+        raise ConfigError(f"--videos must be >= 0 and --video-seconds > 0, got {videos} and {video_seconds}")
+    methods = find_methods(runs)
+    log(f"{len(methods)} retargeters of {methods[0].creature}: "
+        + ", ".join(f"{m.name} (seed {m.seed})" for m in methods))
+    reference, chosen = reference_for(methods, human_data=human_data, limit=clips)
+    evaluation = evaluate_methods(methods, chosen, reference, keep=videos, device=device, log=log)
+    folder = Path(out) if out is not None else Path(f"evaluation_{methods[0].creature}")
+    write_report(evaluation, folder, videos=videos, video_suffix=video_suffix, video_seconds=video_seconds,
+                 video_size=video_size, log=log)
+    return folder
+
+
+def plan_stages(
+    creature: Morphology,
+    out: str | os.PathLike[str],
+    cfg: ReproduceConfig,
+    *,
+    human_data: str | os.PathLike[str] | None = None,
+    log: Callable[[str], None] = print,
+) -> list[Stage]:
+    """The stages of :func:`reproduce_table1` (see the module docs), nothing run yet.
+
+    Raises:
+        ConfigError: an unknown preset or override, fewer than one seed.
+    """
+    from morphkit.errors import ConfigError
+
+    if cfg.seeds < 1:
+        raise ConfigError(f"--seeds must be at least 1, got {cfg.seeds}")
+    root, runs = Path(out), Path(out) / "runs"
+    quiet = {"progress": cfg.progress, "log": log}
+    base = _ace_config(cfg, 0)
+    _nkn_config(cfg, base, 0)  # unknown NKN overrides fail before anything trains
+    prior_run = runs / "ace_seed0"
+
+    def data() -> None:
+        motions = character_motions(creature, base.data, progress=cfg.progress)
+        log(f"{creature.name}: {len(motions)} clips, {sum(m.frame_count for m in motions)} frames (cached)")
+
+    def prior() -> None:
+        prepared = prepare(prior_run, creature, base, human_data=human_data, **quiet)
+        train_prior(prior_run / "prior", prepared, base, device=cfg.device, progress=cfg.progress)
+
+    source = None if human_data is None else os.fspath(human_data)
+    stages = [Stage("data", runs / "data", data, {"data": config_to_dict(base.data)}),
+              Stage("prior", prior_run / "prior", prior, {"config": config_to_dict(base), "human_data": source})]
+    names: list[str] = []
+    for seed in range(cfg.seeds):
+        ace = _ace_config(cfg, seed)
+        run = runs / f"ace_seed{seed}"
+        shared_prior = None if seed == 0 else prior_run / "prior"
+        for label, variant in ACE_STAGES:
+            c = replace_config(ace, {"retarget.w_contact": cfg.contact_weight}) if variant == "ace-contact" else ace
+            folder = run / VARIANTS[variant][0]
+
+            def train(c: AceConfig = c, run: Path = run, variant: str = variant, p: Path | None = shared_prior) -> None:
+                train_ace(run, creature, c, variant=variant, human_data=human_data, prior_dir=p, device=cfg.device,
+                          **quiet)
+
+            key = {"config": config_to_dict(c), "variant": variant, "human_data": source}
+            stages.append(Stage(f"{label} seed {seed}", folder, train, key))
+            names.append(os.fspath(folder.relative_to(root)))
+        nkn_run = runs / f"nkn_seed{seed}"
+        ncfg = _nkn_config(cfg, ace, seed)
+
+        def nkn(ncfg: NknConfig = ncfg, nkn_run: Path = nkn_run) -> None:
+            train_nkn(nkn_run, ncfg, human_data=human_data, creature=creature, device=cfg.device, **quiet)
+
+        stages.append(Stage(f"NKN seed {seed}", nkn_run, nkn, {"config": config_to_dict(ncfg), "human_data": source}))
+        names.append(os.fspath(nkn_run.relative_to(root)))
+
+    def evaluate() -> None:
+        evaluate_runs([runs / f"{kind}_seed{s}" for s in range(cfg.seeds) for kind in ("ace", "nkn")], root / "report",
+                      human_data=human_data, clips=cfg.clips, videos=cfg.videos, video_suffix=cfg.video_suffix,
+                      video_seconds=cfg.video_seconds, video_size=cfg.video_size, log=log)
+
+    report = {"stages": names, "human_data": source, "clips": cfg.clips, "videos": cfg.videos,
+              "video_suffix": cfg.video_suffix, "video_seconds": cfg.video_seconds, "video_size": list(cfg.video_size)}
+    stages.append(Stage("evaluate", root / "report", evaluate, report, downstream=True))
+    return stages
+
+
+def reproduce_table1(
+    creature: Morphology,
+    out: str | os.PathLike[str],
+    cfg: ReproduceConfig,
+    *,
+    human_data: str | os.PathLike[str] | None = None,
+    log: Callable[[str], None] = print,
+) -> str:
+    """Train, evaluate and report every method of Table 1 for ``creature`` under ``out`` (resumable).
+
+    Args:
+        creature: The character.
+        out: Its folder: ``runs/`` (every run folder) and ``report/``.
+        cfg: Preset, seeds, overrides, report options.
+        human_data: Human motion folder (its held-out split is the evaluation set); ``None``: the
+            embedded default human motion.
+        log: Where progress lines go.
+
+    Returns:
+        Table 1 as markdown (``out/report/table.md``).
+    """
+    started = time.perf_counter()
+    stages = plan_stages(creature, out, cfg, human_data=human_data, log=log)
+    run_stages(stages, log=log)
+    recorded = 0.0
+    for stage in stages:
+        try:
+            recorded += float(json.loads((stage.folder / DONE_FILE).read_text())["seconds"])
+        except (OSError, ValueError, KeyError):
+            pass
+    log(f"{creature.name}: {time.perf_counter() - started:.0f} s this time; {recorded:.0f} s of stage time in all "
+        f"({recorded / 60:.1f} min)")
+    return (Path(out) / "report" / "table.md").read_text(encoding="utf-8")
