@@ -31,6 +31,7 @@ COMMANDS = [
     "synth",
     "train",
     "retarget",
+    "evaluate",
 ]
 """Subcommand modules under ``morphkit.commands``, in help order."""
 

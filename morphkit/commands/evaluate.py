@@ -1,0 +1,40 @@
+"""``morphkit evaluate --runs RUN... [--human-data DIR] [--out DIR]``: ACE's Table 1 for trained runs."""
+
+from __future__ import annotations
+
+import argparse
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "evaluate",
+        help="compare trained retargeters (ACE, its ablations, NKN) on held-out clips: Table 1, charts, videos",
+        description=(
+            "Retarget every clip of the evaluation split with every finished retargeter of the given runs (ACE run "
+            "folders give ACE, ACEwoFea, ACEwoAdv, ACE+contact; NKN cross-morphology runs give NKN), score DIV, FID, "
+            "L_fea and UFR against the creature's synthesised data set, and write OUT/table.md/.csv (mean ± std over "
+            "seeds), runs.csv, bar charts, side-by-side videos and index.html."
+        ),
+    )
+    p.add_argument("--runs", required=True, nargs="+", metavar="RUN",
+                   help="run folders (morphkit train ace/nkn), ACE stage folders, or folders holding run folders")
+    p.add_argument("--human-data", metavar="DIR",
+                   help="human motion folder whose evaluation split is retargeted (default: the runs' own human data)")
+    p.add_argument("--out", metavar="DIR", help="report folder (default: evaluation_<creature>)")
+    p.add_argument("--clips", type=int, metavar="N", help="evaluate on the first N clips only (default: all)")
+    p.add_argument("--videos", type=int, default=3, metavar="N", help="clips with a side-by-side video (default 3)")
+    p.add_argument("--video-format", choices=["mp4", "gif", "png"],
+                   help="video format (default mp4 when ffmpeg is there, else gif; png: a contact sheet)")
+    p.add_argument("--video-seconds", type=float, default=10.0, metavar="S", help="longest video (default 10 s)")
+    p.add_argument("--device", default="cpu", help="torch device of the retargeters (default cpu)")
+    p.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from morphkit.evaluation import evaluate_runs
+
+    out = evaluate_runs(args.runs, args.out, human_data=args.human_data, clips=args.clips, videos=args.videos,
+                        video_suffix=f".{args.video_format}" if args.video_format else None,
+                        video_seconds=args.video_seconds, device=args.device)
+    print((out / "table.md").read_text(encoding="utf-8"), end="")
+    return 0
