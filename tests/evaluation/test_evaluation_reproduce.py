@@ -1,0 +1,209 @@
+"""Reproducing Table 1: a finished stage is never run again (spied stage functions), the prior is trained
+once for every seed and method, `examples/reproduce_table1.py --smoke` runs end to end on a YAML-only
+quadruped (videos: test_evaluation_report.py), `morphkit evaluate` scores its runs to the same table, and
+bad input gets one clear error."""
+
+from __future__ import annotations
+
+import json
+import os
+import runpy
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from morphkit_testing import spot_like
+from retarget._ace_fixtures import write_quadruped
+
+import morphkit.evaluation.reproduce as reproduce
+from morphkit.cli import main as cli
+from morphkit.evaluation import ReproduceConfig, reproduce_table1
+from morphkit.evaluation.reproduce import DONE_FILE, Stage, run_stages
+
+ROOT = Path(__file__).resolve().parents[2]
+EXAMPLE = ROOT / "examples" / "reproduce_table1.py"
+METHODS = ("ACE", "NKN", "ACEwoFea", "ACEwoAdv", "ACE+contact")
+
+
+def test_a_finished_stage_is_not_run_again_and_a_failed_one_is(tmp_path):
+    calls: list[str] = []
+
+    def fail() -> None:
+        calls.append("b")
+        raise RuntimeError("killed")
+
+    stages = [Stage("a", tmp_path / "a", lambda: calls.append("a")), Stage("b", tmp_path / "b", fail)]
+    with pytest.raises(RuntimeError):
+        run_stages(stages, log=lambda s: None)
+    assert calls == ["a", "b"] and (tmp_path / "a" / DONE_FILE).is_file() and not (tmp_path / "b" / DONE_FILE).exists()
+    stages[1] = Stage("b", tmp_path / "b", lambda: calls.append("b again"))
+    assert run_stages(stages, log=lambda s: None) == ["b"]
+    assert run_stages(stages, log=lambda s: None) == []
+    assert calls == ["a", "b", "b again"]
+    # A marker written for other inputs (its key) does not count; a downstream stage follows any that ran.
+    changed = Stage("a", tmp_path / "a", lambda: calls.append("a2"), {"clips": 3})
+    report = Stage("report", tmp_path / "r", lambda: calls.append("report"), downstream=True)
+    assert run_stages([changed, report], log=lambda s: None) == ["a", "report"]
+    assert run_stages([changed, report], log=lambda s: None) == []
+    assert run_stages([Stage("b", tmp_path / "b", lambda: None, {"preset": "quick"}), report],
+                      log=lambda s: None) == ["b", "report"]
+
+
+def test_pipeline_trains_the_prior_once_and_a_rerun_trains_nothing(tmp_path, monkeypatch):
+    calls: list[tuple] = []
+
+    def rel(p: os.PathLike | None) -> str | None:
+        return None if p is None else Path(p).relative_to(tmp_path / "out").as_posix()
+
+    def evaluate(runs, out, **kw):
+        calls.append(("evaluate", [rel(r) for r in runs]))
+        Path(out).mkdir(parents=True, exist_ok=True)
+        (Path(out) / "table.md").write_text("| method |\n")
+
+    monkeypatch.setattr(reproduce, "character_motions", lambda *a, **k: calls.append(("data",)) or [])
+    monkeypatch.setattr(reproduce, "prepare", lambda run, *a, **k: calls.append(("prepare", rel(run))))
+    monkeypatch.setattr(reproduce, "train_prior", lambda prior, *a, **k: calls.append(("prior", rel(prior))))
+    monkeypatch.setattr(reproduce, "train_ace", lambda run, creature, cfg, *, variant, prior_dir, **k: calls.append(
+        ("ace", rel(run), variant, cfg.seed, cfg.retarget.w_contact, rel(prior_dir))))
+    monkeypatch.setattr(reproduce, "train_nkn", lambda run, cfg, **k: calls.append(
+        ("nkn", rel(run), cfg.seed, cfg.data.character_frames, cfg.data.human_frames)))
+    monkeypatch.setattr(reproduce, "evaluate_runs", evaluate)
+    cfg = ReproduceConfig(preset="smoke", seeds=2, contact_weight=0.5, progress=False)
+    quiet = {"log": lambda s: None}
+
+    reproduce_table1(spot_like(), tmp_path / "out", cfg, **quiet)
+    ace_frames, human_frames = 1_200, 600  # the ACE smoke preset's data, which NKN is given too
+    expected = [("data",), ("prepare", "runs/ace_seed0"), ("prior", "runs/ace_seed0/prior")]
+    for seed in (0, 1):
+        prior = None if seed == 0 else "runs/ace_seed0/prior"
+        expected += [("ace", f"runs/ace_seed{seed}", v, seed, 0.5 if v == "ace-contact" else 0.0, prior)
+                     for v in ("ace", "ace-wofea", "ace-woadv", "ace-contact")]
+        expected.append(("nkn", f"runs/nkn_seed{seed}", seed, ace_frames, human_frames))
+    expected.append(("evaluate", ["runs/ace_seed0", "runs/nkn_seed0", "runs/ace_seed1", "runs/nkn_seed1"]))
+    assert calls == expected
+    markers = sorted((tmp_path / "out").rglob(DONE_FILE))
+    assert len(markers) == 2 + 2 * 5 + 1
+    stamps = [m.stat().st_mtime_ns for m in markers]
+
+    calls.clear()
+    reproduce_table1(spot_like(), tmp_path / "out", cfg, **quiet)
+    assert calls == []
+    assert [m.stat().st_mtime_ns for m in markers] == stamps
+
+    # Another preset into the same folder is not taken for done (its runs then refuse the other config).
+    reproduce_table1(spot_like(), tmp_path / "out", ReproduceConfig(preset="quick", seeds=2, progress=False), **quiet)
+    assert len(calls) == len(expected) and calls[0] == ("data",)
+    for marker in markers:  # back to the smoke configuration
+        marker.unlink()
+    reproduce_table1(spot_like(), tmp_path / "out", cfg, **quiet)
+    calls.clear()
+
+    # One more seed: its stages and the evaluation run, nothing else.
+    reproduce_table1(spot_like(), tmp_path / "out", ReproduceConfig(preset="smoke", seeds=3, contact_weight=0.5,
+                                                                    progress=False), **quiet)
+    assert [c[:2] for c in calls] == [("ace", "runs/ace_seed2")] * 4 + [("nkn", "runs/nkn_seed2"), ("evaluate", [
+        "runs/ace_seed0", "runs/nkn_seed0", "runs/ace_seed1", "runs/nkn_seed1", "runs/ace_seed2", "runs/nkn_seed2"])]
+    assert all(c[5] == "runs/ace_seed0/prior" for c in calls[:4])
+
+
+# ---- end to end on a YAML-only quadruped ------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def smoke(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, str], str]:
+    """``examples/reproduce_table1.py --smoke`` run once: (its --out folder, its environment, its stdout)."""
+    root = tmp_path_factory.mktemp("table1")
+    dog = write_quadruped(root)
+    # The ACE tests' cache: the same synthesised toy data and embedded human motion.
+    env = {**os.environ, "MORPHKIT_CACHE_DIR": str(tmp_path_factory.getbasetemp() / "ace_cache"),
+           "PYOPENGL_PLATFORM": os.environ.get("PYOPENGL_PLATFORM", "egl"), "OMP_NUM_THREADS": "1"}
+    cmd = [sys.executable, str(EXAMPLE), "--character", str(dog), "--smoke", "--videos", "0", "--out",
+           str(root / "out")]
+    proc = subprocess.run(cmd, cwd=root, env=env, capture_output=True, text=True, timeout=600, check=False)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    return root / "out", env, proc.stdout
+
+
+def _table(path: Path) -> dict[str, list[str]]:
+    lines = path.read_text().splitlines()[2:]
+    return {line.split("|")[1].strip(): [c.strip() for c in line.split("|")[2:-1]] for line in lines}
+
+
+def test_smoke_trains_every_method_and_writes_the_report(smoke):
+    out, _, stdout = smoke
+    folder = out / "testdog"
+    assert "done in" in stdout and "testdog:" in stdout
+    table = _table(folder / "report" / "table.md")
+    assert list(table) == ["Dataset", *METHODS]
+    assert all(cells[-1] == table["ACE"][-1] for name, cells in table.items() if name != "Dataset")
+    for f in ("index.html", "table.csv", "runs.csv", "evaluation.json", "charts/div.png", "charts/ufr.png"):
+        assert (folder / "report" / f).is_file(), f
+    assert "No videos in this report" in (folder / "report" / "index.html").read_text()  # --videos 0
+    runs = folder / "runs"
+    for stage in ("data", "ace_seed0/prior", "ace_seed0/retarget", "ace_seed0/retarget_wofea",
+                  "ace_seed0/retarget_woadv", "ace_seed0/retarget_contact", "nkn_seed0"):
+        assert json.loads((runs / stage / DONE_FILE).read_text())["seconds"] >= 0, stage
+
+
+def test_a_rerun_skips_every_stage_and_prints_the_same_table(smoke, monkeypatch, capsys):
+    out, env, _ = smoke
+    monkeypatch.setenv("MORPHKIT_CACHE_DIR", env["MORPHKIT_CACHE_DIR"])
+    files = [p for p in (out / "testdog").rglob("*") if p.is_file()]
+    stamps = {p: p.stat().st_mtime_ns for p in files}
+    main = runpy.run_path(str(EXAMPLE), run_name="reproduce_table1")["main"]
+    assert main(["--character", str(out.parent / "testdog.yaml"), "--smoke", "--videos", "0", "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert printed.count("done, skipped") == 8 and "running" not in printed
+    assert {p: p.stat().st_mtime_ns for p in files} == stamps
+    assert (out / "testdog" / "report" / "table.md").read_text().strip() in printed
+
+
+def test_morphkit_evaluate_scores_the_runs_to_the_same_table(smoke, tmp_path, monkeypatch, capsys):
+    out, env, _ = smoke
+    monkeypatch.setenv("MORPHKIT_CACHE_DIR", env["MORPHKIT_CACHE_DIR"])
+    runs = out / "testdog" / "runs"
+    assert cli(["evaluate", "--runs", str(runs / "ace_seed0"), str(runs / "nkn_seed0"), "--clips", "2",
+                "--videos", "0", "--out", str(tmp_path / "eval")]) == 0
+    assert (tmp_path / "eval" / "table.md").read_text() == (out / "testdog" / "report" / "table.md").read_text()
+    # One ACE stage given directly: that method alone.
+    assert cli(["evaluate", "--runs", str(runs / "ace_seed0" / "retarget_wofea"), "--videos", "0", "--clips", "1",
+                "--out", str(tmp_path / "one")]) == 0
+    assert list(_table(tmp_path / "one" / "table.md")) == ["Dataset", "ACEwoFea"]
+    capsys.readouterr()
+
+
+def test_evaluate_refuses_bad_input_with_one_clear_error(smoke, tmp_path, monkeypatch, capsys):
+    out, env, _ = smoke
+    monkeypatch.setenv("MORPHKIT_CACHE_DIR", env["MORPHKIT_CACHE_DIR"])
+    runs = out / "testdog" / "runs"
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    other = tmp_path / "crab_run"
+    shutil.copytree(runs / "ace_seed0", other)
+    meta = yaml.safe_load((other / "ace.yaml").read_text())
+    (other / "ace.yaml").write_text(yaml.safe_dump({**meta, "creature": "crab"}))
+    from morphkit.motion import Motion, write_motion
+    from morphkit.retarget.ace.retarget import AceRetargeter
+
+    dog = AceRetargeter(runs / "ace_seed0").creature
+    clips = tmp_path / "dog_clips"
+    clips.mkdir()
+    write_motion(Motion(dog, 30.0, np.tile(dog.rest_q(), (40, 1)), "dog"), clips / "dog.npz")
+    cases = [
+        (["--runs", str(tmp_path / "missing")], "no such run folder"),
+        (["--runs", str(empty)], "not an ACE or NKN run folder"),
+        (["--runs", str(runs / "ace_seed0"), str(other)], "run of creature 'crab'"),
+        (["--runs", str(runs / "ace_seed0"), "--human-data", str(clips), "--videos", "0"], "human states"),
+        (["--runs", str(runs / "ace_seed0"), "--clips", "0"], "--clips must be at least 1"),
+    ]
+    for args, message in cases:
+        assert cli(["evaluate", *args, "--out", str(tmp_path / "report")]) == 2, args
+        err = capsys.readouterr().err
+        assert err.startswith("error: ") and message in err and "Traceback" not in err, (args, err)
+    example = runpy.run_path(str(ROOT / "examples" / "ace_eval.py"), run_name="ace_eval")["main"]
+    assert example(["--runs", str(tmp_path / "missing")]) == 2
+    assert "no such run folder" in capsys.readouterr().err
