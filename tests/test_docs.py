@@ -145,3 +145,17 @@ def test_new_creature_guide_runs_as_written(tmp_path: Path, tmp_path_factory: py
                  "compare.png"):
         assert (tmp_path / name).stat().st_size > 0, f"the guide promises {name}"
     assert (tmp_path / "runs" / "critter" / "retarget" / "checkpoint.pt").is_file()
+
+
+def test_gallery_script_smoke(tmp_path: Path):
+    """docs/gallery/make_gallery.py (the only source of the gallery's pictures) still runs: one turntable sheet."""
+    if importlib.util.find_spec("pyrender") is None:
+        pytest.skip("the render extra is not installed (pyrender): pip install -e '.[render]'")
+    cmd = [sys.executable, str(ROOT / "docs" / "gallery" / "make_gallery.py"), "--smoke", "--out", str(tmp_path)]
+    env = {**os.environ, "PYOPENGL_PLATFORM": "egl"}
+    proc = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300, check=False)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    from PIL import Image
+
+    with Image.open(tmp_path / "spot_turntable.png") as sheet:  # four 240 x 180 views side by side
+        assert sheet.width >= 4 * 240 and sheet.height >= 180
