@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import ast
 import logging
+import re
 from pathlib import Path
 
 from mkdocs.structure.files import File
@@ -28,6 +29,10 @@ EXCLUDED = ("morphkit.cli", "morphkit.commands")
 UNITS = ("m", "rad", "s", "m/s", "rad/s", "m/s^2", "deg", "Hz")
 UNITS_PAGE = "concepts/conventions.md"
 UNITS_ANCHOR = "units-in-the-api-reference"
+
+# Docstrings use Sphinx roles (:func:`~morphkit.x.f`), which Markdown leaves as text before a code span; on the
+# API pages they become cross-references (autorefs resolves them, silently leaving unknown names as code).
+SPHINX_ROLE = re.compile(r":(?:class|func|meth|mod|data|attr|exc|obj):<code>(~?)([\w.]+)</code>")
 
 _pages: dict[str, str] = {}
 
@@ -147,12 +152,21 @@ def on_config(config):
     root = Path(config["config_file_path"]).resolve().parent
     _pages.clear()
     _pages.update(api_pages(root))
-    section = {"API reference": [{Path(p).stem: p} for p in sorted(_pages)]}
+    section = {"API reference": _api_nav(_pages)}
     nav = config["nav"]
     if nav is not None:
         at = next((i for i, item in enumerate(nav) if isinstance(item, dict) and "Changelog" in item), len(nav))
         nav.insert(at, section)
     return config
+
+
+def _api_nav(pages: dict[str, str]) -> list:
+    """Nav entries: one group per subpackage (the package's page first, then its modules), in name order."""
+    groups: dict[str, list[dict[str, str]]] = {}
+    for path in sorted(pages, key=lambda p: Path(p).stem.split(".")):
+        name = Path(path).stem
+        groups.setdefault(".".join(name.split(".")[:2]), []).append({name: path})
+    return [entries[0] if len(entries) == 1 else {group: entries} for group, entries in groups.items()]
 
 
 def on_files(files, config):
@@ -162,8 +176,18 @@ def on_files(files, config):
     return files
 
 
+def _role(match: re.Match, module: str) -> str:
+    short, name = match.group(1), match.group(2)
+    identifier = name if name.startswith(f"{PACKAGE}.") else f"{module}.{name}"
+    title = name.rsplit(".", 1)[-1] if short else name
+    return f'<span data-autorefs-optional="{identifier}"><code>{title}</code></span>'
+
+
 def on_page_content(html, page, config, files):
-    """Register the unit anchors on the conventions page."""
+    """Sphinx roles on the API pages become cross-references; the unit anchors live on the conventions page."""
+    if page.file.src_uri in _pages:
+        module = page.file.src_uri.removeprefix(f"{API_DIR}/").removesuffix(".md")
+        html = SPHINX_ROLE.sub(lambda m: _role(m, module), html)
     if page.file.src_uri == UNITS_PAGE:
         autorefs = config["plugins"]["autorefs"]
         for unit in UNITS:
