@@ -6,6 +6,7 @@ import argparse
 import contextlib
 import json
 import sys
+import time
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -38,9 +39,20 @@ def run(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
     from morphkit.errors import ConfigError
+    from morphkit.graph import BaseType
     from morphkit.io import read_morphology
     from morphkit.io.shipped import resolve_morphology
-    from morphkit.synth import SynthConfig, synthesize
+    from morphkit.synth import SynthConfig, SynthResult, analyse, iter_synthesize, prepare
+    from morphkit.synth.core import rollout_count
+    from morphkit.synth.ground import GroundStats
+    from morphkit.synth.output import (
+        SynthWriter,
+        available_memory_bytes,
+        check_output,
+        estimate_output_bytes,
+        format_bytes,
+        output_kind,
+    )
     from morphkit.synth.report import REPORT_KEYS, format_report, quality_report
 
     if args.frames < 1:
@@ -51,30 +63,74 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(f"--rollout-seconds must be positive, got {args.rollout_seconds}")
     if args.out is None and not args.report:
         raise ConfigError("nothing to do: give --out DIR_OR_FILE to save the motions and/or --report")
+    kind = output_kind(args.out) if args.out is not None else None
     config = SynthConfig()
     if args.rollout_seconds is not None:
         config = replace(config, rollout_seconds=args.rollout_seconds)
-    morphology = read_morphology(resolve_morphology(args.creature))
+    source = resolve_morphology(args.creature)
+    morphology = read_morphology(source)
+
+    # before any work: the output can be written and fits on its disk, what stays in memory fits there
+    count = rollout_count(args.frames, args.fps, config)
+    legs = len(analyse(morphology).legs) if morphology.base == BaseType.FLOATING else 0
+    if args.out is not None:
+        check_output(args.out, estimate_output_bytes(morphology, args.frames, count, legs,
+                                                     single_file=kind == "file"))
+    C, L = morphology.coordinate_count, len(morphology.links)
+    E, S = len(morphology.end_effectors), sum(len(lk.shapes) for lk in morphology.links)
+    per_frame = 8 * C + 128 + legs  # a rollout's frame in memory: coordinates, commands, flags
+    held = per_frame * ((args.report or kind == "file") + (kind == "file"))  # a single file is a joined copy
+    if args.report:
+        held += 16 * C + 56 * L + 48 * E + 8 * S + 256  # the report's FK, points and distances
+    free = available_memory_bytes()
+    if held and free is not None and held * args.frames > free:
+        what = "--report measures every rollout at once" if args.report else "a single .npz file is assembled"
+        raise ConfigError(f"--frames {args.frames}: {what} in memory, about {format_bytes(held * args.frames)}, and "
+                          f"only {format_bytes(free)} is available: ask for fewer frames"
+                          + ("" if args.report else ", or give --out a folder (written as it goes)"))
+
+    def warn(lines: list[str]) -> None:
+        for line in lines:
+            sys.stderr.write(f"warning: {source}: {line}\n")
+
     # Warp reports kernel loading on stdout: keep stdout for the result (--json must parse).
     with contextlib.redirect_stdout(sys.stderr):
-        result = synthesize(morphology, frames=args.frames, fps=args.fps, seed=args.seed, config=config,
-                            progress=not args.no_progress)
-        written = result.save(args.out) if args.out is not None else []
-        report = quality_report(result) if args.report else None
+        start = time.perf_counter()
+        rig = prepare(morphology, fps=args.fps, config=config)  # calibrated once: iter_synthesize reuses it
+        told = list(rig.legs.warnings) if rig.legs is not None else []
+        warn(told)
+        batches = iter_synthesize(morphology, frames=args.frames, fps=args.fps, seed=args.seed, config=config,
+                                  progress=not args.no_progress)
+        writer = (SynthWriter(args.out, creature=morphology.name, frames=args.frames, fps=args.fps, seed=args.seed,
+                              rollout_seconds=config.rollout_seconds) if args.out is not None else None)
+        kept: list[SynthResult] = []
+        ground = GroundStats()
+        frames = 0
+        for part in batches:
+            if writer is not None:
+                writer.write(part)
+            frames += part.frame_count
+            ground = ground.merge(part.ground)
+            if args.report:
+                kept.append(part)
+        written = writer.close() if writer is not None else []
+        seconds = time.perf_counter() - start  # calibration included
+        report = quality_report(SynthResult.concatenate(kept, seconds=seconds)) if kept else None
+    warn([w for w in (report["warnings"] if report is not None else ground.warnings()) if w not in told])
     if args.json:
         if report is not None:
             out = {k: report[k] for k in REPORT_KEYS}
             out.update({k: v for k, v in report.items() if k not in REPORT_KEYS})
             out["files"] = [str(p) for p in written]
         else:
-            out = {"frames": result.frame_count, "frames_per_s": round(result.frames_per_s, 1),
+            out = {"frames": frames, "frames_per_s": round(frames / max(seconds, 1e-9), 1),
                    "files": [str(p) for p in written]}
         json.dump(out, sys.stdout, indent=2)
         sys.stdout.write("\n")
         return 0
     where = f" -> {args.out} ({len(written)} file{'s' if len(written) != 1 else ''})" if written else ""
-    print(f"{morphology.name}: {result.frame_count} frames in {len(result)} rollouts at {args.fps:g} fps, "
-          f"{result.seconds:.1f} s ({result.frames_per_s:.0f} frames/s){where}")
+    print(f"{morphology.name}: {frames} frames in {count} rollouts at {args.fps:g} fps, "
+          f"{seconds:.1f} s ({frames / max(seconds, 1e-9):.0f} frames/s){where}")
     if report is not None:
         print(format_report(report))
     return 0

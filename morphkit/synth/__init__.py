@@ -8,8 +8,10 @@ random smoothed commands (:mod:`.locomotion_commands`), picks gaits by leg count
 (:mod:`.gait`), plans footsteps and swing arcs with stance feet fixed on the ground, moves arms and
 other joints (:mod:`.arms`), swings the arms of upright bipeds and mixes in reaching, waving,
 pointing and pushing (:mod:`.actions`), or drives wheeled bases (:mod:`.wheeled`), and solves every
-limb with the morphkit DLS IK kernel, many rollouts at once (:mod:`.core`). :mod:`.report` measures
-what came out with the contact kernels; :mod:`.human` is the embedded default human motion
+limb with the morphkit DLS IK kernel, many rollouts at once (:mod:`.core`), lifting arms, tails and
+heads that would go below the ground (:mod:`.ground`). :mod:`.report` measures what came out with the
+contact kernels; :mod:`.output` writes it (a folder with a manifest, or one file, batch by batch with
+:func:`iter_synthesize`); :mod:`.human` is the embedded default human motion
 (:func:`default_human_motion`).
 
 Example::
@@ -31,6 +33,7 @@ from morphkit.synth.arms import ArmConfig as ArmConfig
 from morphkit.synth.core import SynthConfig as SynthConfig
 from morphkit.synth.core import SynthResult as SynthResult
 from morphkit.synth.core import SynthRig as SynthRig
+from morphkit.synth.core import iter_synthesize as iter_synthesize
 from morphkit.synth.core import prepare as prepare
 from morphkit.synth.core import synthesize as synthesize
 from morphkit.synth.human import HumanClip as HumanClip
@@ -57,6 +60,7 @@ __all__ = [
     "analyse",
     "default_human_clips",
     "default_human_motion",
+    "iter_synthesize",
     "prepare",
     "synthesize",
 ]

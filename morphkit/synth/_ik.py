@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
@@ -41,6 +42,7 @@ from morphkit.synth.analysis import BodyPlan, Limb
 __all__ = ["Ankle", "LimbSolver"]
 
 _PROXY_PREFIX = "__synth_ankle_"
+_POINT_PREFIX = "__synth_point_"
 
 
 @dataclass(frozen=True)
@@ -58,6 +60,8 @@ class Ankle:
     """Foot link orientation at rest relative to the root (xyzw): the level foot."""
     foot_offset: np.ndarray
     """The foot end-effector's offset in the foot link frame [m]."""
+    axis: np.ndarray | None = None
+    """A revolute ankle's axis in its joint frame (None: a ball joint)."""
 
 
 def _moving(m: Morphology, names: tuple[str, ...]) -> list[int]:
@@ -157,6 +161,54 @@ def _run_pair(pair: list) -> None:
     pair[1].launch()
 
 
+def _redundant_last_joint(model: KinematicModel, m: Morphology, mov: list[int], ee: EndEffector) -> bool:
+    """Whether the joints above a leg's last one move its foot link origin in every direction that all of
+    the leg's joints move its foot (a pitch ankle below a pitch hip and knee): the last joint then only
+    tilts the foot, and is better kept level than left to the IK.
+
+    Compares the ranks of the two positional Jacobians at a generic pose (every joint drawn within 0.4 of
+    its rest value and within its limits, by a fixed generator; at rest a straight leg is singular).
+    """
+    q = model.rest_q.astype(np.float64).copy()
+    rng = np.random.default_rng(1)
+    lower, upper = model.coordinate_lower, model.coordinate_upper
+    for ji in mov:
+        s, e = m.joint_q_start[ji], m.joint_q_start[ji + 1]
+        if m.joints[ji].type != JointType.SPHERICAL:
+            q[s:e] = rng.uniform(np.maximum(lower[s:e], q[s:e] - 0.4), np.minimum(upper[s:e], q[s:e] + 0.4))
+    qd = m.joint_qd_start
+    last = mov[-1]
+
+    def jacobian(point_of: Callable[[np.ndarray], np.ndarray], joints: list[int]) -> np.ndarray:
+        cols = []
+        for ji in joints:
+            s = m.joint_q_start[ji]
+            if m.joints[ji].type == JointType.SPHERICAL:
+                return np.eye(3)  # a ball joint moves a point every way: not this case
+            for d in range(qd[ji + 1] - qd[ji]):
+                hi, lo = q.copy(), q.copy()
+                hi[s + d] += 1e-6
+                lo[s + d] -= 1e-6
+                cols.append((point_of(hi) - point_of(lo)) / 2e-6)
+        return np.stack(cols, axis=1) if cols else np.zeros((3, 0))
+
+    foot_link = model.link_index(ee.link)
+    offset = np.asarray(ee.offset, dtype=np.float64)
+
+    def foot(qq: np.ndarray) -> np.ndarray:
+        T = eval_fk(model, qq[None], device="cpu").numpy()[0, foot_link]
+        return T[:3] + quat_rotate(T[3:], offset)
+
+    def origin(qq: np.ndarray) -> np.ndarray:
+        return eval_fk(model, qq[None], device="cpu").numpy()[0, foot_link, :3]
+
+    def rank(J: np.ndarray) -> int:
+        sv = np.linalg.svd(J, compute_uv=False) if J.size else np.zeros(0)
+        return int((sv > 1e-6 * max(float(sv.max()) if sv.size else 0.0, 1e-12)).sum())
+
+    return rank(jacobian(origin, [j for j in mov if j != last])) == rank(jacobian(foot, mov))
+
+
 class LimbSolver:
     """Batched DLS IK of all limbs of a creature (see the module docstring for which DoFs move).
 
@@ -168,10 +220,13 @@ class LimbSolver:
             pose (all limbs) when one DoF exceeds it, so it is only a guard against blow-ups.
         max_error: Longest error per end-effector a step works on [m] (default a quarter of the mean
             limb reach): limits each limb's step on its own, where ``max_step`` would couple them.
+        points: Extra points ``(link, offset in the link frame)`` the model gets end-effectors for
+            (:attr:`point_ee`), e.g. the upper body's lowest points for :mod:`~morphkit.synth.ground`.
     """
 
     def __init__(self, m: Morphology, plan: BodyPlan, *, damping: float = 0.004, max_step: float = 1.5,
-                 max_error: float | None = None) -> None:
+                 max_error: float | None = None,
+                 points: Sequence[tuple[str, tuple[float, float, float]]] = ()) -> None:
         self.morphology = m
         self.plan = plan
         self.damping = damping
@@ -187,14 +242,18 @@ class LimbSolver:
         extra: list[EndEffector] = []
         leg_dofs: list[list[int]] = []
         qd = m.joint_qd_start
+        base_model = compile_model(m, device="cpu")
         for leg in plan.legs:
             ee = m.end_effector(leg.end_effector)
             mov = _moving(m, leg.joints)
             ankle = None
-            if len(mov) >= 3:
+            if len(mov) >= 2:
                 last = m.joints[mov[-1]]
                 positional = sum(1 if m.joints[j].type != JointType.SPHERICAL else 2 for j in mov[:-1])
-                if last.type == JointType.SPHERICAL and last.child == ee.link and positional >= 3:
+                ball = last.type == JointType.SPHERICAL and len(mov) >= 3 and positional >= 3
+                hinge = (last.type == JointType.REVOLUTE and last.child == ee.link
+                         and _redundant_last_joint(base_model, m, mov, ee))
+                if (ball or hinge) and last.child == ee.link:
                     ji = mov[-1]
                     ankle = Ankle(
                         joint=ji,
@@ -203,19 +262,25 @@ class LimbSolver:
                         origin_quat=np.asarray(last.origin.quat, dtype=float),
                         foot_rest_quat=rest[m.link_index(last.child), 3:].copy(),
                         foot_offset=np.asarray(ee.offset, dtype=float),
+                        axis=None if ball else np.asarray(last.axis, dtype=float),
                     )
                     extra.append(EndEffector(_PROXY_PREFIX + leg.end_effector, last.child, (0.0, 0.0, 0.0),
                                              EndEffectorRole.TOOL))
                     mov = mov[:-1]
             self.ankles.append(ankle)
             leg_dofs.append(self._leg_dofs(m, leg, mov, rest, ankle, self.ball_constraints))
+        extra += [EndEffector(f"{_POINT_PREFIX}{i}", link, offset, EndEffectorRole.TOOL)
+                  for i, (link, offset) in enumerate(points)]
         self.ik_morphology = dataclasses.replace(m, end_effectors=m.end_effectors + tuple(extra)) if extra else m
-        self.model: KinematicModel = compile_model(self.ik_morphology, device="cpu")
+        self.model: KinematicModel = compile_model(self.ik_morphology, device="cpu") if extra else base_model
         self.leg_ee = np.array([
             self.model.ee_index(_PROXY_PREFIX + leg.end_effector if a is not None else leg.end_effector)
             for leg, a in zip(plan.legs, self.ankles, strict=True)
         ], dtype=np.int64)
         self.arm_ee = np.array([self.model.ee_index(a.end_effector) for a in plan.arms], dtype=np.int64)
+        self.point_ee = np.array([self.model.ee_index(f"{_POINT_PREFIX}{i}") for i in range(len(points))],
+                                 dtype=np.int64)
+        """End-effector index in :attr:`model` of each of ``points``."""
         D = qd[-1] if m.joints else m.base_dof
         self.leg_mask = np.zeros(D, dtype=bool)
         for d in leg_dofs:
@@ -228,6 +293,7 @@ class LimbSolver:
         self.all_ee = np.concatenate([self.leg_ee, self.arm_ee]).astype(np.int64)
         self._bufs: dict[tuple[int, ...], tuple[wp.array, wp.array]] = {}
         self._ws: dict[tuple[str, int], _Workspace] = {}
+        self._fk: dict[int, tuple[np.ndarray, np.ndarray, object, tuple]] = {}
 
     @staticmethod
     def _leg_dofs(m: Morphology, leg: Limb, mov: list[int], rest: np.ndarray, ankle: Ankle | None,
@@ -293,6 +359,25 @@ class LimbSolver:
                                max_step=self.max_step, max_error=self.max_error if max_error is None else max_error,
                                out=out)
         return cur.numpy().copy(), res.numpy()
+
+    def link_transforms(self, q: np.ndarray) -> np.ndarray:
+        """``T_world_link`` [B, L, 7] of poses ``q`` [B, C] (float64), through a recorded FK launch per batch
+        size; the result is a buffer the next call with the same ``B`` overwrites."""
+        B = q.shape[0]
+        hit = self._fk.get(B)
+        if hit is None:
+            model = self.model
+            qa = wp.zeros((B, model.coordinate_count), dtype=wp.float64, device="cpu")
+            X = wp.zeros((B, model.link_count), dtype=wp.transformd, device="cpu")
+            wheel = wp.zeros((1, max(model.wheel_count, 1)), dtype=wp.float64, device="cpu")
+            cmd = wp.launch(fk_module(model, wp.float64).fk_transforms, dim=B, inputs=[qa, wheel, 0, 0], outputs=[X],
+                            device="cpu", record_cmd=True)
+            hit = (qa.numpy(), X.numpy().reshape(B, model.link_count, 7), cmd, (qa, X, wheel))
+            self._fk[B] = hit
+        q_np, X_np, cmd, _ = hit
+        q_np[:] = q
+        cmd.launch()  # type: ignore[attr-defined]
+        return X_np
 
     def _workspace(self, key: str, ee: np.ndarray, mask: np.ndarray, B: int) -> _Workspace:
         ws = self._ws.get((key, B))
@@ -413,7 +498,14 @@ class LimbSolver:
             joint_frame = quat_multiply(parent, a.origin_quat)
             want = quat_multiply(quat_from_yaw(foot_yaw[:, i]), a.foot_rest_quat)
             local = quat_multiply(quat_conjugate(joint_frame), want)
-            q[:, a.q_start:a.q_start + 4] = local / np.linalg.norm(local, axis=-1, keepdims=True)
+            if a.axis is None:
+                q[:, a.q_start:a.q_start + 4] = local / np.linalg.norm(local, axis=-1, keepdims=True)
+                continue
+            # a hinge: the angle about its axis closest to the level foot (the twist of the wanted rotation)
+            angle = 2.0 * np.arctan2(local[:, :3] @ a.axis, local[:, 3])
+            angle = (angle + np.pi) % (2.0 * np.pi) - np.pi
+            lo, hi = self.model.coordinate_lower[a.q_start], self.model.coordinate_upper[a.q_start]
+            q[:, a.q_start] = np.clip(angle, lo, hi)
         return q
 
     def ankle_offsets(self, foot_yaw: np.ndarray) -> np.ndarray:

@@ -37,13 +37,16 @@ from morphkit.synth.actions import (
     neutral_stance,
 )
 from morphkit.synth.analysis import BodyPlan, analyse
-from morphkit.synth.arms import ArmConfig, PosePool, calibrate_arms, draw_upper_body
+from morphkit.synth.arms import ArmConfig, PosePool, calibrate_arms, draw_upper_body, other_joints
+from morphkit.synth.ground import GroundGuard, GroundPoint, GroundStats, lift_mask, upper_body_points
 from morphkit.synth.legged import (
     LegConfig,
     LeggedController,
     LegRig,
     calibrate_legs,
+    keep_hinge_knees_bent,
     keep_knees_bent,
+    limb_links,
     upright_root_height,
 )
 from morphkit.synth.locomotion_commands import (
@@ -61,7 +64,7 @@ from morphkit.synth.locomotion_commands import (
 )
 from morphkit.synth.wheeled import Locomotion, base_coordinates, glide_height, lateral_allowed, locomotion_of
 
-__all__ = ["SynthConfig", "SynthResult", "SynthRig", "prepare", "synthesize"]
+__all__ = ["SynthConfig", "SynthResult", "SynthRig", "iter_synthesize", "prepare", "rollout_count", "synthesize"]
 
 
 @dataclass(frozen=True)
@@ -80,6 +83,9 @@ class SynthConfig:
     """IK residual [m] at which a pose stops iterating."""
     look_ahead_seconds: float = 3.0
     """Commanded root path planned beyond the last frame (footsteps near the end look ahead)."""
+    keep_above_ground: bool = True
+    """Lift arms, tails and heads that would go below the ground (:mod:`.ground`); False makes the
+    motions of morphkit before the lift (an arm may then reach through the floor)."""
     commands: CommandConfig = field(default_factory=CommandConfig)
     legs: LegConfig = field(default_factory=LegConfig)
     arms: ArmConfig = field(default_factory=ArmConfig)
@@ -107,6 +113,8 @@ class SynthRig:
     config: SynthConfig
     actions: ActionRig | None = None
     """Key poses of the arms that do upper-body actions and swing (None: no arm does)."""
+    ground: GroundGuard | None = None
+    """Lifts the upper body's shapes and arm tips above the ground (None: no upper body)."""
 
     def summary(self) -> dict[str, Any]:
         """Calibration figures for reports (JSON-friendly)."""
@@ -159,7 +167,17 @@ def prepare(m: Morphology, *, fps: float = 30.0, config: SynthConfig | None = No
         # without a floating base the legs cannot carry the body: move them like arms
         plan = BodyPlan(legs=(), arms=plan.arms + plan.legs, head=plan.head, wheeled=plan.wheeled,
                         body_height=plan.body_height, leg_reach=plan.leg_reach)
-    solver = LimbSolver(m, plan)
+    # the upper body's lowest points (its shapes and arm tips), kept above the ground every frame
+    others, carrying = other_joints(m, plan)
+    lifting = [m.joint_index(n) for arm in plan.arms for n in arm.joints] + [j for j in others if j not in carrying]
+    upper: set[str] = set()
+    for ji in lifting:
+        upper |= limb_links(m, (m.joints[ji].name,))
+    for leg in plan.legs:
+        upper -= limb_links(m, leg.joints)
+    points = upper_body_points(m, upper)
+    points += [GroundPoint(e.link, e.offset, 0.0) for e in (m.end_effector(a.end_effector) for a in plan.arms)]
+    solver = LimbSolver(m, plan, points=[(p.link, p.offset) for p in points])
     cc = config.commands
     legs = None
     if loco == Locomotion.LEGGED:
@@ -188,6 +206,14 @@ def prepare(m: Morphology, *, fps: float = 30.0, config: SynthConfig | None = No
 
     forward = tuple(v * scale * moving for v in cc.forward_speed)
     lateral = tuple(v * scale * moving for v in lat)
+    yaw = tuple(v * moving for v in cc.yaw_rate)
+    if legs is not None and legs.fixed_axes is not None:
+        # a leg that cannot step along a direction: no walking that way, slow turns
+        fixed = legs.fixed_axes.any(axis=0)
+        forward = (0.0, 0.0) if fixed[0] else forward
+        lateral = (0.0, 0.0) if fixed[1] else lateral
+        w = config.legs.fixed_axis_yaw_rate
+        yaw = (max(yaw[0], -w), min(yaw[1], w))
     if clamp is not None and cc.fit_range_to_creature:
         # shrink a range the legs cannot step (straight, without turning) to what they can, so that
         # speeds stay spread over what the creature does instead of piling up at its top speed
@@ -200,7 +226,7 @@ def prepare(m: Morphology, *, fps: float = 30.0, config: SynthConfig | None = No
     limits = CommandLimits(
         forward=forward,  # type: ignore[arg-type]
         lateral=lateral,  # type: ignore[arg-type]
-        yaw=tuple(v * moving for v in cc.yaw_rate),  # type: ignore[arg-type]
+        yaw=yaw,  # type: ignore[arg-type]
         height=legs.height_range if legs is not None else (0.0, 0.0),
         pitch=legs.pitch if legs is not None else 0.0,
         roll=legs.roll if legs is not None else 0.0,
@@ -208,7 +234,12 @@ def prepare(m: Morphology, *, fps: float = 30.0, config: SynthConfig | None = No
         yaw_acceleration=cc.yaw_acceleration,
         clamp=clamp,
     )
-    rig = SynthRig(m, plan, loco, solver, legs, arms, q_stance, limits, float(scale), fps, config, actions)
+    ground = None
+    if points and config.keep_above_ground:
+        mask = lift_mask(m, lifting, len(solver.all_mask))
+        ground = GroundGuard(solver.model, solver.point_ee, np.array([p.radius for p in points]), mask, solver.step,
+                             solver.link_transforms)
+    rig = SynthRig(m, plan, loco, solver, legs, arms, q_stance, limits, float(scale), fps, config, actions, ground)
     _rig_cache.append((m, fps, config, rig))
     del _rig_cache[:-4]
     return rig
@@ -240,9 +271,34 @@ class SynthResult(Sequence[Motion]):
     action: list[np.ndarray] = field(default_factory=list)
     """Per motion: [T] int8 action code per frame (:data:`~morphkit.synth.actions.ACTION_NAMES`; empty
     without acting arms)."""
+    ground: GroundStats = field(default_factory=GroundStats)
+    """Upper-body poses lifted above the ground, and the links that could not be (:mod:`.ground`)."""
+
+    @property
+    def warnings(self) -> list[str]:
+        """One line per limb that cannot be moved well: the calibration's and the ground lift's."""
+        legs = list(self.rig.legs.warnings) if self.rig.legs is not None else []
+        return legs + self.ground.warnings()
 
     def __len__(self) -> int:
         return len(self.motions)
+
+    @classmethod
+    def concatenate(cls, parts: Sequence[SynthResult], *, seconds: float | None = None) -> SynthResult:
+        """One result of the rollouts of ``parts`` (of one creature's rig, e.g. :func:`iter_synthesize`'s), in order."""
+        if not parts:
+            raise ConfigError("nothing to concatenate: no synthesised rollouts")
+        first = parts[0]
+
+        def cat(name: str) -> list:
+            return [x for p in parts for x in getattr(p, name)]
+
+        ground = GroundStats()
+        for p in parts:
+            ground = ground.merge(p.ground)
+        return cls(cat("motions"), cat("command"), cat("target"), cat("settled"), cat("contact"), cat("gait"),
+                   first.gait_names, cat("clamped"), parts[-1].seconds if seconds is None else seconds, first.rig,
+                   cat("actions"), cat("action"), ground)
 
     def __getitem__(self, i):  # type: ignore[override]
         return self.motions[i]
@@ -275,40 +331,21 @@ class SynthResult(Sequence[Motion]):
             out.update(action=self.action[i], action_names=np.array(ACTION_NAMES))
         return out
 
-    def save(self, path: str | os.PathLike[str]) -> list[Path]:
+    def save(self, path: str | os.PathLike[str], **info: Any) -> list[Path]:
         """Write the motions as NPZ files (:func:`~morphkit.motion.write_npz_motion`) and return their paths.
 
         A path ending in ``.npz`` gets one file: every motion end to end, with ``clip_starts`` (first
         frame of each rollout) among the extra arrays — consumers that ignore it see jumps at clip
-        boundaries. Any other path is a folder (created if needed) with one ``<name>.npz`` per motion.
+        boundaries. A path without a suffix (or an existing folder) is a folder with one
+        ``<name>.npz`` per motion and a ``manifest.json`` listing them (``info`` goes into it); files an
+        earlier save listed there are replaced or removed (:mod:`morphkit.synth.output`). Another
+        suffix is a ``ConfigError``.
         """
-        from morphkit.motion.io_npz import write_npz_motion
+        from morphkit.synth.output import SynthWriter
 
-        p = Path(path)
-        if p.suffix.lower() == ".npz":
-            if not self.motions:
-                raise ConfigError("nothing to save: no motion was synthesised")
-            joined = Motion.concatenate(self.motions, name=p.stem)
-            starts = np.cumsum([0] + [m.frame_count for m in self.motions[:-1]]).astype(np.int64)
-            per_frame = ("command", "command_target", "command_settled", "contact", "gait") + (
-                ("action",) if self.action else ())
-            ex = {k: np.concatenate([self.extras(i)[k] for i in range(len(self))], axis=0) for k in per_frame}
-            ex.update(command_names=np.array(COMMAND_NAMES), gait_names=self.extras(0)["gait_names"],
-                      clip_starts=starts)
-            if self.action:
-                ex["action_names"] = np.array(ACTION_NAMES)
-            p.parent.mkdir(parents=True, exist_ok=True)
-            write_npz_motion(joined, p, **ex)
-            return [p]
-        if p.exists() and not p.is_dir():
-            raise ConfigError(f"--out {p}: exists and is not a folder (use a .npz name for a single file)")
-        p.mkdir(parents=True, exist_ok=True)
-        out = []
-        for i, m in enumerate(self.motions):
-            f = p / f"{m.name}.npz"
-            write_npz_motion(m, f, **self.extras(i))
-            out.append(f)
-        return out
+        writer = SynthWriter(path, **info)
+        writer.write(self)
+        return writer.close()
 
 
 def _scalar_and_quat_coords(m: Morphology) -> tuple[np.ndarray, np.ndarray]:
@@ -410,6 +447,7 @@ def _run_batch(rig: SynthRig, seeds: Sequence[np.random.SeedSequence], lengths: 
             if h == -2:
                 th = 2.0 * np.arctan2(rig.q_stance[s + ax], rig.q_stance[s + 3])
                 knees.append((int(s), int(ax), 1.0 if th >= 0 else -1.0))
+    hinge_knees = rig.legs.hinge_knees if rig.legs is not None else ()
     lower, upper = m.coordinate_limits
     lo_s, hi_s = lower[scalar], upper[scalar]
     out_q = np.empty((R, frames, C))
@@ -419,6 +457,7 @@ def _run_batch(rig: SynthRig, seeds: Sequence[np.random.SeedSequence], lengths: 
     q_prev2 = q_prev.copy()
     glide_z = rig.q_stance[2] if rig.locomotion == Locomotion.GLIDE else 0.0
     gain = cfg.arms.posture_gain
+    ground_stats = GroundStats()
     for t in range(frames):
         c = cmds.command[:, t]
         xy, yaw = path_xy[:, t], path_yaw[:, t]
@@ -436,6 +475,8 @@ def _run_batch(rig: SynthRig, seeds: Sequence[np.random.SeedSequence], lengths: 
         solver.constrain(q)
         if knees:
             keep_knees_bent(q, knees, cfg.legs.upright_knee_margin)
+        if hinge_knees:
+            keep_hinge_knees_bent(q, hinge_knees, cfg.legs.upright_knee_margin, lower, upper)
         if rig.locomotion == Locomotion.LEGGED:
             assert stance is not None and rig.legs is not None
             z = rig.legs.stance_height + c[:, CMD_DH] if z_upright is None else z_upright[:, t]
@@ -483,6 +524,8 @@ def _run_batch(rig: SynthRig, seeds: Sequence[np.random.SeedSequence], lengths: 
                              tolerance=cfg.ik_tolerance, weight=weight)
             if foot_yaw is not None:
                 q = solver.level_ankles(q, foot_yaw[:, t])
+        if rig.ground is not None:
+            q = rig.ground.lift(q, ground_stats)
         out_q[:, t] = q
         q_prev2, q_prev = q_prev, q
         tick(int((t < active).sum()))
@@ -496,6 +539,7 @@ def _run_batch(rig: SynthRig, seeds: Sequence[np.random.SeedSequence], lengths: 
         "clamped": cmds.clamped[:, :frames],
         "action": acts.code[:, :frames] if acts is not None else None,
         "spans": acts.spans if acts is not None else None,
+        "ground": ground_stats,
     }
 
 
@@ -505,7 +549,8 @@ def synthesize(morphology: Morphology, *, frames: int, fps: float = 30.0, seed: 
 
     Legged creatures walk, trot, gallop (or their leg count's gaits) after random smoothed
     commands with their feet planted; arms reach and wave; wheeled bases drive; other joints
-    (heads, tails) look around. See :mod:`morphkit.synth` for the method.
+    (heads, tails) look around. See :mod:`morphkit.synth` for the method. Every rollout stays in
+    memory: :func:`iter_synthesize` hands them over a batch at a time.
 
     Args:
         morphology: The creature.
@@ -522,6 +567,23 @@ def synthesize(morphology: Morphology, *, frames: int, fps: float = 30.0, seed: 
     Raises:
         ConfigError: on a non-positive ``frames``, ``fps``, batch or rollout length.
     """
+    start = time.perf_counter()
+    parts = list(iter_synthesize(morphology, frames=frames, fps=fps, seed=seed, config=config, progress=progress))
+    return SynthResult.concatenate(parts, seconds=time.perf_counter() - start)
+
+
+def rollout_count(frames: int, fps: float, config: SynthConfig) -> int:
+    """Rollouts (output motions) of a ``frames``-frame data set: ``rollout_seconds`` each, the last shorter."""
+    return int(np.ceil(frames / max(2, round(config.rollout_seconds * fps))))
+
+
+def iter_synthesize(morphology: Morphology, *, frames: int, fps: float = 30.0, seed: int = 0,
+                    config: SynthConfig | None = None, progress: bool = True) -> Iterator[SynthResult]:
+    """:func:`synthesize` one batch of rollouts at a time: each item is a :class:`SynthResult` of the next
+    ``SynthConfig.batch`` rollouts (or fewer), in order, so memory stays flat however many frames are
+    asked for. The rollouts are the ones :func:`synthesize` makes with the same arguments; an item's
+    ``seconds`` is the time since the call (calibration included). The creature is calibrated (and its
+    arguments checked, raising ``ConfigError``) when this is called, before the first item."""
     config = config or SynthConfig()
     if int(frames) < 1:
         raise ConfigError(f"frames must be >= 1, got {frames}")
@@ -531,13 +593,18 @@ def synthesize(morphology: Morphology, *, frames: int, fps: float = 30.0, seed: 
         raise ConfigError("config: batch >= 1, rollout_seconds > 0 and ik_iterations >= 0 are required")
     start = time.perf_counter()
     rig = prepare(morphology, fps=fps, config=config)
+    return _batches(rig, int(frames), seed, progress, start)
+
+
+def _batches(rig: SynthRig, frames: int, seed: int, progress: bool, start: float) -> Iterator[SynthResult]:
+    morphology, fps, config = rig.morphology, rig.fps, rig.config
     per = max(2, round(config.rollout_seconds * fps))
     count = int(np.ceil(frames / per))
-    lengths = [per] * count
-    lengths[-1] = frames - per * (count - 1)
-    seeds = np.random.SeedSequence(seed).spawn(count)
+    # one generator per rollout, spawned batch by batch (the same children as one spawn of all)
+    root_seed = np.random.SeedSequence(seed)
     nbatch = int(np.ceil(count / config.batch))
     size = int(np.ceil(count / nbatch))
+    gait_names = (rig.legs and tuple(dict.fromkeys(g.name for b in rig.legs.bands for g in b.gaits))) or ()
     bar = None
     if progress:
         from tqdm import tqdm
@@ -548,28 +615,30 @@ def synthesize(morphology: Morphology, *, frames: int, fps: float = 30.0, seed: 
         if bar is not None:
             bar.update(n)
 
-    motions: list[Motion] = []
-    res: dict[str, list[np.ndarray]] = {k: [] for k in ("command", "target", "settled", "contact", "gait", "clamped")}
-    spans: list[tuple[ActionSpan, ...]] = []
-    action: list[np.ndarray] = []
     try:
         for b in range(nbatch):
             idx = list(range(b * size, min(count, (b + 1) * size)))
-            out = _run_batch(rig, [seeds[i] for i in idx], [lengths[i] for i in idx], per, tick)
+            lengths = [per if i < count - 1 else frames - per * (count - 1) for i in idx]
+            out = _run_batch(rig, root_seed.spawn(len(idx)), lengths, per, tick)
+            motions: list[Motion] = []
+            res: dict[str, list[np.ndarray]] = {
+                k: [] for k in ("command", "target", "settled", "contact", "gait", "clamped")}
+            spans: list[tuple[ActionSpan, ...]] = []
+            action: list[np.ndarray] = []
             for k, i in enumerate(idx):
-                L = lengths[i]
+                L = lengths[k]
                 motions.append(Motion(morphology, fps, out["q"][k, :L], f"{morphology.name}_synth_{seed}_{i:04d}"))
                 for key, values in res.items():
                     values.append(out[key][k, :L])
                 if out["action"] is not None:
                     action.append(out["action"][k, :L])
                     spans.append(tuple(_clip_span(sp, L) for sp in out["spans"][k] if sp.start < L))
+            yield SynthResult(motions, res["command"], res["target"], res["settled"], res["contact"], res["gait"],
+                              gait_names, res["clamped"], time.perf_counter() - start, rig, spans, action,
+                              out["ground"])
     finally:
         if bar is not None:
             bar.close()
-    gait_names = (rig.legs and tuple(dict.fromkeys(g.name for b in rig.legs.bands for g in b.gaits))) or ()
-    return SynthResult(motions, res["command"], res["target"], res["settled"], res["contact"], res["gait"],
-                       gait_names, res["clamped"], time.perf_counter() - start, rig, spans, action)
 
 
 def _clip_span(span: ActionSpan, frames: int) -> ActionSpan:

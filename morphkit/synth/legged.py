@@ -25,6 +25,14 @@ foot far ahead or behind needs it (:func:`upright_root_height`) — the vertical
 person, lowest in double support. Commanded body pitch and roll are scaled by
 ``upright_pose_scale``, height offsets by ``upright_height_scale``.
 
+**Legs that turn in one plane** (hip, knee and ankle all pitching; :func:`ground_mobility` finds them
+from the leg Jacobian at stance): the step region is searched only along the directions the foot can
+move (the other semi-axis is ``fixed_axis_semi_axis`` of the reach, room for a turn's drift); the body
+does not roll (or pitch) across a direction a leg cannot follow, walks only along the other, and turns
+at most ``fixed_axis_yaw_rate``. The calibration says so per leg (:attr:`LegRig.warnings`), and also
+when a step region or swing height came out small. Upright bipeds with revolute knees keep them bent
+by ``upright_knee_margin`` (:func:`keep_hinge_knees_bent`), as ball knees are.
+
 **Stepping** (:class:`LeggedController`, vectorised over rollouts and legs): the gait clock
 (:mod:`morphkit.synth.gait`) says when a stance foot may lift; the cycle frequency is the
 creature's cadence $f_0 = c\\sqrt{g/h}/2\\pi$ or faster, so that each stance uses at most
@@ -58,14 +66,15 @@ import numpy as np
 from morphkit.graph import JointType, Morphology
 from morphkit.kernels import eval_fk
 from morphkit.kernels.contact import eval_self_collision_distance, self_collision_pairs
+from morphkit.kernels.ik import eval_ee_jacobian
 from morphkit.rotations import quat_from_rpy, quat_multiply, quat_rotate, wrap_angle
 from morphkit.synth._ik import LimbSolver
 from morphkit.synth._util import rotate2, smoothstep
 from morphkit.synth.analysis import BodyPlan
 from morphkit.synth.gait import GaitBand, GaitClock, gait_bands
 
-__all__ = ["LegConfig", "LegRig", "LeggedController", "calibrate_legs", "is_upright_biped", "keep_knees_bent",
-           "upright_root_height"]
+__all__ = ["LegConfig", "LegRig", "LeggedController", "calibrate_legs", "ground_mobility", "is_upright_biped",
+           "keep_hinge_knees_bent", "keep_knees_bent", "upright_root_height"]
 
 GRAVITY = 9.81
 
@@ -119,6 +128,14 @@ class LegConfig:
     """A stance foot this far out in its ellipse lifts off whatever its phase."""
     ball_posture_gain: float = 0.1
     """Per-frame pull of leg ball joints (which have no limits) toward the stance posture, before IK."""
+    fixed_axis_semi_axis: float = 0.02
+    """Step-ellipse semi-axis, as a fraction of reach, along a direction in which a leg cannot move its
+    foot on the ground (sideways for a leg whose joints all pitch): what turning may drift a stance
+    foot off its leg's plane before it lifts."""
+    fixed_axis_yaw_rate: float = 0.15
+    """Largest yaw rate [rad/s] of a creature with a leg that cannot step sideways or fore-aft: a turn
+    drags such a leg's stance foot across its plane at the yaw rate times the foot's distance from the
+    root, so turns are kept slow."""
     calibration_random_poses: int = 64
     """Random foot placements tested per candidate ellipse."""
     calibration_iterations: int = 30
@@ -172,6 +189,14 @@ class LegRig:
     """Mount-to-IK-point chain length per leg [NL] [m] (upright bipeds)."""
     max_extension: float = 1.0
     """Upright bipeds: the largest mount-to-IK-point distance as a fraction of ``leg_length``."""
+    fixed_axes: np.ndarray | None = None
+    """[NL, 2] bool: directions (fore-aft, sideways) along which a leg's joints cannot move its foot on the
+    ground (:func:`ground_mobility`); None when every leg moves both ways."""
+    hinge_knees: tuple[tuple[int, float, float], ...] = ()
+    """Upright bipeds: revolute knees as ``(q index, straight angle, sign)``; their warm start is kept bent
+    at least ``upright_knee_margin`` the way they bend at stance (see :func:`keep_hinge_knees_bent`)."""
+    warnings: tuple[str, ...] = ()
+    """One line per leg that cannot be moved well: which leg and why."""
 
     @property
     def leg_count(self) -> int:
@@ -353,6 +378,75 @@ def _ee_point(model, X: np.ndarray, ee: int) -> np.ndarray:
     return T[:3] + quat_rotate(T[3:], np.asarray(model.ee_offset[ee], dtype=float))
 
 
+def ground_mobility(solver: LimbSolver, q: np.ndarray) -> np.ndarray:
+    r"""[NL, 2] bool: whether each leg's joints can move its IK point fore-aft (x) and sideways (y) without
+    changing its height, at pose ``q`` [C] (a level root facing +x: world axes are the heading frame's).
+
+    Direction $e$ is reachable when $J \, \delta q = e$ has a solution ($J$ the leg's positional
+    Jacobian): a leg whose joints all pitch has a zero sideways row and cannot step sideways.
+    """
+    J = eval_ee_jacobian(solver.model, q[None], ee=solver.leg_ee, dof_mask=solver.leg_mask)[0].numpy()[0]
+    out = np.ones((len(solver.leg_ee), 2), dtype=bool)
+    for li in range(len(solver.leg_ee)):
+        Jl = J[3 * li:3 * li + 3]
+        for k in range(2):
+            e = np.zeros(3)
+            e[k] = 1.0
+            x = np.linalg.lstsq(Jl, e, rcond=1e-6)[0]
+            out[li, k] = bool(np.linalg.norm(Jl @ x - e) < 0.5)
+    return out
+
+
+def _hinge_knees(m: Morphology, solver: LimbSolver, plan: BodyPlan, q: np.ndarray
+                 ) -> tuple[tuple[int, float, float], ...]:
+    """Revolute knees of upright legs at stance pose ``q`` [C]: ``(q index, rest angle, sign)``.
+
+    A knee is a revolute joint below a leg's first one whose turning changes the mount-to-IK-point
+    distance; it bends toward ``sign`` from its rest (straight) angle.
+    """
+    model = solver.model
+    q_rest = m.rest_q()
+    out = []
+    for li, leg in enumerate(plan.legs):
+        ee = int(solver.leg_ee[li])
+        mount = np.asarray(leg.mount_rest) + q[:3]
+        mov = [m.joint_index(n) for n in leg.joints
+               if m.joint(n).type != JointType.FIXED and m.joint(n).mimic is None]
+        if solver.ankles[li] is not None:
+            mov = mov[:-1]
+        for ji in mov[1:]:
+            if m.joints[ji].type != JointType.REVOLUTE:
+                continue
+            s = m.joint_q_start[ji]
+            bend = q[s] - q_rest[s]
+            if abs(bend) < 1e-3:
+                continue
+            d = []
+            for delta in (-0.01, 0.01):
+                qc = q.copy()
+                qc[s] += delta
+                X = eval_fk(model, qc[None], device="cpu").numpy()[0]
+                d.append(np.linalg.norm(_ee_point(model, X, ee) - mount))
+            if abs(d[1] - d[0]) > 1e-5:
+                out.append((int(s), float(q_rest[s]), float(np.sign(bend))))
+    return tuple(out)
+
+
+def keep_hinge_knees_bent(q: np.ndarray, knees: tuple[tuple[int, float, float], ...], margin: float,
+                          lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    """Keep revolute knees of poses ``q`` [B, C] bent at least ``margin`` [rad] from straight, in place.
+
+    ``knees`` holds ``(q index, straight angle, sign)`` (:attr:`LegRig.hinge_knees`); a nearly straight
+    leg's DLS step cannot bend a knee that reached straight (the Jacobian loses the leg's length
+    direction there), so the warm start never gets there. Limits ``lower``/``upper`` [C] still hold.
+    """
+    for s, straight, sign in knees:
+        want = np.clip(straight + sign * margin, lower[s], upper[s])
+        bad = sign * (q[:, s] - want) < 0
+        q[bad, s] = want
+    return q
+
+
 def calibrate_legs(m: Morphology, plan: BodyPlan, solver: LimbSolver, cfg: LegConfig, *, fps: float,
                    height_fraction: tuple[float, float], pitch: float, roll: float) -> LegRig:
     """Stance height, nominal posture, step ellipses and swing height of a legged creature.
@@ -450,6 +544,16 @@ def calibrate_legs(m: Morphology, plan: BodyPlan, solver: LimbSolver, cfg: LegCo
         else:
             upright = False
 
+    # legs whose joints cannot move the foot along the ground in some direction (all pitch: no
+    # sideways step) calibrate and step only in the directions they can; the body keeps level
+    # across the direction they cannot (roll needs sideways reach, pitch fore-aft reach)
+    fixed = ~ground_mobility(solver, q_nom)
+    free = (~fixed).astype(float)
+    if fixed[:, 0].any():
+        pitch = 0.0
+    if fixed[:, 1].any():
+        roll = 0.0
+
     hr = (height_fraction[0] * h_stand, height_fraction[1] * h_stand)
     corners = np.array([*itertools.product(hr, (-pitch, pitch), (-roll, roll)), (0.0, 0.0, 0.0)])
     rng = np.random.default_rng(12345)
@@ -471,7 +575,7 @@ def calibrate_legs(m: Morphology, plan: BodyPlan, solver: LimbSolver, cfg: LegCo
 
     def poses(a: float, b: float, lift: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, int]:
         """Body poses [B, 3], foot offsets [B, NL, 2] and lifts [B, NL]; counts of boundary and pair poses."""
-        ax = np.stack([a * reach, b * reach], axis=1)  # [NL, 2]
+        ax = np.stack([a * reach, b * reach], axis=1) * free  # [NL, 2]
         # boundary poses: every corner x every angle, all legs at the same angle
         body = [np.repeat(corners, len(angles), axis=0)]
         th = np.tile(angles, len(corners))[:, None].repeat(NL, axis=1)
@@ -541,15 +645,36 @@ def calibrate_legs(m: Morphology, plan: BodyPlan, solver: LimbSolver, cfg: LegCo
             break
         H *= 0.75
     t_swing_min = max(cfg.min_swing_seconds, cfg.min_swing_frames / fps)
+    semi_axes = np.stack([a * reach, b * reach], axis=1)
+    semi_axes = np.where(fixed, cfg.fixed_axis_semi_axis * reach[:, None], semi_axes)
     stats = {"ellipse_factors": (float(a), float(b)), "nominal_residual_m": float(err.max()),
              "effective_reach_m": eff.round(4).tolist()}
+    warnings = []
+    for li, leg in enumerate(plan.legs):
+        if fixed[li].all():
+            warnings.append(f"leg {leg.end_effector}: its joints cannot move the foot along the ground at all: "
+                            "the creature stands in place")
+        elif fixed[li].any():
+            cannot, can = ("fore-aft", "sideways") if fixed[li, 0] else ("sideways", "fore-aft")
+            warnings.append(f"leg {leg.end_effector}: its joints cannot move the foot {cannot} on the ground (they all "
+                            f"turn in one plane): it steps only {can}, turns at most {cfg.fixed_axis_yaw_rate:g} rad/s")
+    longest = np.where(fixed, 0.0, [a, b]).max(axis=1)  # the longest step each leg can take, / reach
+    small = ~fixed.all(axis=1) & (longest < 0.1)
+    if small.any():
+        names = ", ".join(plan.legs[li].end_effector for li in np.flatnonzero(small))
+        warnings.append(f"legs {names}: step at most {100 * float((longest * reach)[small].min()):.2g} cm from their "
+                        "stance point: IK reaches no further at the commanded body poses, or the legs would collide")
+    if H < 0.5 * cfg.swing_height * float(reach.mean()):
+        warnings.append(f"legs: lift their feet at most {100 * H:.2g} cm: a higher foot is out of reach")
+    if fixed.any():
+        stats["fixed_axes"] = fixed.tolist()
     if upright:
         assert lengths is not None
         stats.update(calibration_height_m=round(float(h), 4), leg_length_m=lengths.round(4).tolist())
     rig = LegRig(
         nominal_xy=nominal_xy,
         stance_height=float(h_stand),
-        semi_axes=np.stack([a * reach, b * reach], axis=1),
+        semi_axes=semi_axes,
         swing_height=float(H),
         q_nominal=q_stand,
         cadence_hz=float(cfg.cadence * np.sqrt(GRAVITY / max(h_stand, 1e-3)) / (2 * np.pi)),
@@ -565,6 +690,9 @@ def calibrate_legs(m: Morphology, plan: BodyPlan, solver: LimbSolver, cfg: LegCo
         mount_xyz=mounts if upright else None,
         leg_length=lengths if upright else None,
         max_extension=float(cfg.upright_max_extension) if upright else 1.0,
+        fixed_axes=fixed if fixed.any() else None,
+        hinge_knees=_hinge_knees(m, solver, plan, q_stand) if upright else (),
+        warnings=tuple(warnings),
     )
     return rig
 

@@ -6,8 +6,12 @@ Figures (the ``morphkit synth --report --json`` keys first):
 - ``foot_sliding_cm_s``: mean horizontal speed of feet in contact (lower than ``height_threshold``
   above the ground; the feet of the legs that carry the body, or every ``foot`` end-effector of plain
   motions), by :func:`~morphkit.kernels.contact.eval_sliding_speed` (backward differences).
-- ``penetration_mm``: deepest foot penetration below the ground
-  (:func:`~morphkit.kernels.contact.eval_penetration_depth`).
+- ``penetration_mm``: deepest penetration below the ground of anything: the feet's end-effector points
+  (:func:`~morphkit.kernels.contact.eval_penetration_depth`), every other end-effector point, and every
+  link shape (:func:`~morphkit.kernels.contact.eval_shape_ground_distance`). A foot's own shapes (on its
+  link and below) count only beyond how far they reach below the foot point at rest (Spot's foot
+  sphere is centred on its foot point); wheels roll on the ground and are not counted.
+  ``foot_penetration_mm`` is the feet's points alone, ``deepest_link`` names where the deepest was.
 - ``self_collision_frac``: fraction of frames where any candidate shape pair overlaps by more than
   ``collision_tolerance`` (:func:`~morphkit.kernels.contact.eval_self_collision_distance`; pairs from
   :func:`~morphkit.kernels.contact.self_collision_pairs` with ``rest_margin``: shapes that touch at
@@ -21,7 +25,12 @@ Extra keys: ``yaw_rate_error`` (same for the yaw rate, floor 0.1 rad/s), ``foot_
 ``penetration_mean_mm``, ``command_clamped_frac`` (frames whose velocity target was scaled down to
 what the legs can do; tracking is measured against the scaled target), ``swing_clearance_frac``
 (fraction of airborne swing frames — not the lift-off and touchdown frames — with the foot above
-1 cm), ``contact_frac``, ``gait_frac`` and the calibration summary.
+1 cm), ``step_length_m`` (mean horizontal distance from a foot's last stance frame before a swing to its
+first after it, over swings the clip does not cut), ``step_height_m`` (mean highest foot point of those
+swings), ``legs`` (per leg: ``step_length_m``, ``step_height_m``, ``sliding_cm_s``, ``swings``),
+``contact_frac``, ``gait_frac``, the calibration summary and ``warnings`` (one line per limb that
+cannot be moved well: the calibration's, and legs that slide more than 1 cm/s, step less than a tenth
+of their reach or lift their feet less than 2 cm, links more than 5 mm below the ground).
 
 The root follows the (scaled) command by construction, so ``tracking_error`` checks the pipeline
 (integration, heading frames, finite differences) rather than a controller's skill.
@@ -39,6 +48,15 @@ from morphkit.motion.motion import Motion
 
 __all__ = ["REPORT_KEYS", "format_report", "quality_report"]
 
+WARN_SLIDING_CM_S = 1.0
+"""A leg whose stance foot slides faster than this on average [cm/s] is named in the warnings."""
+WARN_STEP_FRACTION = 0.1
+"""A leg whose mean step is shorter than this fraction of its reach is named in the warnings."""
+WARN_STEP_HEIGHT_M = 0.02
+"""A leg whose mean swing apex is lower than this [m] is named in the warnings."""
+WARN_PENETRATION_M = 0.005
+"""A link deeper than this below the ground [m] is named in the warnings."""
+
 REPORT_KEYS = ("frames", "frames_per_s", "foot_sliding_cm_s", "penetration_mm", "self_collision_frac",
                "limit_violation_frac", "tracking_error")
 """The keys ``morphkit synth --report --json`` always prints."""
@@ -49,6 +67,50 @@ def _groups(motions: Sequence[Motion]) -> dict[int, list[int]]:
     for i, m in enumerate(motions):
         groups.setdefault(m.frame_count, []).append(i)
     return groups
+
+
+def _ground_allowance(m, model, feet: np.ndarray) -> np.ndarray:
+    """Per shape [S]: how far below the ground [m] it may reach without penetrating: a foot's own shapes
+    (on the foot's link and below) as far below the foot point as at rest, wheels without limit, others 0."""
+    from morphkit.kernels import eval_end_effectors, eval_fk
+    from morphkit.kernels.contact import eval_shape_ground_distance
+
+    allow = np.zeros(model.shape_count)
+    if not model.shape_count:
+        return allow
+    shape_link = np.asarray(model.shape_link)
+    for name in m.wheel_joints:
+        allow[shape_link == m.link_index(m.joint(name).child)] = np.inf
+    if len(feet):
+        q = m.rest_q()[None]
+        X = eval_fk(model, q, device="cpu")
+        low = eval_shape_ground_distance(model, X).numpy()[0]
+        pos, _ = eval_end_effectors(model, q, Ts_world_link=X)
+        ee_z = pos.numpy()[0, :, 2]
+        for e in feet:
+            e = int(e)
+            below = {model.link_names[int(model.ee_link[e])]}
+            for j in m.joints:  # topological order: parents first
+                if j.parent in below:
+                    below.add(j.child)
+            on = np.isin(shape_link, [m.link_index(n) for n in below])
+            allow[on] = np.maximum(allow[on], np.maximum(ee_z[e] - low[on], 0.0))
+    return allow
+
+
+def _swings(h: np.ndarray, xy: np.ndarray, contact: np.ndarray) -> list[tuple[int, float, float]]:
+    """``(leg, step length [m], apex [m])`` of every swing a clip does not cut: feet heights [T, L], feet
+    positions [T, L, 2], planned contact [T, L]."""
+    out = []
+    for leg in range(contact.shape[1]):
+        air = ~contact[:, leg]
+        edges = np.flatnonzero(np.diff(np.concatenate([[0], air.astype(np.int8), [0]])))
+        for start, stop in zip(edges[::2], edges[1::2], strict=True):
+            if start == 0 or stop == len(air):
+                continue
+            out.append((leg, float(np.linalg.norm(xy[stop, leg] - xy[start - 1, leg])),
+                        float(h[start:stop, leg].max())))
+    return out
 
 
 def quality_report(result: Any, *, height_threshold: float = 0.02, collision_tolerance: float = 0.001,
@@ -71,6 +133,7 @@ def quality_report(result: Any, *, height_threshold: float = 0.02, collision_tol
         eval_foot_heights,
         eval_penetration_depth,
         eval_self_collision_distance,
+        eval_shape_ground_distance,
         eval_sliding_speed,
         foot_indices,
         self_collision_pairs,
@@ -89,11 +152,18 @@ def quality_report(result: Any, *, height_threshold: float = 0.02, collision_tol
     else:
         feet = foot_indices(model)
     pairs = self_collision_pairs(model, rest_margin=rest_margin)
+    allow = _ground_allowance(m, model, feet)
+    others = np.array([e for e in range(model.ee_count) if e not in set(feet.tolist())], dtype=np.int64)
+    deepest = 0.0
+    deepest_link: str | None = None
+    link_depth: dict[str, float] = {}
+    foot_xy: list[np.ndarray | None] = [None] * len(motions)
     lower, upper = m.coordinate_limits
     finite = np.isfinite(lower) | np.isfinite(upper)
     slide_sum = 0.0
     slide_n = 0
     slides: list[np.ndarray] = []
+    leg_slides: list[np.ndarray] = []
     pen_max = 0.0
     pen_sum = 0.0
     pen_n = 0
@@ -113,6 +183,7 @@ def quality_report(result: Any, *, height_threshold: float = 0.02, collision_tol
             h = eval_foot_heights(pos, feet=feet).numpy()  # [N, T, F]
             sl = eval_sliding_speed(pos, fps, feet=feet, height_threshold=height_threshold).numpy()
             contact = h < height_threshold
+            leg_slides.append(np.where(contact, sl, np.nan).reshape(-1, sl.shape[-1]))
             slide_sum += float(sl[contact].sum())
             slide_n += int(contact.sum())
             slides.append(sl[contact])
@@ -120,8 +191,29 @@ def quality_report(result: Any, *, height_threshold: float = 0.02, collision_tol
             pen_max = max(pen_max, float(pen.max()))
             pen_sum += float(pen.sum())
             pen_n += pen.size
+            fpos = pos.numpy()[..., feet, :2]
             for k, i in enumerate(idx):
                 heights_all[i] = h[k]
+                foot_xy[i] = fpos[k]
+        # everything else: every shape (a foot's own beyond its rest reach below the foot point), every
+        # other end-effector point
+        depth = {}
+        if model.shape_count:
+            d = eval_shape_ground_distance(model, X).numpy()  # [N, T, S]
+            below = np.maximum(-(d + allow), 0.0).max(axis=(0, 1))
+            for sh in range(model.shape_count):
+                name = model.link_names[int(model.shape_link[sh])]
+                depth[name] = max(depth.get(name, 0.0), float(below[sh]))
+        if others.size:
+            pe, _ = eval_end_effectors(model, q, Ts_world_link=X)
+            z = pe.numpy()[..., others, 2].min(axis=(0, 1))
+            for e, zz in zip(others, z, strict=True):
+                name = model.link_names[int(model.ee_link[int(e)])]
+                depth[name] = max(depth.get(name, 0.0), float(-zz))
+        for name, dd in depth.items():
+            link_depth[name] = max(link_depth.get(name, 0.0), dd)
+            if dd > deepest:
+                deepest, deepest_link = dd, name
         if pairs.pair_count:
             d = eval_self_collision_distance(model, pairs, X).numpy()
             coll_frames += int((d < -collision_tolerance).any(axis=-1).sum())
@@ -129,14 +221,17 @@ def quality_report(result: Any, *, height_threshold: float = 0.02, collision_tol
         "frames": int(frames),
         "frames_per_s": round(float(result.frames_per_s), 1) if hasattr(result, "frames_per_s") else None,
         "foot_sliding_cm_s": round(100.0 * slide_sum / slide_n, 4) if slide_n else 0.0,
-        "penetration_mm": round(1000.0 * pen_max, 4),
+        "penetration_mm": round(1000.0 * max(pen_max, deepest), 4),
         "self_collision_frac": round(coll_frames / frames, 6),
         "limit_violation_frac": round(limit_frames / frames, 6),
         "tracking_error": None,
         "foot_sliding_p95_cm_s": round(100.0 * float(np.percentile(np.concatenate(slides), 95)), 4)
         if slide_n else 0.0,
         "penetration_mean_mm": round(1000.0 * pen_sum / pen_n, 4) if pen_n else 0.0,
+        "foot_penetration_mm": round(1000.0 * pen_max, 4),
+        "deepest_link": deepest_link if deepest > pen_max + 1e-6 else None,
     }
+    warnings: list[str] = list(getattr(result, "warnings", ()))
     if hasattr(result, "target") and m.base_coordinate_count:
         from morphkit.motion.motion import base_pose_from_q
         from morphkit.synth.locomotion_commands import CMD_VX, CMD_VY, CMD_WZ
@@ -182,6 +277,34 @@ def quality_report(result: Any, *, height_threshold: float = 0.02, collision_tol
             swing_n += int(airborne.sum())
         out["swing_clearance_frac"] = round(swing_ok / swing_n, 6) if swing_n else None
         out["contact_frac"] = round(contact_n / (frames * len(feet)), 4)
+        swings = [sw for i, h in enumerate(heights_all) if h is not None
+                  for sw in _swings(h, foot_xy[i], result.contact[i])]  # type: ignore[arg-type]
+        sl = np.array([sw[1] for sw in swings])
+        ap = np.array([sw[2] for sw in swings])
+        out["step_length_m"] = round(float(sl.mean()), 4) if sl.size else 0.0
+        out["step_height_m"] = round(float(ap.mean()), 4) if ap.size else 0.0
+        legs = {}
+        for li, leg in enumerate(rig.plan.legs):
+            mine = np.array([sw[0] == li for sw in swings], dtype=bool)
+            speed = np.concatenate([s_[:, li] for s_ in leg_slides]) if leg_slides else np.zeros(0)
+            speed = speed[np.isfinite(speed)]  # frames in contact
+            entry = {
+                "step_length_m": round(float(sl[mine].mean()), 4) if mine.any() else 0.0,
+                "step_height_m": round(float(ap[mine].mean()), 4) if mine.any() else 0.0,
+                "sliding_cm_s": round(100.0 * float(speed.mean()), 4) if speed.size else 0.0,
+                "swings": int(mine.sum()),
+            }
+            legs[leg.end_effector] = entry
+            if entry["sliding_cm_s"] > WARN_SLIDING_CM_S:
+                warnings.append(f"leg {leg.end_effector}: its stance foot slides {entry['sliding_cm_s']:.2g} cm/s "
+                                f"on average")
+            if entry["swings"] and entry["step_length_m"] < WARN_STEP_FRACTION * leg.reach:
+                warnings.append(f"leg {leg.end_effector}: steps {100 * entry['step_length_m']:.2g} cm on average, "
+                                f"under a tenth of its {100 * leg.reach:.3g} cm reach")
+            if entry["swings"] and entry["step_height_m"] < WARN_STEP_HEIGHT_M:
+                warnings.append(f"leg {leg.end_effector}: lifts its foot {100 * entry['step_height_m']:.2g} cm "
+                                f"on average")
+        out["legs"] = legs
     if hasattr(result, "gait") and getattr(result, "gait_names", ()):
         g = np.concatenate(result.gait)
         out["gait_frac"] = {n: round(float((g == k).mean()), 4) for k, n in enumerate(result.gait_names)}
@@ -189,6 +312,10 @@ def quality_report(result: Any, *, height_threshold: float = 0.02, collision_tol
         out["calibration"] = result.rig.summary()
     if hasattr(result, "clamped") and result.clamped:
         out["command_clamped_frac"] = round(float(np.concatenate(result.clamped).mean()), 4)
+    for name, dd in sorted(link_depth.items(), key=lambda kv: -kv[1]):
+        if dd > WARN_PENETRATION_M:
+            warnings.append(f"link {name}: goes {100 * dd:.2g} cm below the ground")
+    out["warnings"] = list(dict.fromkeys(warnings))
     return out
 
 
@@ -202,7 +329,9 @@ def format_report(r: dict[str, Any]) -> str:
         + (f"  ({fmt(r['frames_per_s'])} frames/s)" if r.get("frames_per_s") else ""),
         f"foot sliding           {fmt(r['foot_sliding_cm_s'])} cm/s mean in contact"
         f" (p95 {fmt(r.get('foot_sliding_p95_cm_s'))})",
-        f"penetration            {fmt(r['penetration_mm'])} mm max (mean {fmt(r.get('penetration_mean_mm'))})",
+        f"penetration            {fmt(r['penetration_mm'])} mm max over every shape"
+        + (f" ({r['deepest_link']})" if r.get("deepest_link") else "")
+        + f"; feet {fmt(r.get('foot_penetration_mm'))} mm max, mean {fmt(r.get('penetration_mean_mm'))}",
         f"self-collision         {fmt(r['self_collision_frac'])} of frames",
         f"limit violations       {fmt(r['limit_violation_frac'])} of frames",
         f"tracking error         {fmt(r['tracking_error'])} (relative, settled commands;"
@@ -210,6 +339,12 @@ def format_report(r: dict[str, Any]) -> str:
     ]
     if r.get("swing_clearance_frac") is not None:
         lines.append(f"swing clearance        {fmt(r['swing_clearance_frac'])} of airborne frames above 1 cm")
+    if r.get("legs"):
+        lines.append(f"steps                  {fmt(r['step_length_m'])} m long, {fmt(r['step_height_m'])} m high"
+                     " (mean)")
+        for name, leg in r["legs"].items():
+            lines.append(f"  {name:<20} {fmt(leg['step_length_m'])} m long, {fmt(leg['step_height_m'])} m high, "
+                         f"sliding {fmt(leg['sliding_cm_s'])} cm/s, {leg['swings']} swings")
     if r.get("command_clamped_frac") is not None:
         lines.append(f"commands clamped       {fmt(r['command_clamped_frac'])} of frames (to the creature's top speed)")
     if r.get("gait_frac"):

@@ -59,8 +59,7 @@ def tripod_yaml() -> str:
         "axis: [1, 0, 0], limit: {lower: 0.0, upper: 0.12}}",
     ]
     ees.append("  claw: {link: arm_slide, offset: [0.15, 0, 0], role: hand}")
-    return ("name: tripod\nbase: floating\nroot: body\nlinks:\n" + "\n".join(links) + "\njoints:\n"
-            + "\n".join(joints) + "\nend_effectors:\n" + "\n".join(ees) + "\n")
+    return _yaml("tripod", links, joints, ees)
 
 
 def spider_yaml() -> str:
@@ -75,22 +74,91 @@ def spider_yaml() -> str:
             joints += jt
             ees += ee
     ees.append("  head: {link: body, offset: [0.25, 0, 0.03], role: head}")
-    return ("name: spider\nbase: floating\nroot: body\nlinks:\n" + "\n".join(links) + "\njoints:\n"
+    return _yaml("spider", links, joints, ees)
+
+
+def _yaml(name: str, links: list[str], joints: list[str], ees: list[str]) -> str:
+    return (f"name: {name}\nbase: floating\nroot: body\nlinks:\n" + "\n".join(links) + "\njoints:\n"
             + "\n".join(joints) + "\nend_effectors:\n" + "\n".join(ees) + "\n")
 
 
+def _upright_leg(side: str, thigh: float) -> tuple[list[str], str]:
+    """Thigh and shin links hanging straight down, and the pitch knee between them (0.4 m below the hip)."""
+    down = "origin: {xyz: [0, 0, -0.2]}"
+    links = [f"  {side}_thigh: {{shapes: [{{type: capsule, radius: 0.04, length: {thigh}, {down}}}]}}",
+             f"  {side}_shin: {{shapes: [{{type: capsule, radius: 0.035, length: 0.32, {down}}}]}}"]
+    knee = (f"  {side}_knee: {{type: revolute, parent: {side}_thigh, child: {side}_shin, axis: [0, 1, 0], "
+            f"origin: {{xyz: [0, 0, -0.4]}}, limit: {{lower: 0.0, upper: 2.3}}}}")
+    return links, knee
+
+
+def strider_yaml() -> str:
+    """A biped whose legs only pitch: hip, knee and ankle all turn about y, no joint turns a foot sideways."""
+    links = ["  body: {shapes: [{type: box, size: [0.24, 0.3, 0.3]}]}"]
+    joints: list[str] = []
+    ees: list[str] = []
+    for side, y in (("l", 0.1), ("r", -0.1)):
+        leg, knee = _upright_leg(side, 0.32)
+        links += [*leg, f"  {side}_foot: {{shapes: [{{type: box, size: [0.18, 0.08, 0.04], "
+                        f"origin: {{xyz: [0.03, 0, -0.03]}}}}]}}"]
+        joints += [
+            f"  {side}_hip: {{type: revolute, parent: body, child: {side}_thigh, axis: [0, 1, 0], "
+            f"origin: {{xyz: [0, {y}, -0.15]}}, limit: {{lower: -1.3, upper: 1.3}}}}",
+            knee,
+            f"  {side}_ankle: {{type: revolute, parent: {side}_shin, child: {side}_foot, axis: [0, 1, 0], "
+            f"origin: {{xyz: [0, 0, -0.4]}}, limit: {{lower: -0.9, upper: 0.9}}}}",
+        ]
+        ees.append(f"  {side}_sole: {{link: {side}_foot, offset: [0, 0, -0.05], role: foot}}")
+    ees.append("  head: {link: body, offset: [0.12, 0, 0.1], role: head}")
+    return _yaml("strider", links, joints, ees)
+
+
+def tailed_yaml() -> str:
+    """A kangaroo-like biped (hip roll, hip and knee pitch) with a three-segment tail hanging to 3 cm above the
+    ground at rest, ending in an end-effector without a role (so a ``tool``, moved like an arm)."""
+    links = [
+        "  body: {shapes: [{type: capsule, radius: 0.12, length: 0.3, origin: {rpy: [0, 1.5708, 0]}}]}",
+        *(f"  tail{i}: {{shapes: [{{type: capsule, radius: {r}, length: 0.25, "
+          f"origin: {{xyz: [-0.15, 0, 0], rpy: [0, 1.5708, 0]}}}}]}}" for i, r in ((1, 0.05), (2, 0.04), (3, 0.03))),
+    ]
+    joints: list[str] = []
+    ees: list[str] = []
+    for side, y in (("l", 0.1), ("r", -0.1)):
+        leg, knee = _upright_leg(side, 0.3)
+        links += [f"  {side}_hip: {{}}", *leg]
+        joints += [
+            f"  {side}_hip_roll: {{type: revolute, parent: body, child: {side}_hip, axis: [1, 0, 0], "
+            f"origin: {{xyz: [0.05, {y}, -0.12]}}, limit: {{lower: -0.5, upper: 0.5}}}}",
+            f"  {side}_hip_pitch: {{type: revolute, parent: {side}_hip, child: {side}_thigh, axis: [0, 1, 0], "
+            f"limit: {{lower: -1.3, upper: 1.3}}}}",
+            knee,
+        ]
+        ees.append(f"  {side}_foot: {{link: {side}_shin, offset: [0, 0, -0.4], role: foot}}")
+    joints += [
+        "  tail1: {type: revolute, parent: body, child: tail1, axis: [0, 1, 0], "
+        "origin: {xyz: [-0.25, 0, -0.05], rpy: [0, -1.2, 0]}, limit: {lower: -1.6, upper: 0.6}}",
+        "  tail2: {type: revolute, parent: tail1, child: tail2, axis: [0, 1, 0], origin: {xyz: [-0.3, 0, 0]}, "
+        "limit: {lower: -0.6, upper: 1.2}}",
+        "  tail3: {type: revolute, parent: tail2, child: tail3, axis: [0, 0, 1], origin: {xyz: [-0.3, 0, 0]}, "
+        "limit: {lower: -0.8, upper: 0.8}}",
+    ]
+    ees += ["  tail_tip: {link: tail3, offset: [-0.3, 0, 0]}",
+            "  head: {link: body, offset: [0.3, 0, 0.1], role: head}"]
+    return _yaml("roo", links, joints, ees)
+
+
+_YAML = {"tripod": tripod_yaml, "spider": spider_yaml, "strider": strider_yaml, "roo": tailed_yaml}
+
+
 def read_creature(name: str, tmp_dir: Path) -> Morphology:
-    """A shipped creature by name, or ``tripod`` / ``spider`` written to ``tmp_dir`` and read back."""
+    """A shipped creature by name, or one of the YAML-only creatures here (``tripod``, ``spider``,
+    ``strider``, ``roo``) written to ``tmp_dir`` and read back."""
     from morphkit.io import read_morphology
     from morphkit.io.shipped import resolve_morphology
 
-    if name == "tripod":
-        p = tmp_dir / "tripod.yaml"
-        p.write_text(tripod_yaml())
-        return read_morphology(p)
-    if name == "spider":
-        p = tmp_dir / "spider.yaml"
-        p.write_text(spider_yaml())
+    if name in _YAML:
+        p = tmp_dir / f"{name}.yaml"
+        p.write_text(_YAML[name]())
         return read_morphology(p)
     return read_morphology(resolve_morphology(name))
 
