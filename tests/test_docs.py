@@ -159,3 +159,10 @@ def test_gallery_script_smoke(tmp_path: Path):
 
     with Image.open(tmp_path / "spot_turntable.png") as sheet:  # four 240 x 180 views side by side
         assert sheet.width >= 4 * 240 and sheet.height >= 180
+
+
+def test_getting_started_shows_the_readme_setup_commands():
+    """The getting-started page quotes README's two set-up commands as they are."""
+    readme = _fenced((ROOT / "README.md").read_text(), "bash")[0]
+    page = _fenced((ROOT / "docs" / "getting-started.md").read_text(), "text")[0]
+    assert page.split() == readme.split()
