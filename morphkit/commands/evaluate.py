@@ -25,7 +25,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--videos", type=int, default=3, metavar="N", help="clips with a side-by-side video (default 3)")
     p.add_argument("--video-format", choices=["mp4", "gif", "png"],
                    help="video format (default mp4 when ffmpeg is there, else gif; png: a contact sheet)")
-    p.add_argument("--video-seconds", type=float, default=10.0, metavar="S", help="longest video (default 10 s)")
+    p.add_argument("--video-seconds", type=float, default=8.0, metavar="S", help="longest video (default 8 s)")
     p.add_argument("--device", default="cpu", help="torch device of the retargeters (default cpu)")
     p.set_defaults(run=run)
 

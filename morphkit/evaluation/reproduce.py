@@ -74,7 +74,7 @@ class ReproduceConfig:
     """Clips with a side-by-side video."""
     video_suffix: str | None = None
     """``.mp4``, ``.gif`` or ``.png`` (a contact sheet); default ``.mp4`` when ffmpeg is there, else ``.gif``."""
-    video_seconds: float = 10.0
+    video_seconds: float = 8.0
     """Longest video [s]."""
     video_size: tuple[int, int] = (240, 240)
     """Size of each video panel, width × height in pixels."""
@@ -156,7 +156,7 @@ def evaluate_runs(
     clips: int | None = None,
     videos: int = 3,
     video_suffix: str | None = None,
-    video_seconds: float = 10.0,
+    video_seconds: float = 8.0,
     video_size: tuple[int, int] = (240, 240),
     device: str = "cpu",
     log: Callable[[str], None] = print,

@@ -16,7 +16,7 @@ import pytest
 from morphkit_testing import spot_like
 
 from morphkit.evaluation import Evaluation, Method, MethodResult, Reference, format_summary, summarize
-from morphkit.evaluation.report import render_videos, write_index, write_report
+from morphkit.evaluation.report import VIDEO_FPS, render_videos, write_index, write_report
 from morphkit.motion import Motion
 from morphkit.retarget.ace.config import DataConfig
 from morphkit.retarget.ace.evaluate import TableRow
@@ -145,7 +145,7 @@ def test_videos_show_the_human_and_each_methods_first_run_side_by_side(tmp_path)
                           if r.row.name in ("ACE", "NKN")]
     evaluation.clips = [Motion(creature, 30.0, q, "clip_a"), Motion(creature, 30.0, q, "clip_b")]
     log: list[str] = []
-    paths = render_videos(evaluation, tmp_path / "videos", count=1, suffix=".gif", size=(48, 40), max_seconds=0.07,
+    paths = render_videos(evaluation, tmp_path / "videos", count=1, suffix=".gif", size=(48, 40), max_seconds=0.2,
                           log=log.append)
     if any(line.startswith("no videos") for line in log):
         pytest.skip(log[-1])
@@ -153,7 +153,7 @@ def test_videos_show_the_human_and_each_methods_first_run_side_by_side(tmp_path)
     frames = imageio.imread(paths[0], index=None)
     panels = 3  # the human, ACE (its first seed of three), NKN
     assert frames.shape[1:3] == (40, panels * 48 + (panels - 1) * 3)  # panels and 3-px dividers
-    assert frames.shape[0] == 2  # cut to 0.07 s at 30 fps
+    assert frames.shape[0] == round(0.2 * VIDEO_FPS)  # cut to 0.2 s, shown at VIDEO_FPS
     stamp = paths[0].stat().st_mtime_ns
     assert render_videos(evaluation, tmp_path / "videos", count=1, suffix=".gif", log=log.append) == paths
     assert paths[0].stat().st_mtime_ns == stamp  # kept, not rendered again
