@@ -173,6 +173,12 @@ def test_morphkit_evaluate_scores_the_runs_to_the_same_table(smoke, tmp_path, mo
     assert cli(["evaluate", "--runs", str(runs / "ace_seed0" / "retarget_wofea"), "--videos", "0", "--clips", "1",
                 "--out", str(tmp_path / "one")]) == 0
     assert list(_table(tmp_path / "one" / "table.md")) == ["Dataset", "ACEwoFea"]
+    # NKN alone: the end-effector pairing computed as ACE's prepare does gives the same pairing and the same row.
+    assert cli(["evaluate", "--runs", str(runs / "nkn_seed0"), "--videos", "0", "--out", str(tmp_path / "nkn")]) == 0
+    full, alone = (json.loads((p / "evaluation.json").read_text()) for p in (out / "testdog" / "report",
+                                                                                tmp_path / "nkn"))
+    assert alone["reference"] != full["reference"] and alone["mapping"] == full["mapping"]
+    assert _table(tmp_path / "nkn" / "table.md")["NKN"] == _table(out / "testdog" / "report" / "table.md")["NKN"]
     capsys.readouterr()
 
 
