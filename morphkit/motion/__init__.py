@@ -93,10 +93,10 @@ __all__ = [
     "read_override",
     "read_usd_motion",
     "standing_height",
+    "world_end_effectors",
     "write_bvh_motion",
     "write_motion",
     "write_npz_motion",
-    "world_end_effectors",
     "write_usd_motion",
 ]
 

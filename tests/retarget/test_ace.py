@@ -304,8 +304,8 @@ def test_prior_foot_term_is_zero_on_data_and_the_squared_step_error_otherwise(do
 def test_residual_prior_foot_term_and_exported_discriminator_train_and_log(tmp_path, human_dir, dog, cache):
     """Our options (residual π, the prior's foot term, D on the exported motion): the logged prior loss is
     exactly its weighted terms, and the adversarial stage still decomposes into its logged terms."""
-    cfg = replace_config(preset("smoke"), TINY + ["prior.residual=true", "prior.foot_weight=30",
-                                                  "retarget.discriminate_exported=true"])
+    cfg = replace_config(preset("smoke"), [*TINY, "prior.residual=true", "prior.foot_weight=30",
+                                           "retarget.discriminate_exported=true"])
     stage = train_ace(tmp_path / "run", read_morphology(dog), cfg, human_data=human_dir, progress=False,
                       log=lambda s: None)
     prior = tmp_path / "run" / "prior" / "metrics.csv"

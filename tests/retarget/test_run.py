@@ -63,7 +63,7 @@ def test_a_checkpoint_without_its_run_files_is_refused(tmp_path: Path):
     with _run(tmp_path) as run:
         _train(run)
     (tmp_path / "run.yaml").unlink()
-    with pytest.raises(RunError, match="checkpoint without run.yaml") as info:
+    with pytest.raises(RunError, match=r"checkpoint without run\.yaml") as info:
         _run(tmp_path)
     assert str(tmp_path / "checkpoint.pt") in str(info.value)
 
