@@ -138,6 +138,11 @@ class SynthRig:
                 "max_forward_speed_m_s": round(float(self.max_speed(np.array([1.0, 0.0]))), 3),
                 "max_lateral_speed_m_s": round(float(self.max_speed(np.array([0.0, 1.0]))), 3),
             })
+            if lr.fixed_axes is not None:  # a direction no leg can step is not commanded at all
+                for key, rng in (("max_forward_speed_m_s", self.limits.forward),
+                                 ("max_lateral_speed_m_s", self.limits.lateral)):
+                    out[key] = min(out[key], round(max(abs(rng[0]), abs(rng[1])), 3))
+                out["fixed_axes"] = lr.fixed_axes.tolist()
         if not self.arms.empty:
             out["upper_body_pool"] = self.arms.stats
         if self.actions is not None:

@@ -60,6 +60,7 @@ def test_planar_legs_are_found_and_step_only_fore_aft(creatures):
     legs = res.rig.legs
     assert legs.fixed_axes is not None and legs.fixed_axes.tolist() == [[False, True], [False, True]]
     assert res.rig.limits.lateral == (0.0, 0.0) and legs.roll == 0.0
+    assert res.rig.summary()["max_lateral_speed_m_s"] == 0.0
     assert len(res.warnings) == 2 and all("sideways" in w for w in res.warnings)
     assert {w.split(":")[0] for w in res.warnings} == {"leg l_sole", "leg r_sole"}
 
