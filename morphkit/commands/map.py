@@ -57,13 +57,16 @@ def _bvh_options(paths: list[str], facing: str) -> dict[str, str]:
 
 
 def _label(paths: list[str], clips: list) -> str:
-    """What to call a data set: its morphology's name, unless that is only the first clip's name (a BVH
-    skeleton is named after its file), then the folders or files given (``cmu``, not ``01_01``)."""
+    """What to call a data set: its morphology's name, unless it is read from BVH files, whose skeletons
+    have no name of their own (the first file's stem, or a shared skeleton's), then the folders or files
+    given (``cmu``, not ``01_01``)."""
     from pathlib import Path
 
-    name = clips[0].morphology.name
-    if name != clips[0].name or len(clips) == 1:
-        return name
+    from morphkit.motion.datasets import expand_motion_paths
+
+    files = [p for p in paths if Path(p).exists()]
+    if not files or not all(f.suffix.lower() == ".bvh" for f in expand_motion_paths(files)):
+        return clips[0].morphology.name
     return " + ".join(Path(p).name if Path(p).is_dir() else Path(p).stem for p in paths)
 
 
