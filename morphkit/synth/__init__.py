@@ -35,6 +35,7 @@ from morphkit.synth.core import SynthResult as SynthResult
 from morphkit.synth.core import SynthRig as SynthRig
 from morphkit.synth.core import iter_synthesize as iter_synthesize
 from morphkit.synth.core import prepare as prepare
+from morphkit.synth.core import source_digest as source_digest
 from morphkit.synth.core import synthesize as synthesize
 from morphkit.synth.human import HumanClip as HumanClip
 from morphkit.synth.human import default_human_clips as default_human_clips
@@ -62,5 +63,6 @@ __all__ = [
     "default_human_motion",
     "iter_synthesize",
     "prepare",
+    "source_digest",
     "synthesize",
 ]

@@ -10,6 +10,8 @@ its own generator (``SeedSequence(seed).spawn``), so a dataset depends only on t
 
 from __future__ import annotations
 
+import functools
+import hashlib
 import os
 import time
 from collections.abc import Callable, Iterator, Sequence
@@ -64,7 +66,16 @@ from morphkit.synth.locomotion_commands import (
 )
 from morphkit.synth.wheeled import Locomotion, base_coordinates, glide_height, lateral_allowed, locomotion_of
 
-__all__ = ["SynthConfig", "SynthResult", "SynthRig", "iter_synthesize", "prepare", "rollout_count", "synthesize"]
+__all__ = [
+    "SynthConfig",
+    "SynthResult",
+    "SynthRig",
+    "iter_synthesize",
+    "prepare",
+    "rollout_count",
+    "source_digest",
+    "synthesize",
+]
 
 
 @dataclass(frozen=True)
@@ -648,3 +659,14 @@ def _batches(rig: SynthRig, frames: int, seed: int, progress: bool, start: float
 
 def _clip_span(span: ActionSpan, frames: int) -> ActionSpan:
     return span if span.stop <= frames else ActionSpan(span.kind, span.start, frames, span.arms)
+
+
+@functools.lru_cache(maxsize=1)
+def source_digest() -> str:
+    """SHA-256 of :mod:`morphkit.synth`'s source files: part of every synthesis cache key, so a change to
+    the synthesis code never serves motion made by the old one."""
+    h = hashlib.sha256()
+    for f in sorted(Path(__file__).resolve().parent.glob("*.py")):
+        h.update(f.name.encode())
+        h.update(f.read_bytes())
+    return h.hexdigest()

@@ -40,7 +40,7 @@ from morphkit.graph import Morphology
 from morphkit.motion.motion import Motion
 from morphkit.synth.actions import ActionConfig, ActionSpan
 from morphkit.synth.arms import ArmConfig
-from morphkit.synth.core import SynthConfig, SynthResult, synthesize
+from morphkit.synth.core import SynthConfig, SynthResult, source_digest, synthesize
 from morphkit.synth.locomotion_commands import CMD_VX, CMD_VY, CMD_WZ, CommandConfig
 
 __all__ = [
@@ -138,9 +138,7 @@ def _cache_key(frames: int, seed: int, fps: float) -> str:
     h = hashlib.sha256()
     h.update(f"morphkit {__version__} default human v{HUMAN_MOTION_VERSION} {frames} {seed} {fps!r}\n".encode())
     h.update(resolve_morphology("human").read_bytes())
-    for f in sorted(Path(__file__).resolve().parent.glob("*.py")):
-        h.update(f.name.encode())
-        h.update(f.read_bytes())
+    h.update(source_digest().encode())
     return h.hexdigest()[:24]
 
 

@@ -316,3 +316,21 @@ def test_residual_prior_foot_term_and_exported_discriminator_train_and_log(tmp_p
     total, adv, fea = (_column(path, k) for k in ("loss_g", "loss_g_adv", "loss_g_fea"))
     np.testing.assert_allclose(total, adv + fea, rtol=1e-6, atol=1e-7)
     assert np.isfinite(_column(path, "loss_d")).all()
+
+
+def test_character_data_cache_is_keyed_by_the_synthesis_source(tmp_path, dog, monkeypatch):
+    """A second call is served from the cache; a change to the synthesis code (its source digest) is not."""
+    import morphkit.synth
+    from morphkit.retarget.ace.config import DataConfig
+    from morphkit.retarget.ace.data import character_motions
+
+    data = DataConfig(character_frames=60)
+    m = read_morphology(dog)
+    first = character_motions(m, data, cache_dir=tmp_path, progress=False)
+    assert len(list(tmp_path.glob("synth_*.npz"))) == 1
+    again = character_motions(m, data, cache_dir=tmp_path, progress=False)
+    np.testing.assert_array_equal(np.concatenate([x.q for x in again]), np.concatenate([x.q for x in first]))
+    assert len(list(tmp_path.glob("synth_*.npz"))) == 1
+    monkeypatch.setattr(morphkit.synth, "source_digest", lambda: "another synthesis")
+    character_motions(m, data, cache_dir=tmp_path, progress=False)
+    assert len(list(tmp_path.glob("synth_*.npz"))) == 2

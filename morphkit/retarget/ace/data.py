@@ -2,7 +2,7 @@
 
 The character's data set is synthesised from its graph (:mod:`morphkit.synth`, §7.1: random
 commands over its speed range) and cached by content hash (the morphology, frame count, frame
-rate, seed and morphkit's version), so a second run of the same creature skips synthesis. The
+rate, seed, morphkit's version and the synthesis source), so a second run of the same creature skips synthesis. The
 human's is a folder of motion files (BVH or any format morphkit reads), minus the documented
 evaluation split, or the embedded default (the shipped ``human`` moved by morphkit's synthesis).
 """
@@ -71,11 +71,12 @@ def character_motions(
             :func:`~morphkit.motion.datasets.default_cache_dir`).
         progress: Show the synthesis progress bar.
     """
-    from morphkit.synth import synthesize
+    from morphkit.synth import source_digest, synthesize
 
     cache = Path(cache_dir) if cache_dir is not None else default_cache_dir()
     key = hashlib.sha256(
-        f"{_morphology_key(morphology)}|{data.character_frames}|{data.fps}|{data.synth_seed}|{__version__}".encode()
+        f"{_morphology_key(morphology)}|{data.character_frames}|{data.fps}|{data.synth_seed}|{__version__}|"
+        f"{source_digest()}".encode()
     ).hexdigest()[:24]
     path = cache / f"synth_{morphology.name}_{key}.npz"
     if path.is_file():
