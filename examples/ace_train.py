@@ -91,7 +91,8 @@ def _videos(results: list, folder: Path, *, sheet: bool) -> None:
     suffix = ".png" if sheet else (".mp4" if ffmpeg_available() else ".gif")
     for r in results:
         path = render_side_by_side(r.source, r.motion, out=folder / f"{r.motion.name}{suffix}",
-                                   labels=("human", r.motion.morphology.name), size=(360, 360), progress=False)
+                                   labels=("human", r.motion.morphology.name), size=(360, 360), fps=15.0,
+                                   progress=False)  # 15 fps: rendering, not training, set the main job's time
         print(f"video: {path}")
 
 

@@ -32,7 +32,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--human-data", metavar="DIR", help="human BVH folder (default: the embedded default human motion)")
     p.add_argument("--preset", default="default", help="smoke, quick, default or paper (default: default)")
     p.add_argument("--seeds", type=int, default=1, help="seeds per method (default 1); the table gives mean ± std")
-    p.add_argument("--contact-weight", type=float, default=1.0, metavar="W", help="ACE+contact's weight (default 1)")
+    p.add_argument("--contact-weight", type=float, default=2.0, metavar="W", help="ACE+contact's weight (default 2)")
     p.add_argument("--set", metavar="KEY=VALUE", action="append", default=[], help="override an ACE config field")
     p.add_argument("--nkn-set", metavar="KEY=VALUE", action="append", default=[], help="override an NKN config field")
     p.add_argument("--clips", type=int, help="evaluate the first N held-out clips only (default: all)")

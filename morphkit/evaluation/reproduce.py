@@ -62,8 +62,9 @@ class ReproduceConfig:
     """ACE and NKN preset (``smoke``, ``quick``, ``default``, ``paper``)."""
     seeds: int = 1
     """Seeds 0 … seeds − 1 of every retargeter and of NKN."""
-    contact_weight: float = 1.0
-    """``retarget.w_contact`` of ACE+contact (foot sliding [m/s] + 10 × penetration [m], as ``--contact-weight``)."""
+    contact_weight: float = 2.0
+    """``retarget.w_contact`` of ACE+contact (foot sliding [m/s] + 10 × penetration [m], as ``--contact-weight``).
+    Measured on a quadruped (``default``, CMU held-out): 1 gives UFR 12.1 %, 2 gives 4.4 %, at L_fea 2.71 / 2.73."""
     ace_overrides: tuple[str, ...] = ()
     """``KEY=VALUE`` overrides of the ACE config (as ``morphkit train --set``)."""
     nkn_overrides: tuple[str, ...] = ()

@@ -10,6 +10,11 @@ open is named here as morphkit's choice (see ``docs/guides/train-ace.md``):
 * the human window length of a retargeting rollout and where truncated backpropagation cuts it;
 * the character start state of a rollout (a random frame of the character's data in training; the
   data frame nearest the human's first frame in Ψ when retargeting).
+
+Beyond the paper, on by default because they keep planted feet planted (measured, see their
+docstrings): the prior's foot term (``PriorConfig.foot_weight``) and a discriminator that judges the
+exported motion (``RetargetConfig.discriminate_exported``). ``--set prior.foot_weight=0 --set
+retarget.discriminate_exported=false`` trains the paper's ACE exactly.
 """
 
 from __future__ import annotations
@@ -52,11 +57,14 @@ class PriorConfig:
     """π predicts x_t − x_{t-1} (ours; the paper and MotionVAE predict x_t). Off by default: measured on
     a quadruped (``default`` preset, CMU), a residual π halves the one-step error but its retargeting rollouts
     diverge beyond the 32-frame training windows (18 of 23 held-out clips left the data's range)."""
-    foot_weight: float = 0.0
-    """Beyond the paper: weight of the prior's foot term — the feet's ground-frame step between x_{t-1}
-    and π's x_t, through morphkit's FK of the predicted joints and the integrated root path, against
-    the data's step, and their height, in body lengths (0: off, as ACE). It is what makes π's
-    outputs keep a planted foot planted once decoded and exported."""
+    foot_weight: float = 30.0
+    """Beyond the paper (0 gives the paper's prior): weight of the prior's foot term — the feet's
+    ground-frame step between x_{t-1} and π's x_t, through morphkit's FK of the predicted joints and
+    the integrated root path, against the data's step, and their height, in body lengths. It is what makes π's
+    outputs keep a planted foot planted once decoded and exported. Measured on a quadruped (``default``
+    preset, CMU held-out clips, with ``discriminate_exported``): replaying real transitions through π
+    slides in 4.6 % and penetrates in 7.2 % of frames (without it: 53 % and 35 %), and ACE's UFR falls
+    from 97 % to 78 %."""
     foot_planted_boost: float = 10.0
     """Extra weight of the foot term's step error on feet the data has planted (ours, as the contact
     losses of motion-diffusion models: a planted foot's step must be 0, a swing foot's only close)."""
@@ -88,10 +96,10 @@ class RetargetConfig:
     w_fea: float = 1.0
     w_gp: float = 0.1
     """Gradient-penalty weight on real transitions (Eq. 5: 0.1)."""
-    discriminate_exported: bool = False
-    """D judges the exported motion (ours): the generated transitions it sees carry the end-effectors
-    of morphkit's FK of their joints instead of π's own ee slots, and G's adversarial gradient flows
-    through that FK. Off: D sees π's outputs as they are (the paper)."""
+    discriminate_exported: bool = True
+    """D judges the exported motion (ours; False gives the paper's D): the generated transitions it
+    sees carry the end-effectors of morphkit's FK of their joints instead of π's own ee slots, and G's
+    adversarial gradient flows through that FK."""
     w_contact: float = 0.0
     """Beyond the paper: foot sliding + ground penetration of the FK'd motion (0: off, as ACE)."""
     window: int = 32
