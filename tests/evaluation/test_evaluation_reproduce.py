@@ -109,6 +109,27 @@ def test_pipeline_trains_the_prior_once_and_a_rerun_trains_nothing(tmp_path, mon
         "runs/ace_seed0", "runs/nkn_seed0", "runs/ace_seed1", "runs/nkn_seed1", "runs/ace_seed2", "runs/nkn_seed2"])]
     assert all(c[5] == "runs/ace_seed0/prior" for c in calls[:4])
 
+    # A change of the retargeters' config retrains them, not the prior, the data or NKN.
+    calls.clear()
+    reproduce_table1(spot_like(), tmp_path / "out", ReproduceConfig(
+        preset="smoke", seeds=3, contact_weight=0.5, ace_overrides=("retarget.w_adv=2",), progress=False), **quiet)
+    assert [c[0] for c in calls] == ["ace"] * 12 + ["evaluate"]
+
+
+def test_table_nkn_trains_the_budgeted_steps_unless_overridden(tmp_path):
+    """At ``default`` Table 1's NKN trains NKN_BUDGET's epochs (not the NKN preset's); --nkn-set wins."""
+    from morphkit.evaluation.reproduce import NKN_BUDGET, plan_stages
+    from morphkit.retarget.nkn import preset as nkn_preset
+
+    def nkn_epochs(cfg: ReproduceConfig) -> int:
+        stage = next(s for s in plan_stages(spot_like(), tmp_path, cfg, log=lambda s: None) if s.name.startswith("NKN"))
+        return stage.key["config"]["epochs"]
+
+    assert NKN_BUDGET["default"]["epochs"] < nkn_preset("default").epochs
+    assert nkn_epochs(ReproduceConfig()) == NKN_BUDGET["default"]["epochs"]
+    assert nkn_epochs(ReproduceConfig(nkn_overrides=("epochs=20",))) == 20
+    assert nkn_epochs(ReproduceConfig(preset="quick")) == nkn_preset("quick").epochs
+
 
 # ---- end to end on a YAML-only quadruped ------------------------------------------------------------
 
