@@ -14,7 +14,6 @@ bar charts, side-by-side videos (human | each method) and index.html into --out.
 from __future__ import annotations
 
 import argparse
-import sys
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -30,7 +29,12 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--smoke", action="store_true", help="two clips, one small contact sheet instead of videos")
     args = p.parse_args(argv)
 
-    from morphkit.errors import MorphkitError
+    from morphkit.cli import run_command
+
+    return run_command(run, args)
+
+
+def run(args: argparse.Namespace) -> int:
     from morphkit.evaluation import evaluate_runs
 
     options = {"clips": args.clips, "videos": args.videos,
@@ -38,11 +42,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.smoke:  # seconds: two clips, one small contact sheet
         options = {"clips": 2, "videos": min(args.videos, 1), "video_suffix": ".png", "video_seconds": 0.1,
                    "video_size": (96, 96)}
-    try:
-        out = evaluate_runs(args.runs, args.out, human_data=args.human_data, device=args.device, **options)
-    except MorphkitError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+    out = evaluate_runs(args.runs, args.out, human_data=args.human_data, device=args.device, **options)
     print((out / "table.md").read_text(encoding="utf-8"), end="")
     print(f"done: {out / 'index.html'}")
     return 0

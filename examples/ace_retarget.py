@@ -15,7 +15,6 @@ creature side by side. ``--smoke`` without ``--run`` first trains the ``smoke`` 
 from __future__ import annotations
 
 import argparse
-import sys
 import time
 from pathlib import Path
 
@@ -37,13 +36,9 @@ def main(argv: list[str] | None = None) -> int:
     if args.run is None and not args.smoke:
         p.error("--run RUN is required (train one with examples/ace_train.py), or pass --smoke")
 
-    from morphkit.errors import MorphkitError
+    from morphkit.cli import run_command
 
-    try:
-        return run(args)
-    except MorphkitError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+    return run_command(run, args)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -96,11 +91,10 @@ def run(args: argparse.Namespace) -> int:
 def _smoke_run(run_dir: Path, cfg) -> Path:
     """Train (or resume) the smoke preset on Spot: a run to retarget with, in about half a minute."""
     from morphkit.io import read_morphology
-    from morphkit.io.shipped import resolve_morphology
     from morphkit.retarget.ace.train import train_ace
 
     print(f"no --run: training the smoke preset on Spot into {run_dir}")
-    train_ace(run_dir, read_morphology(resolve_morphology("spot")), cfg, progress=False)
+    train_ace(run_dir, read_morphology("spot"), cfg, progress=False)
     return run_dir
 
 

@@ -13,7 +13,6 @@ row), and renders human | creature side by side. Re-running the same command res
 from __future__ import annotations
 
 import argparse
-import sys
 import time
 from pathlib import Path
 
@@ -29,18 +28,13 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--smoke", action="store_true", help="the smoke preset and one short video frame sheet")
     args = p.parse_args(argv)
 
-    from morphkit.errors import MorphkitError
+    from morphkit.cli import run_command
 
-    try:
-        return run(args)
-    except MorphkitError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+    return run_command(run, args)
 
 
 def run(args: argparse.Namespace) -> int:
     from morphkit.io import read_morphology
-    from morphkit.io.shipped import resolve_morphology
     from morphkit.motion import write_motion
     from morphkit.motion.io_commands import write_robot_commands
     from morphkit.retarget.ace.config import preset
@@ -53,7 +47,7 @@ def run(args: argparse.Namespace) -> int:
     started = time.perf_counter()
     name = "smoke" if args.smoke else args.preset
     cfg = preset(name)
-    creature = read_morphology(resolve_morphology(args.creature))
+    creature = read_morphology(args.creature)
     out = Path(args.out) if args.out else Path("runs") / f"ace_{creature.name}_{name}"
     train_ace(out, creature, cfg, human_data=args.human_data)
 

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 import time
 from pathlib import Path
 
@@ -29,13 +28,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--smoke", action="store_true", help="a small batch and few optimisation steps")
     args = p.parse_args(argv)
 
-    from morphkit.errors import MorphkitError
+    from morphkit.cli import run_command
 
-    try:
-        return run(args)
-    except MorphkitError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+    return run_command(run, args)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -43,7 +38,6 @@ def run(args: argparse.Namespace) -> int:
 
     import morphkit.torch as mt
     from morphkit.io import read_morphology
-    from morphkit.io.shipped import resolve_morphology
     from morphkit.kernels import foot_indices
     from morphkit.model import compile_model
     from morphkit.motion import Motion, write_motion
@@ -52,7 +46,7 @@ def run(args: argparse.Namespace) -> int:
     started = time.perf_counter()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    creature = read_morphology(resolve_morphology(args.creature))
+    creature = read_morphology(args.creature)
     model = compile_model(creature)  # flat arrays for the kernels; float32 on the CPU by default
     C = creature.coordinate_count
     feet = [int(i) for i in foot_indices(model)]

@@ -17,7 +17,6 @@ No line of morphkit knows this creature: the same steps work for any description
 from __future__ import annotations
 
 import argparse
-import sys
 import time
 from pathlib import Path
 
@@ -33,13 +32,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--smoke", action="store_true", help="the smoke preset and small pictures: about a minute")
     args = p.parse_args(argv)
 
-    from morphkit.errors import MorphkitError
+    from morphkit.cli import run_command
 
-    try:
-        return run(args)
-    except MorphkitError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+    return run_command(run, args)
 
 
 def run(args: argparse.Namespace) -> int:

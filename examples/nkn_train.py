@@ -16,7 +16,6 @@ cross-morphology mode (human → that creature, ACE's baseline) instead. Re-runn
 from __future__ import annotations
 
 import argparse
-import sys
 import time
 from pathlib import Path
 
@@ -36,13 +35,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--smoke", action="store_true", help="the smoke preset, two clips, a frame sheet for a video")
     args = p.parse_args(argv)
 
-    from morphkit.errors import MorphkitError
+    from morphkit.cli import run_command
 
-    try:
-        return run(args)
-    except MorphkitError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+    return run_command(run, args)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -59,9 +54,8 @@ def run(args: argparse.Namespace) -> int:
     creature = None
     if args.creature:
         from morphkit.io import read_morphology
-        from morphkit.io.shipped import resolve_morphology
 
-        creature = read_morphology(resolve_morphology(args.creature))
+        creature = read_morphology(args.creature)
     data = "_".join(Path(d).name for d in args.human_data) if args.human_data else "default"
     out = Path(args.out) if args.out else Path("runs") / f"nkn_{data}{'_' + creature.name if creature else ''}_{name}"
     train_nkn(out, cfg, human_data=args.human_data, creature=creature, device=args.device)

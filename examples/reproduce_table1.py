@@ -15,7 +15,6 @@ command skips every finished stage and resumes an interrupted one.
 from __future__ import annotations
 
 import argparse
-import sys
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -43,19 +42,14 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--smoke", action="store_true", help="the smoke preset shortened to seconds: the test suite's mode")
     args = p.parse_args(argv)
 
-    from morphkit.errors import MorphkitError
+    from morphkit.cli import run_command
 
-    try:
-        return run(args)
-    except MorphkitError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+    return run_command(run, args)
 
 
 def run(args: argparse.Namespace) -> int:
     from morphkit.evaluation import ReproduceConfig, reproduce_table1
     from morphkit.io import read_morphology
-    from morphkit.io.shipped import resolve_morphology
 
     cfg = ReproduceConfig(
         preset=args.preset, seeds=args.seeds, contact_weight=args.contact_weight, ace_overrides=tuple(args.set),
@@ -65,7 +59,7 @@ def run(args: argparse.Namespace) -> int:
         cfg = replace(cfg, preset="smoke", ace_overrides=SMOKE_ACE + cfg.ace_overrides,
                       nkn_overrides=SMOKE_NKN + cfg.nkn_overrides, clips=2, videos=min(cfg.videos, 1),
                       video_suffix=".png", video_seconds=0.1, video_size=(96, 96))
-    creatures = [read_morphology(resolve_morphology(c)) for c in args.character]
+    creatures = [read_morphology(c) for c in args.character]
     times = []
     for creature in creatures:
         started = time.perf_counter()

@@ -14,13 +14,13 @@ import importlib
 import os
 import sys
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any, TextIO
 
 from morphkit._version import __version__
 from morphkit.errors import MorphkitError
 
-__all__ = ["main"]
+__all__ = ["main", "run_command"]
 
 COMMANDS = [
     "info",
@@ -70,15 +70,28 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; returns the exit code (0 success, 2 bad input)."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    return run_command(args.run, args)
+
+
+def run_command(command: Callable[[argparse.Namespace], int | None], args: argparse.Namespace) -> int:
+    """Run ``command(args)`` as every morphkit command runs (the CLI's subcommands, the examples).
+
+    Warp's module-load lines are silenced, a warning is one ``warning:`` line, and bad input (a
+    :class:`~morphkit.errors.MorphkitError`, an unreadable or unwritable path) is one ``error:``
+    line on stderr and exit code 2, with no traceback.
+
+    Returns:
+        The exit code: ``command``'s (0 for ``None``), 2 for bad input, 130 when interrupted.
+    """
     os.environ.setdefault("MORPHKIT_QUIET_WARP", "1")
     with warnings.catch_warnings():
         warnings.showwarning = _show_warning
-        return _run(args)
+        return _run(command, args)
 
 
-def _run(args: argparse.Namespace) -> int:
+def _run(command: Callable[[argparse.Namespace], int | None], args: argparse.Namespace) -> int:
     try:
-        return int(args.run(args) or 0)
+        return int(command(args) or 0)
     except MorphkitError as exc:
         sys.stderr.write(f"error: {exc}\n")
         return 2

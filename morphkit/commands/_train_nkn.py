@@ -24,9 +24,8 @@ def run_nkn(args: argparse.Namespace) -> int:
     creature = None
     if args.creature is not None:
         from morphkit.io import read_morphology
-        from morphkit.io.shipped import resolve_morphology
 
-        creature = read_morphology(resolve_morphology(args.creature))
+        creature = read_morphology(args.creature)
     cfg = preset(args.preset)
     if args.set:
         cfg = replace_config(cfg, args.set)

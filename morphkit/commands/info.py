@@ -72,9 +72,8 @@ def _text(s: dict[str, Any]) -> str:
 
 def run(args: argparse.Namespace) -> int:
     from morphkit.io import read_morphology
-    from morphkit.io.shipped import resolve_morphology
 
-    records = [summary(read_morphology(resolve_morphology(p))) for p in args.paths]
+    records = [summary(read_morphology(p)) for p in args.paths]
     if args.json:
         print(json.dumps(records[0] if len(records) == 1 else records, indent=2))
     else:

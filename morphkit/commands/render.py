@@ -177,7 +177,6 @@ def _out(args: argparse.Namespace, name: str, what: str) -> str:
 
 def run(args: argparse.Namespace) -> int:
     from morphkit.io import read_morphology
-    from morphkit.io.shipped import resolve_morphology
     from morphkit.render import RenderStyle, render_motion, render_side_by_side, turntable
     from morphkit.render.video import check_output
 
@@ -194,7 +193,7 @@ def run(args: argparse.Namespace) -> int:
     if args.out is not None:  # before reading anything: a bad output is refused before any work
         _out(args, "", "")
         check_output(args.out)
-    creature = read_morphology(resolve_morphology(args.creature))
+    creature = read_morphology(args.creature)
     style = RenderStyle(
         shadows=not args.no_shadows,
         ground=not args.no_ground,

@@ -127,9 +127,8 @@ def _clip_name(labels: tuple[str, ...], spans: tuple[ActionSpan, ...], index: in
 
 def _human() -> Morphology:
     from morphkit.io import read_morphology
-    from morphkit.io.shipped import resolve_morphology
 
-    return read_morphology(resolve_morphology("human"))
+    return read_morphology("human")
 
 
 def _cache_key(frames: int, seed: int, fps: float) -> str:

@@ -151,10 +151,9 @@ def _embedded_motion(frames: int, seed: int, fps: float) -> list[Motion]:
         from morphkit.synth import default_human_motion
     except ImportError:  # an older morphkit.synth: the shipped human under the default synthesis
         from morphkit.io import read_morphology
-        from morphkit.io.shipped import resolve_morphology
         from morphkit.synth import synthesize
 
-        human = read_morphology(resolve_morphology("human"))
+        human = read_morphology("human")
         return list(synthesize(human, frames=frames, seed=seed, fps=fps, progress=False).motions)
     return list(default_human_motion(frames=frames, seed=seed, fps=fps))
 
