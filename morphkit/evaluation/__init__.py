@@ -27,6 +27,9 @@ from morphkit.evaluation.report import write_report as write_report
 from morphkit.evaluation.reproduce import ReproduceConfig as ReproduceConfig
 from morphkit.evaluation.reproduce import evaluate_runs as evaluate_runs
 from morphkit.evaluation.reproduce import reproduce_table1 as reproduce_table1
+from morphkit.evaluation.targets import TargetCheck as TargetCheck
+from morphkit.evaluation.targets import check_targets as check_targets
+from morphkit.evaluation.targets import format_targets as format_targets
 
 __all__ = [
     "METHOD_ORDER",
@@ -36,10 +39,13 @@ __all__ = [
     "Reference",
     "ReproduceConfig",
     "SummaryRow",
+    "TargetCheck",
+    "check_targets",
     "evaluate_methods",
     "evaluate_runs",
     "find_methods",
     "format_summary",
+    "format_targets",
     "reference_for",
     "reproduce_table1",
     "retarget",

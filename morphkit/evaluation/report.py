@@ -4,6 +4,7 @@ Layout of a report folder::
 
     index.html        the table, the charts and the videos on one page (relative links only)
     table.md/.csv     Table 1: the data set's row, then one row per method, mean ± std over its runs
+    targets.md        the paper's claims checked on that table (:mod:`~morphkit.evaluation.targets`)
     runs.md/.csv      one row per run (seed, folder), with UFR split by effect
     evaluation.json   every number above, and the clips
     charts/*.png      one bar chart per metric (error bars: std over runs; dots: single runs)
@@ -28,6 +29,7 @@ import numpy as np
 from morphkit._atomic import atomic_path, atomic_write_text
 from morphkit.evaluation.evaluate import Evaluation
 from morphkit.evaluation.methods import method_order
+from morphkit.evaluation.targets import check_targets, format_targets
 from morphkit.retarget.ace.evaluate import TableRow
 from morphkit.retarget.tables import write_table_files
 
@@ -294,6 +296,9 @@ def write_index(out: str | os.PathLike[str], evaluation: Evaluation, rows: Seque
         "runs (seeds) of a method. Definitions: <code>morphkit.metrics</code> (docs/guides/evaluate.md).</p>",
         '<p>Files: <a href="table.md">table.md</a>, <a href="table.csv">table.csv</a>, '
         '<a href="runs.csv">runs.csv</a>, <a href="evaluation.json">evaluation.json</a></p>',
+        "<h2>The paper's claims</h2>",
+        _html_table(["claim", "met", "measured"], [[c.claim, "not run" if c.met is None else ("✔" if c.met else "✘"),
+                                                    c.detail] for c in check_targets(rows)]),
         "<h2>Charts</h2>", '<div class="grid">',
         *(f'<a href="{_link(p, root)}"><img src="{_link(p, root)}" alt="{html.escape(p.stem)}"></a>' for p in charts),
         "</div>", "<h2>Unrealistic frames by effect, per run</h2>", causes, "<h2>Videos</h2>",
@@ -328,6 +333,8 @@ def write_report(
     root.mkdir(parents=True, exist_ok=True)
     rows = summarize(evaluation.dataset, [(r.method.seed, r.row) for r in evaluation.results])
     markdown = write_table_files(root / "table", format_summary(rows), [r.as_dict() for r in rows])
+    checks = check_targets(rows)
+    atomic_write_text(root / "targets.md", format_targets(checks) + "\n")
     records = _run_records(evaluation)
     write_table_files(root / "runs", _format_runs(records), records)
     ref = evaluation.reference
@@ -337,6 +344,7 @@ def write_report(
         "human_length": ref.human_length, "character_frames": sum(m.frame_count for m in ref.character),
         "clips": {c.name: c.frame_count for c in evaluation.clips},
         "table": [r.as_dict() for r in rows], "runs": records,
+        "targets": [{"claim": c.claim, "met": c.met, "measured": c.detail} for c in checks],
     }
     atomic_write_text(root / "evaluation.json", json.dumps(summary, indent=1) + "\n")
     notes: list[str] = []
