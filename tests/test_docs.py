@@ -56,7 +56,7 @@ def site(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("site")
     env = {**os.environ, "NO_MKDOCS_2_WARNING": "1"}
     cmd = [sys.executable, "-m", "mkdocs", "build", "--strict", "--site-dir", str(out)]
-    proc = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=300, check=False)
+    proc = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=900, check=False)
     assert proc.returncode == 0, proc.stderr[-4000:]
     return out
 
@@ -153,7 +153,7 @@ def test_gallery_script_smoke(tmp_path: Path):
         pytest.skip("the render extra is not installed (pyrender): pip install -e '.[render]'")
     cmd = [sys.executable, str(ROOT / "docs" / "gallery" / "make_gallery.py"), "--smoke", "--out", str(tmp_path)]
     env = {**os.environ, "PYOPENGL_PLATFORM": "egl"}
-    proc = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300, check=False)
+    proc = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=900, check=False)
     assert proc.returncode == 0, proc.stderr[-3000:]
     from PIL import Image
 

@@ -102,7 +102,7 @@ def test_sigkill_mid_epoch_then_resume_is_bit_identical(tmp_path, human_dir, dog
     script = _SCRIPT.format(sets=sets, dog=str(dog), human=str(human_dir))
     env = {**os.environ, "MORPHKIT_CACHE_DIR": str(tmp_path.parent / "ace_cache")}
     full = _train(script, tmp_path / "full", env)
-    assert full.wait(timeout=300) == 0, full.stderr.read()
+    assert full.wait(timeout=900) == 0, full.stderr.read()
     killed = _train(script, tmp_path / "killed", env)
     metrics = tmp_path / "killed" / "retarget" / "metrics.csv"
     deadline = time.time() + 300
@@ -114,7 +114,7 @@ def test_sigkill_mid_epoch_then_resume_is_bit_identical(tmp_path, human_dir, dog
     killed.send_signal(signal.SIGKILL)
     killed.wait()
     resumed = _train(script, tmp_path / "killed", env)
-    assert resumed.wait(timeout=300) == 0, resumed.stderr.read()
+    assert resumed.wait(timeout=900) == 0, resumed.stderr.read()
     a = torch.load(tmp_path / "full" / "retarget" / "checkpoint.pt", weights_only=True)["states"]
     b = torch.load(tmp_path / "killed" / "retarget" / "checkpoint.pt", weights_only=True)["states"]
     for part in ("generator", "discriminator"):
@@ -231,7 +231,7 @@ def test_torchrun_two_ranks_end_with_identical_parameters(tmp_path, human_dir, d
     env = {**os.environ, "MORPHKIT_CACHE_DIR": str(tmp_path.parent / "ace_cache"), "OMP_NUM_THREADS": "1"}
     cmd = [sys.executable, "-m", "torch.distributed.run", "--nproc_per_node", "2", "--master_port", "29613",
            str(script), str(tmp_path / "run"), str(tmp_path)]
-    proc = subprocess.run(cmd, env=env, capture_output=True, check=False, text=True, timeout=300)
+    proc = subprocess.run(cmd, env=env, capture_output=True, check=False, text=True, timeout=900)
     assert proc.returncode == 0, proc.stderr[-3000:]
     a, b = (tmp_path / "rank0").read_text(), (tmp_path / "rank1").read_text()
     assert a == b

@@ -270,7 +270,7 @@ def test_example_smoke_runs(tmp_path, data_dir):
     env = {**os.environ, "MORPHKIT_CACHE_DIR": str(tmp_path / "cache"), "PYTHONPATH": str(ROOT)}
     proc = subprocess.run([sys.executable, str(ROOT / "examples" / "nkn_train.py"), "--smoke", "--no-video",
                            "--human-data", str(data_dir), "--out", str(tmp_path / "out")],
-                          cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300, check=False)
+                          cwd=tmp_path, env=env, capture_output=True, text=True, timeout=900, check=False)
     assert proc.returncode == 0, proc.stderr[-3000:]
     assert "done in" in proc.stdout and "| NKN |" in proc.stdout and "copy rotations" in proc.stdout
     assert len(list((tmp_path / "out" / "plots").glob("*.png"))) == 2

@@ -17,7 +17,7 @@ ROOT = Path(__file__).resolve().parents[2]
 def _toy(run_dir: Path, *args: str) -> subprocess.CompletedProcess[str]:
     env = {**os.environ, "OMP_NUM_THREADS": "1", "PYTHONPATH": str(ROOT)}
     cmd = [sys.executable, str(SCRIPT), str(run_dir), *args]
-    return subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=ROOT, timeout=120, check=False)
+    return subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=ROOT, timeout=900, check=False)
 
 
 def test_killed_and_terminated_run_resumes_bit_identically(tmp_path: Path):
