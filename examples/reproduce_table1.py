@@ -65,8 +65,10 @@ def run(args: argparse.Namespace) -> int:
         started = time.perf_counter()
         table = reproduce_table1(creature, Path(args.out) / creature.name, cfg, human_data=args.human_data)
         times.append((creature.name, time.perf_counter() - started))
+        report = Path(args.out) / creature.name / "report"
         print(table, end="")
-        print(f"report: {Path(args.out) / creature.name / 'report' / 'index.html'}")
+        print((report / "targets.md").read_text(encoding="utf-8"), end="")
+        print(f"report: {report / 'index.html'}")
     for name, seconds in times:
         print(f"{name}: {seconds:.0f} s ({seconds / 60:.1f} min)")
     print(f"done in {sum(s for _, s in times):.0f} s: {args.out}")

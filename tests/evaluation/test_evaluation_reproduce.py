@@ -158,6 +158,7 @@ def test_smoke_trains_every_method_and_writes_the_report(smoke):
     out, _, stdout = smoke
     folder = out / "testdog"
     assert "done in" in stdout and "testdog:" in stdout
+    assert "| claim | met | measured |" in stdout  # the paper's claims, checked, after the table
     table = _table(folder / "report" / "table.md")
     assert list(table) == ["Dataset", *METHODS]
     assert all(cells[-1] == table["ACE"][-1] for name, cells in table.items() if name != "Dataset")
