@@ -67,7 +67,8 @@ def run(args: argparse.Namespace) -> int:
         times.append((creature.name, time.perf_counter() - started))
         report = Path(args.out) / creature.name / "report"
         print(table, end="")
-        print((report / "targets.md").read_text(encoding="utf-8"), end="")
+        if (report / "targets.md").is_file():  # a report finished before reports checked the claims has none
+            print((report / "targets.md").read_text(encoding="utf-8"), end="")
         print(f"report: {report / 'index.html'}")
     for name, seconds in times:
         print(f"{name}: {seconds:.0f} s ({seconds / 60:.1f} min)")

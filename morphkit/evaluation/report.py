@@ -29,7 +29,7 @@ import numpy as np
 from morphkit._atomic import atomic_path, atomic_write_text
 from morphkit.evaluation.evaluate import Evaluation
 from morphkit.evaluation.methods import method_order
-from morphkit.evaluation.targets import check_targets, format_targets
+from morphkit.evaluation.targets import TargetCheck, check_targets, format_targets
 from morphkit.retarget.ace.evaluate import TableRow
 from morphkit.retarget.tables import write_table_files
 
@@ -266,9 +266,12 @@ def _link(path: Path, root: Path) -> str:
 
 
 def write_index(out: str | os.PathLike[str], evaluation: Evaluation, rows: Sequence[SummaryRow],
-                charts: Sequence[Path], videos: Sequence[Path], *, notes: Sequence[str] = ()) -> Path:
-    """``out/index.html``: Table 1, UFR by effect, the charts and the videos, with links relative to ``out``."""
+                charts: Sequence[Path], videos: Sequence[Path], *, notes: Sequence[str] = (),
+                checks: Sequence[TargetCheck] | None = None) -> Path:
+    """``out/index.html``: Table 1, the paper's claims (``checks``, default: checked on ``rows``), UFR by
+    effect, the charts and the videos, with links relative to ``out``."""
     root = Path(out)
+    checks = check_targets(rows) if checks is None else checks
     ref = evaluation.reference
     frames = sum(c.frame_count for c in evaluation.clips)
     pairs = ", ".join(f"{c}→{h}" for c, h in zip(ref.creature_ees, ref.human_ees, strict=True))
@@ -297,8 +300,7 @@ def write_index(out: str | os.PathLike[str], evaluation: Evaluation, rows: Seque
         '<p>Files: <a href="table.md">table.md</a>, <a href="table.csv">table.csv</a>, '
         '<a href="runs.csv">runs.csv</a>, <a href="evaluation.json">evaluation.json</a></p>',
         "<h2>The paper's claims</h2>",
-        _html_table(["claim", "met", "measured"], [[c.claim, "not run" if c.met is None else ("✔" if c.met else "✘"),
-                                                    c.detail] for c in check_targets(rows)]),
+        _html_table(["claim", "met", "measured"], [[c.claim, c.mark, c.detail] for c in checks]),
         "<h2>Charts</h2>", '<div class="grid">',
         *(f'<a href="{_link(p, root)}"><img src="{_link(p, root)}" alt="{html.escape(p.stem)}"></a>' for p in charts),
         "</div>", "<h2>Unrealistic frames by effect, per run</h2>", causes, "<h2>Videos</h2>",
@@ -356,6 +358,6 @@ def write_report(
         log(notes[-1])
     shown = render_videos(evaluation, root / "videos", count=videos, suffix=video_suffix, size=video_size,
                           max_seconds=video_seconds, log=log) if videos > 0 else []
-    page = write_index(root, evaluation, rows, charts, shown, notes=notes)
+    page = write_index(root, evaluation, rows, charts, shown, notes=notes, checks=checks)
     log(f"report: {page}")
     return markdown

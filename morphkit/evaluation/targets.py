@@ -36,6 +36,11 @@ class TargetCheck:
     met: bool | None
     detail: str
 
+    @property
+    def mark(self) -> str:
+        """``✔``, ``✘`` or ``not run``."""
+        return "not run" if self.met is None else ("✔" if self.met else "✘")
+
 
 def _mean(rows: dict[str, SummaryRow], name: str, key: str) -> float | None:
     row = rows.get(name)
@@ -98,6 +103,5 @@ def format_targets(checks: Sequence[TargetCheck]) -> str:
     """Markdown: ``| claim | met | measured |`` (✔, ✘, or "not run")."""
     lines = ["| claim | met | measured |", "|---|---|---|"]
     for c in checks:
-        mark = "not run" if c.met is None else ("✔" if c.met else "✘")
-        lines.append(f"| {c.claim} | {mark} | {c.detail} |")
+        lines.append(f"| {c.claim} | {c.mark} | {c.detail} |")
     return "\n".join(lines)
