@@ -10,6 +10,7 @@ generator, its NumPy generator, Python's random), so an exact resume has to rest
 from __future__ import annotations
 
 import argparse
+import faulthandler
 import hashlib
 import os
 import random
@@ -42,7 +43,11 @@ def main() -> int:
     parser.add_argument("--checkpoint-every", type=int)
     parser.add_argument("--hash-dir", help="each rank writes its parameters' SHA-256 here")
     parser.add_argument("--samples", type=int, default=ToyConfig.samples)
+    parser.add_argument("--give-up-after", type=float, help="seconds: print every thread's stack to stderr and exit 1")
     args = parser.parse_args()
+    if args.give_up_after:
+        # A watchdog in the process itself: a hung rank says where it waits and ends, so no orphan outlives the test.
+        faulthandler.dump_traceback_later(args.give_up_after, exit=True)
     torch.set_num_threads(1)
     cfg = ToyConfig(samples=args.samples)
     with Run(
