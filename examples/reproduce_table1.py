@@ -38,6 +38,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--videos", type=int, default=3, help="clips with a side-by-side video (default 3)")
     p.add_argument("--video-format", choices=["mp4", "gif", "png"], help="default mp4 (gif without ffmpeg)")
     p.add_argument("--out", metavar="DIR", default="table1", help="output folder (default table1)")
+    p.add_argument("--jobs", type=int, default=2,
+                   help="lanes trained at once on CPU: NKN beside the prior and ACE (default 2; 1: in turn)")
     p.add_argument("--device", default=None, help="torch device of training (default: cuda when present, else cpu)")
     p.add_argument("--smoke", action="store_true", help="the smoke preset shortened to seconds: the test suite's mode")
     args = p.parse_args(argv)
@@ -54,7 +56,8 @@ def run(args: argparse.Namespace) -> int:
     cfg = ReproduceConfig(
         preset=args.preset, seeds=args.seeds, contact_weight=args.contact_weight, ace_overrides=tuple(args.set),
         nkn_overrides=tuple(args.nkn_set), clips=args.clips, videos=args.videos,
-        video_suffix=f".{args.video_format}" if args.video_format else None, device=args.device)
+        video_suffix=f".{args.video_format}" if args.video_format else None, device=args.device,
+        jobs=args.jobs)
     if args.smoke:
         cfg = replace(cfg, preset="smoke", ace_overrides=SMOKE_ACE + cfg.ace_overrides,
                       nkn_overrides=SMOKE_NKN + cfg.nkn_overrides, clips=2, videos=min(cfg.videos, 1),

@@ -11,6 +11,8 @@ import runpy
 import shutil
 import subprocess
 import sys
+import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -21,6 +23,7 @@ from retarget._ace_fixtures import write_quadruped
 
 import morphkit.evaluation.reproduce as reproduce
 from morphkit.cli import main as cli
+from morphkit.errors import ConfigError, RunError
 from morphkit.evaluation import ReproduceConfig, reproduce_table1
 from morphkit.evaluation.reproduce import DONE_FILE, Stage, run_stages
 
@@ -53,6 +56,57 @@ def test_a_finished_stage_is_not_run_again_and_a_failed_one_is(tmp_path):
                       log=lambda s: None) == ["b", "report"]
 
 
+def _meet(me: Path, other: Path) -> None:
+    """Say ``me`` started (our pid in the file), then wait for ``other`` to start: only lanes that run at once meet."""
+    me.write_text(str(os.getpid()))
+    deadline = time.monotonic() + 60
+    while not other.exists():
+        if time.monotonic() > deadline:
+            raise RuntimeError(f"{other.name} never started beside {me.name}")
+        time.sleep(0.05)
+
+
+def test_lanes_run_at_once_in_their_own_processes_and_a_failing_lane_is_reported(tmp_path):
+    def write(name: str) -> Callable[[], None]:
+        return lambda: (tmp_path / name).write_text(str(os.getpid()))
+
+    stages = [Stage("data", tmp_path / "s/data", write("data")),
+              Stage("a1", tmp_path / "s/a1", lambda: _meet(tmp_path / "a1", tmp_path / "b1"), lane="A"),
+              Stage("a2", tmp_path / "s/a2", write("a2"), lane="A"),
+              Stage("b1", tmp_path / "s/b1", lambda: _meet(tmp_path / "b1", tmp_path / "a1"), lane="B"),
+              Stage("report", tmp_path / "s/report", write("report"), downstream=True)]
+    ran = run_stages(stages, jobs=2, log=lambda s: None)
+    assert sorted(ran) == ["a1", "a2", "b1", "data", "report"] and ran[0] == "data" and ran[-1] == "report"
+    pid = {name: int((tmp_path / name).read_text()) for name in ("data", "a1", "a2", "b1", "report")}
+    assert pid["data"] == pid["report"] == os.getpid()  # the stages around the lanes run here
+    assert pid["a1"] == pid["a2"] != pid["b1"] and os.getpid() not in (pid["a1"], pid["b1"])
+    assert all((tmp_path / "s" / n / DONE_FILE).is_file() for n in pid)  # markers written by the lane processes
+    assert run_stages(stages, jobs=2, log=lambda s: None) == []
+
+    # One lane's bad input ends the other at once (SIGTERM) and comes back here as one clear error; nothing of
+    # either is marked done, so a re-run redoes both.
+    def slow() -> None:
+        (tmp_path / "slow").write_text("started")
+        time.sleep(120)
+
+    def bad() -> None:
+        while not (tmp_path / "slow").exists():
+            time.sleep(0.05)
+        raise ConfigError("no such field: retarget.w_nothing")
+
+    started = time.monotonic()
+    with pytest.raises(RunError, match=r"no such field: retarget\.w_nothing"):
+        run_stages([Stage("slow", tmp_path / "t/slow", slow, lane="A"), Stage("bad", tmp_path / "t/bad", bad,
+                                                                                lane="B")], jobs=2, log=lambda s: None)
+    assert time.monotonic() - started < 60  # the slow lane was stopped, not waited for
+    assert not list((tmp_path / "t").rglob(DONE_FILE))
+    # One job: the same stages in turn, here.
+    assert run_stages(stages[:3], jobs=1, log=lambda s: None) == []
+    (tmp_path / "s/a2" / DONE_FILE).unlink()
+    assert run_stages(stages[:3], jobs=1, log=lambda s: None) == ["a2"]
+    assert int((tmp_path / "a2").read_text()) == os.getpid()
+
+
 def test_pipeline_trains_the_prior_once_and_a_rerun_trains_nothing(tmp_path, monkeypatch):
     calls: list[tuple] = []
 
@@ -72,7 +126,7 @@ def test_pipeline_trains_the_prior_once_and_a_rerun_trains_nothing(tmp_path, mon
     monkeypatch.setattr(reproduce, "train_nkn", lambda run, cfg, **k: calls.append(
         ("nkn", rel(run), cfg.seed, cfg.data.character_frames, cfg.data.human_frames)))
     monkeypatch.setattr(reproduce, "evaluate_runs", evaluate)
-    cfg = ReproduceConfig(preset="smoke", seeds=2, contact_weight=0.5, progress=False)
+    cfg = ReproduceConfig(preset="smoke", seeds=2, contact_weight=0.5, progress=False, jobs=1)
     quiet = {"log": lambda s: None}
 
     reproduce_table1(spot_like(), tmp_path / "out", cfg, **quiet)
@@ -95,7 +149,8 @@ def test_pipeline_trains_the_prior_once_and_a_rerun_trains_nothing(tmp_path, mon
     assert [m.stat().st_mtime_ns for m in markers] == stamps
 
     # Another preset into the same folder is not taken for done (its runs then refuse the other config).
-    reproduce_table1(spot_like(), tmp_path / "out", ReproduceConfig(preset="quick", seeds=2, progress=False), **quiet)
+    other = ReproduceConfig(preset="quick", seeds=2, progress=False, jobs=1)
+    reproduce_table1(spot_like(), tmp_path / "out", other, **quiet)
     assert len(calls) == len(expected) and calls[0] == ("data",)
     for marker in markers:  # back to the smoke configuration
         marker.unlink()
@@ -104,7 +159,7 @@ def test_pipeline_trains_the_prior_once_and_a_rerun_trains_nothing(tmp_path, mon
 
     # One more seed: its stages and the evaluation run, nothing else.
     reproduce_table1(spot_like(), tmp_path / "out", ReproduceConfig(preset="smoke", seeds=3, contact_weight=0.5,
-                                                                    progress=False), **quiet)
+                                                                    progress=False, jobs=1), **quiet)
     assert [c[:2] for c in calls] == [("ace", "runs/ace_seed2")] * 4 + [("nkn", "runs/nkn_seed2"), ("evaluate", [
         "runs/ace_seed0", "runs/nkn_seed0", "runs/ace_seed1", "runs/nkn_seed1", "runs/ace_seed2", "runs/nkn_seed2"])]
     assert all(c[5] == "runs/ace_seed0/prior" for c in calls[:4])
@@ -112,7 +167,8 @@ def test_pipeline_trains_the_prior_once_and_a_rerun_trains_nothing(tmp_path, mon
     # A change of the retargeters' config retrains them, not the prior, the data or NKN.
     calls.clear()
     reproduce_table1(spot_like(), tmp_path / "out", ReproduceConfig(
-        preset="smoke", seeds=3, contact_weight=0.5, ace_overrides=("retarget.w_adv=2",), progress=False), **quiet)
+        preset="smoke", seeds=3, contact_weight=0.5, ace_overrides=("retarget.w_adv=2",), progress=False, jobs=1),
+        **quiet)
     assert [c[0] for c in calls] == ["ace"] * 12 + ["evaluate"]
 
 
@@ -158,6 +214,9 @@ def test_smoke_trains_every_method_and_writes_the_report(smoke):
     out, _, stdout = smoke
     folder = out / "testdog"
     assert "done in" in stdout and "testdog:" in stdout
+    # --jobs 2 (the default): NKN trained in its own process beside the ACE lane; both lanes' lines reach stdout.
+    assert "training 2 lanes at once (ACE, NKN)" in stdout
+    assert "NKN seed 0: done in" in stdout and "ACE+contact seed 0: done in" in stdout
     assert "| claim | met | measured |" in stdout  # the paper's claims, checked, after the table
     table = _table(folder / "report" / "table.md")
     assert list(table) == ["Dataset", *METHODS]
