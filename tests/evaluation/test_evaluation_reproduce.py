@@ -9,6 +9,7 @@ import json
 import os
 import runpy
 import shutil
+import signal
 import subprocess
 import sys
 import time
@@ -17,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import torch
 import yaml
 from morphkit_testing import spot_like
 from retarget._ace_fixtures import write_quadruped
@@ -105,6 +107,58 @@ def test_lanes_run_at_once_in_their_own_processes_and_a_failing_lane_is_reported
     (tmp_path / "s/a2" / DONE_FILE).unlink()
     assert run_stages(stages[:3], jobs=1, log=lambda s: None) == ["a2"]
     assert int((tmp_path / "a2").read_text()) == os.getpid()
+
+
+_LANES_SCRIPT = """
+import sys, time
+from dataclasses import dataclass
+from pathlib import Path
+from morphkit.evaluation.reproduce import Stage, run_stages
+from morphkit.retarget import Run
+
+@dataclass(frozen=True)
+class Slow:
+    steps: int = 40
+
+def train(folder):
+    with Run(folder, trainer="slow", config=Slow(), progress=False, tensorboard=False) as run:
+        for _ in run.epochs(1):
+            for _ in run.steps(Slow.steps):
+                (Path(folder) / "started").touch()
+                time.sleep(0.1)
+                run.log(x=1.0)
+
+root = Path(sys.argv[1])
+stages = [Stage(n, root / n, lambda n=n: train(root / n), lane=n) for n in ("a", "b")]
+try:
+    print("ran", run_stages(stages, jobs=2))
+except KeyboardInterrupt:
+    sys.exit(130)
+"""
+
+
+def test_ctrl_c_stops_both_lanes_with_a_checkpoint_and_a_rerun_finishes_them(tmp_path):
+    script = tmp_path / "lanes.py"
+    script.write_text(_LANES_SCRIPT)
+    cmd = [sys.executable, str(script), str(tmp_path / "runs")]
+    env = {**os.environ, "OMP_NUM_THREADS": "1"}
+    with subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) as proc:
+        deadline = time.monotonic() + 120
+        while not all((tmp_path / "runs" / n / "started").exists() for n in "ab"):
+            assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()[1][-3000:]
+            time.sleep(0.1)
+        proc.send_signal(signal.SIGINT)  # what Ctrl-C sends the foreground process (the lanes have their own group)
+        err = proc.communicate(timeout=120)[1]
+    assert proc.returncode == 130, err[-3000:]
+    for n in "ab":  # each lane checkpointed where it stopped, before the end
+        position = torch.load(tmp_path / "runs" / n / "checkpoint.pt", weights_only=True)["position"]
+        assert 0 < position["global_step"] < 40, (n, position)
+        assert not (tmp_path / "runs" / n / DONE_FILE).exists()
+    done = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=300, check=False)
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert "ran ['a', 'b']" in done.stdout or "ran ['b', 'a']" in done.stdout
+    for n in "ab":  # resumed, not restarted: one metrics row per step over both launches
+        assert len((tmp_path / "runs" / n / "metrics.csv").read_text().splitlines()) == 1 + 40
 
 
 def test_pipeline_trains_the_prior_once_and_a_rerun_trains_nothing(tmp_path, monkeypatch):

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import shutil
 import signal
 import socket
 import subprocess
@@ -49,6 +50,10 @@ def test_two_ranks_stop_together_resume_and_end_equal(tmp_path: Path):
     run_dir, hashes = tmp_path / "run", tmp_path / "hashes"
     hashes.mkdir()
     stopped = _torchrun(str(run_dir), "--hash-dir", str(hashes), "--term-at", "4")
+    if "Timeout (" in stopped.stderr:  # a rank hung (see below): start the run again from nothing, once
+        warnings.warn(f"a rank hung; started again once. Its stacks:\n{stopped.stderr[-6000:]}", stacklevel=1)
+        shutil.rmtree(run_dir)
+        stopped = _torchrun(str(run_dir), "--hash-dir", str(hashes), "--term-at", "4")
     assert stopped.returncode != 0, stopped.stderr  # torchrun reports the ranks' exit code 143 as a failure
     assert "Timeout (" not in stopped.stderr, stopped.stderr[-4000:]  # stopped by the signal, not the watchdog
     position = torch.load(run_dir / "checkpoint.pt", weights_only=True)["position"]
