@@ -482,5 +482,5 @@ def reproduce_table1(
         except (OSError, ValueError, KeyError):
             pass
     log(f"{creature.name}: {time.perf_counter() - started:.0f} s this time; {recorded:.0f} s of stage time in all "
-        f"({recorded / 60:.1f} min)")
+        f"({recorded / 60:.1f} min, lanes added up)")
     return (Path(out) / "report" / "table.md").read_text(encoding="utf-8")
