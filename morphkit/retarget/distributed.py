@@ -24,6 +24,7 @@ __all__ = [
     "all_reduce_max",
     "all_reduce_mean",
     "init_distributed",
+    "release_group",
     "unwrap",
     "wrap_ddp",
 ]
@@ -98,6 +99,23 @@ def wrap_ddp(module: nn.Module, context: DistributedContext) -> nn.Module:
         return module
     ids = [context.device.index] if context.device.type == "cuda" else None
     return nn.parallel.DistributedDataParallel(module, device_ids=ids)
+
+
+def release_group(module: nn.Module) -> None:
+    """Make a DDP wrapper let go of its process group (its reducer and logger hold it too); else a no-op.
+
+    ``destroy_process_group`` only forgets the group: a DDP wrapper still holding it keeps Gloo's
+    threads and sockets until the wrapper is collected, at the trainer's return or at exit, when a
+    peer may have gone. A rank tearing its group down then hung for good on CI (its peer had
+    exited). Released first, the group is torn down inside ``destroy_process_group``, on every rank
+    at the same point. The wrapper cannot train afterwards; ``unwrap`` still gives the module.
+    """
+    if not isinstance(module, nn.parallel.DistributedDataParallel):
+        return
+    for name in ("reducer", "logger"):
+        if hasattr(module, name):
+            delattr(module, name)
+    module.process_group = None
 
 
 def unwrap(module: nn.Module) -> nn.Module:

@@ -54,6 +54,7 @@ from morphkit.retarget.distributed import (
     all_reduce_max,
     all_reduce_mean,
     init_distributed,
+    release_group,
     unwrap,
     wrap_ddp,
 )
@@ -173,6 +174,7 @@ class Run(Generic[C]):
         self.extra: dict[str, Any] = {}
         """Small trainer state saved in the checkpoint (tensors and builtins only), e.g. an EMA score."""
         self._tracked: dict[str, Stateful] = {}
+        self._wrapped: list[nn.Module] = []
         self._checkpoint = self._read_checkpoint()
         if self._checkpoint is not None:
             pos = self._checkpoint["position"]
@@ -222,7 +224,9 @@ class Run(Generic[C]):
 
     def wrap(self, module: nn.Module) -> nn.Module:
         """``module`` moved to :attr:`device`, in DistributedDataParallel under torchrun."""
-        return wrap_ddp(module, self.context)
+        wrapped = wrap_ddp(module, self.context)
+        self._wrapped.append(wrapped)
+        return wrapped
 
     def track(self, **objects: Stateful) -> None:
         """Save these objects' state dicts in every checkpoint; load them now when resuming.
@@ -376,8 +380,13 @@ class Run(Generic[C]):
         self._saved_at = (self.epoch, self.step, self.global_step)
         return self.checkpoint_path
 
-    def close(self) -> None:
-        """Close logs and progress bar; restore signal handlers and determinism; leave a process group it joined."""
+    def close(self, *, wait_for_ranks: bool = True) -> None:
+        """Close logs and progress bar; restore signal handlers and determinism; leave a process group it joined.
+
+        Leaving the group, every rank first waits for the others (``wait_for_ranks``, skipped when
+        closing on an error, which the other ranks may never reach) and the wrapped modules let go of
+        it (:func:`~morphkit.retarget.distributed.release_group`), so it is torn down here on every rank.
+        """
         self._close_bar()
         self.metrics.close()
         for signum, handler in self._previous_handlers.items():
@@ -386,14 +395,19 @@ class Run(Generic[C]):
         enabled, warn_only = self._deterministic_before
         torch.use_deterministic_algorithms(enabled, warn_only=warn_only)
         if self._owns_group and torch.distributed.is_initialized():
+            if wait_for_ranks:
+                self.context.barrier()
+            for obj in [*self._tracked.values(), *self._wrapped]:
+                if isinstance(obj, nn.Module):
+                    release_group(obj)
             torch.distributed.destroy_process_group()
             self._owns_group = False
 
     def __enter__(self) -> Run[C]:
         return self
 
-    def __exit__(self, *exc: object) -> None:
-        self.close()
+    def __exit__(self, exc_type: type[BaseException] | None, *exc: object) -> None:
+        self.close(wait_for_ranks=exc_type is None)
 
     # ------------------------------------------------------------------------------ internals
 

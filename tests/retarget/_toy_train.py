@@ -81,6 +81,10 @@ def main() -> int:
         if args.hash_dir:
             digest = hashlib.sha256(params.numpy().tobytes()).hexdigest()
             Path(args.hash_dir, f"rank{run.context.rank}.txt").write_text(digest)
+        rank = run.context.rank
+    if args.hash_dir:  # the native threads left once the run closed (Gloo's, if its group outlived the run)
+        threads = sorted(Path(f"/proc/self/task/{t}/comm").read_text().strip() for t in os.listdir("/proc/self/task"))
+        Path(args.hash_dir, f"threads{rank}.txt").write_text("\n".join(threads))
     assert "warp" not in sys.modules, "the trainer layer imported warp"
     return 0
 

@@ -70,6 +70,9 @@ def test_two_ranks_stop_together_resume_and_end_equal(tmp_path: Path):
     assert done.returncode == 0, done.stderr[-4000:]
     rank0, rank1 = (hashes / "rank0.txt").read_text(), (hashes / "rank1.txt").read_text()
     assert rank0 == rank1
+    # The group was torn down when the run closed, on both ranks (not later, at exit, with a peer maybe gone).
+    for r in (0, 1):
+        assert not [t for t in (hashes / f"threads{r}.txt").read_text().split() if "gloo" in t], r
     # rank 0 alone writes: one event file per launch, one table of 3 epochs x 6 global batches of 2 x 8
     assert len(list((run_dir / "tensorboard").iterdir())) == launches
     assert len((run_dir / "metrics.csv").read_text().splitlines()) == 1 + 18
