@@ -259,7 +259,7 @@ def _run_lanes(lanes: list[list[tuple[int, Stage]]], total: int, jobs: int, log:
         while any(p.is_alive() for p in procs.values()):
             time.sleep(0.5)
             drain()
-            if any(kind != "ok" for kind, _ in outcome.values()) and not stopping:
+            if any(kind != "ok" for kind, _ in outcome.values()) and not (stopping or signals):
                 stop_lanes()  # one lane failed: the others checkpoint at their next step boundary and exit
                 stopping = True
         for proc in procs.values():

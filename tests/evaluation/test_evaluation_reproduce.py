@@ -118,14 +118,15 @@ from morphkit.retarget import Run
 
 @dataclass(frozen=True)
 class Slow:
-    steps: int = 40
+    steps: int = 12
 
 def train(folder):
     with Run(folder, trainer="slow", config=Slow(), progress=False, tensorboard=False) as run:
         for _ in run.epochs(1):
             for _ in run.steps(Slow.steps):
                 (Path(folder) / "started").touch()
-                time.sleep(0.1)
+                # b's steps are long: a stops and reports first, and b must still be let finish its step
+                time.sleep(0.2 if Path(folder).name == "a" else 1.0)
                 run.log(x=1.0)
 
 root = Path(sys.argv[1])
@@ -152,13 +153,13 @@ def test_ctrl_c_stops_both_lanes_with_a_checkpoint_and_a_rerun_finishes_them(tmp
     assert proc.returncode == 130, err[-3000:]
     for n in "ab":  # each lane checkpointed where it stopped, before the end
         position = torch.load(tmp_path / "runs" / n / "checkpoint.pt", weights_only=True)["position"]
-        assert 0 < position["global_step"] < 40, (n, position)
+        assert 0 < position["global_step"] < 12, (n, position)
         assert not (tmp_path / "runs" / n / DONE_FILE).exists()
     done = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=300, check=False)
     assert done.returncode == 0, done.stderr[-3000:]
     assert "ran ['a', 'b']" in done.stdout or "ran ['b', 'a']" in done.stdout
     for n in "ab":  # resumed, not restarted: one metrics row per step over both launches
-        assert len((tmp_path / "runs" / n / "metrics.csv").read_text().splitlines()) == 1 + 40
+        assert len((tmp_path / "runs" / n / "metrics.csv").read_text().splitlines()) == 1 + 12
 
 
 def test_pipeline_trains_the_prior_once_and_a_rerun_trains_nothing(tmp_path, monkeypatch):
