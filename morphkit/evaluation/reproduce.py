@@ -42,7 +42,7 @@ from pathlib import Path
 from typing import Any
 
 from morphkit._atomic import atomic_write_text
-from morphkit.errors import MorphkitError, RunError
+from morphkit.errors import ConfigError, MorphkitError, RunError
 from morphkit.evaluation.evaluate import evaluate_methods, reference_for
 from morphkit.evaluation.methods import find_methods
 from morphkit.evaluation.report import write_report
@@ -361,8 +361,6 @@ def evaluate_runs(
         MotionFormatError: evaluation clips of another human skeleton than the runs were trained on.
         ConfigError: ``clips`` < 1, ``videos`` < 0, ``video_seconds`` <= 0.
     """
-    from morphkit.errors import ConfigError
-
     if clips is not None and clips < 1:
         raise ConfigError(f"--clips must be at least 1, got {clips}")
     if videos < 0 or not video_seconds > 0:
@@ -389,10 +387,8 @@ def plan_stages(
     """The stages of :func:`reproduce_table1` (see the module docs), nothing run yet.
 
     Raises:
-        ConfigError: an unknown preset or override, fewer than one seed.
+        ConfigError: an unknown preset or override, fewer than one seed or job.
     """
-    from morphkit.errors import ConfigError
-
     if cfg.seeds < 1 or cfg.jobs < 1:
         raise ConfigError(f"--seeds and --jobs must be at least 1, got {cfg.seeds} and {cfg.jobs}")
     root, runs = Path(out), Path(out) / "runs"
