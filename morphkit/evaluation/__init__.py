@@ -7,6 +7,7 @@
   videos and ``index.html``.
 * :mod:`~.reproduce`: the whole pipeline for one creature (data, prior, ACE and its ablations,
   ACE+contact, NKN; evaluation; report), resumable stage by stage.
+* :mod:`~.stages`: the stage runner under it (done markers, lanes in forked processes, Ctrl-C → checkpoint).
 
 This layer sits above the trainers (:mod:`morphkit.retarget`) and the renderer (:mod:`morphkit.render`).
 """

@@ -14,6 +14,7 @@ With ``jobs`` ≥ 2 (the default), the ACE lane (prior, then the ACE retargeters
 they depend only on the data stage, and the evaluation waits for both. NKN's lane then shows no
 progress bar (two bars would overwrite each other); its stage lines and ``metrics.csv`` say where it is.
 
+:mod:`~morphkit.evaluation.stages` runs the stages (its notes: lanes, markers, errors, Ctrl-C).
 A stage is done when its folder holds ``done.json`` (written atomically once it finished) recording
 the same configuration; a re-run skips it. A stage interrupted midway resumes exactly where it
 stopped (its run folder's checkpoint). The evaluation is redone whenever a stage before it ran or
@@ -29,23 +30,20 @@ seed 0's (trained once, as the paper's ablations share it).
 from __future__ import annotations
 
 import json
-import multiprocessing
 import os
-import signal
-import sys
-import threading
 import time
-import traceback
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from morphkit._atomic import atomic_write_text
-from morphkit.errors import ConfigError, MorphkitError, RunError
+from morphkit.errors import ConfigError
 from morphkit.evaluation.evaluate import evaluate_methods, reference_for
 from morphkit.evaluation.methods import find_methods
 from morphkit.evaluation.report import write_report
+
+# Re-exported (stage_done is not used here): the runner's names stay importable from where they were first.
+from morphkit.evaluation.stages import DONE_FILE, Stage, lanes_at_once, run_stages, stage_done  # noqa: F401
 from morphkit.graph import Morphology
 from morphkit.retarget.ace.config import AceConfig
 from morphkit.retarget.ace.config import preset as ace_preset
@@ -55,11 +53,7 @@ from morphkit.retarget.config import config_to_dict, replace_config
 from morphkit.retarget.nkn import NknConfig, train_nkn
 from morphkit.retarget.nkn import preset as nkn_preset
 
-__all__ = ["DONE_FILE", "NKN_BUDGET", "ReproduceConfig", "Stage", "evaluate_runs", "plan_stages", "reproduce_table1",
-           "run_stages", "stage_done"]
-
-DONE_FILE = "done.json"
-"""A stage's completion marker (in its folder)."""
+__all__ = ["NKN_BUDGET", "ReproduceConfig", "evaluate_runs", "plan_stages", "reproduce_table1"]
 
 ACE_STAGES = (("ACE", "ace"), ("ACEwoFea", "ace-wofea"), ("ACEwoAdv", "ace-woadv"), ("ACE+contact", "ace-contact"))
 """Table-1 name and ACE variant of each ACE stage, in training order."""
@@ -100,206 +94,6 @@ class ReproduceConfig:
     """Training progress bars."""
 
 
-@dataclass(frozen=True)
-class Stage:
-    """One resumable step of the pipeline."""
-
-    name: str
-    folder: Path
-    """Where its ``done.json`` goes."""
-    action: Callable[[], Any]
-    key: dict[str, Any] = field(default_factory=dict)
-    """Recorded in ``done.json``; a marker with another key does not count as done (the stage's config and
-    data: another preset or override into the same folder is not taken for done)."""
-    downstream: bool = False
-    """Redo it whenever a stage before it ran in the same :func:`run_stages` call (the evaluation)."""
-    lane: str = ""
-    """Stages of one lane run in turn; consecutive stages of different lanes may run at once
-    (:func:`run_stages` with ``jobs`` ≥ 2). ``""``: runs alone, after everything before it."""
-
-
-def stage_done(stage: Stage) -> bool:
-    """Whether ``stage``'s folder holds a completion marker with its key."""
-    marker = stage.folder / DONE_FILE
-    if not marker.is_file():
-        return False
-    try:
-        saved = json.loads(marker.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return False  # a damaged marker: redo the stage
-    return saved.get("key", {}) == json.loads(json.dumps(stage.key))
-
-
-def run_stages(stages: Sequence[Stage], *, jobs: int = 1, log: Callable[[str], None] = print) -> list[str]:
-    """Run the stages in order, skipping those done (:func:`stage_done`; a ``downstream`` stage is redone
-    after any stage ran); write each one's marker when it returns.
-
-    With ``jobs`` ≥ 2, each block of consecutive stages with a ``lane`` runs one process per lane (at most
-    ``jobs`` at once; a lane's stages in turn); the stages around the block wait for it. A lane that fails
-    stops the others at their next step boundary (SIGTERM: they checkpoint) and its error is raised here.
-
-    Returns:
-        The names of the stages that ran (within a block: lane by lane).
-    """
-    ran: list[str] = []
-    numbered = list(enumerate(stages, 1))
-    i = 0
-    while i < len(numbered):
-        block_end = i
-        while block_end < len(numbered) and numbered[block_end][1].lane:
-            block_end += 1
-        lanes: dict[str, list[tuple[int, Stage]]] = {}
-        for item in numbered[i:block_end]:
-            lanes.setdefault(item[1].lane, []).append(item)
-        busy = [items for items in lanes.values() if not all(stage_done(stage) for _, stage in items)]
-        if jobs >= 2 and len(busy) >= 2:
-            for items in lanes.values():
-                if items not in busy:  # finished lanes: their skips are logged here, nothing is forked for them
-                    for index, stage in items:
-                        _run_stage(stage, index, len(stages), False, log)
-            ran += _run_lanes(busy, len(stages), jobs, log)
-            i = block_end
-            continue
-        index, stage = numbered[i]
-        if _run_stage(stage, index, len(stages), bool(ran), log):
-            ran.append(stage.name)
-        i += 1
-    return ran
-
-
-def _run_stage(stage: Stage, index: int, total: int, upstream_ran: bool, log: Callable[[str], None]) -> bool:
-    """Run one stage unless done; whether it ran."""
-    where = f"[{index}/{total}] {stage.name}"
-    if stage_done(stage) and not (stage.downstream and upstream_ran):
-        log(f"{where}: done, skipped ({stage.folder})")
-        return False
-    log(f"{where}: running ({stage.folder})")
-    started = time.perf_counter()
-    stage.action()
-    seconds = time.perf_counter() - started
-    stage.folder.mkdir(parents=True, exist_ok=True)
-    marker = {"stage": stage.name, "seconds": round(seconds, 3), "finished": time.strftime("%Y-%m-%dT%H:%M:%S"),
-              "key": stage.key}
-    atomic_write_text(stage.folder / DONE_FILE, json.dumps(marker, indent=1) + "\n")
-    log(f"{where}: done in {seconds:.0f} s")
-    return True
-
-
-def _run_lanes(lanes: list[list[tuple[int, Stage]]], total: int, jobs: int, log: Callable[[str], None]) -> list[str]:
-    """Run each lane in a forked process, at most ``jobs`` at once; the names of the stages that ran.
-
-    The lane processes have their own process group, so a Ctrl-C reaches this process only: it sends
-    each lane one SIGTERM (they checkpoint at their next step boundary and exit), waits for them, and
-    exits as interrupted; a second Ctrl-C is forwarded too and stops them at once.
-    """
-    import torch
-
-    # fork, not spawn: a stage's action is a closure over the plan, which spawn would have to pickle.
-    ctx = multiprocessing.get_context("fork")
-    results = ctx.SimpleQueue()
-    threads = max(1, (os.cpu_count() or 1) // jobs)
-
-    def lane_main(lane: int, items: list[tuple[int, Stage]]) -> None:
-        os.setpgrp()
-        signal.signal(signal.SIGINT, signal.default_int_handler)  # not the parent's forwarding handlers
-        signal.signal(signal.SIGTERM, signal.SIG_DFL)
-        torch.set_num_threads(threads)
-        try:
-            for index, stage in items:
-                if _run_stage(stage, index, total, False, log):
-                    results.put((lane, "ran", stage.name))
-            results.put((lane, "ok", ""))
-        except SystemExit as exc:  # a training run stopped by a signal has checkpointed
-            results.put((lane, "stopped", str(exc.code)))
-        except (MorphkitError, OSError) as exc:
-            results.put((lane, "error", str(exc)))
-        except BaseException:  # a bug: its traceback goes to the parent
-            results.put((lane, "crash", traceback.format_exc()))
-        finally:
-            sys.stdout.flush()
-            sys.stderr.flush()
-
-    log(f"training {len(lanes)} lanes at once ({', '.join(items[0][1].lane for items in lanes)}), "
-        f"{threads} torch thread{'s' if threads > 1 else ''} each")
-    procs: dict[int, Any] = {}
-    outcome: dict[int, tuple[str, str]] = {}
-    ran: list[str] = []
-    signals: list[int] = []
-    stopping = False
-
-    def stop_lanes() -> None:
-        for proc in procs.values():
-            if proc.is_alive():
-                os.kill(proc.pid, signal.SIGTERM)
-
-    def forward(signum: int, frame: Any) -> None:
-        signals.append(signum)
-        stop_lanes()
-
-    def drain() -> None:
-        while not results.empty():
-            lane, kind, text = results.get()
-            if kind == "ran":
-                ran.append(text)
-            else:
-                outcome[lane] = (kind, text)
-
-    handlers = {}
-    if threading.current_thread() is threading.main_thread():
-        handlers = {s: signal.signal(s, forward) for s in (signal.SIGINT, signal.SIGTERM)}
-    try:
-        for lane, items in enumerate(lanes):
-            while sum(p.is_alive() for p in procs.values()) >= jobs:
-                time.sleep(0.5)
-            drain()
-            if signals or any(kind != "ok" for kind, _ in outcome.values()):
-                break
-            procs[lane] = ctx.Process(target=lane_main, args=(lane, items))
-            procs[lane].start()
-        while any(p.is_alive() for p in procs.values()):
-            time.sleep(0.5)
-            drain()
-            if any(kind != "ok" for kind, _ in outcome.values()) and not (stopping or signals):
-                stop_lanes()  # one lane failed: the others checkpoint at their next step boundary and exit
-                stopping = True
-        for proc in procs.values():
-            proc.join()
-        drain()
-    finally:
-        if any(p.is_alive() for p in procs.values()):  # leaving on an error of our own: no lane outlives us
-            stop_lanes()
-            for proc in procs.values():
-                proc.join()
-        for s, h in handlers.items():
-            signal.signal(s, h)
-    if signals:
-        if signals[0] == signal.SIGINT:
-            raise KeyboardInterrupt
-        raise SystemExit(128 + signals[0])
-    # The cause first: a lane's error or crash, not the lanes stopped because of it.
-    said = sorted(outcome.items(), key=lambda item: ("error", "crash", "stopped", "ok").index(item[1][0]))
-    for lane, (kind, text) in said:
-        if kind == "error":
-            raise RunError(text)
-        if kind == "crash":
-            raise RuntimeError(f"the {lanes[lane][0][1].lane} lane failed:\n{text}")
-        if kind == "stopped":
-            raise SystemExit(int(text) if text.isdigit() else 1)
-    for lane, proc in procs.items():
-        if lane not in outcome:  # killed without a word (SIGKILL, out of memory)
-            raise RunError(f"the {lanes[lane][0][1].lane} lane ended with exit code {proc.exitcode}; "
-                           "run the same command again to resume it")
-    return ran
-
-
-def _lanes_at_once(cfg: ReproduceConfig) -> int:
-    """``cfg.jobs`` when training on CPU, else 1 (see :attr:`ReproduceConfig.jobs`)."""
-    import torch
-
-    device = cfg.device or ("cuda" if torch.cuda.is_available() else "cpu")
-    return cfg.jobs if torch.device(device).type == "cpu" else 1
-
-
 def _ace_config(cfg: ReproduceConfig, seed: int) -> AceConfig:
     return replace_config(ace_preset(cfg.preset), [*cfg.ace_overrides, f"seed={seed}"])
 
@@ -312,17 +106,27 @@ trains the full preset."""
 
 
 def _nkn_config(cfg: ReproduceConfig, ace: AceConfig, seed: int) -> NknConfig:
-    shared = {"seed": seed, "data.human_frames": ace.data.human_frames, "data.fps": ace.data.fps,
-              "data.character_frames": ace.data.character_frames, "data.synth_seed": ace.data.synth_seed,
-              **NKN_BUDGET.get(cfg.preset, {})}
+    shared = {
+        "seed": seed,
+        "data.human_frames": ace.data.human_frames,
+        "data.fps": ace.data.fps,
+        "data.character_frames": ace.data.character_frames,
+        "data.synth_seed": ace.data.synth_seed,
+        **NKN_BUDGET.get(cfg.preset, {}),
+    }
     base = replace_config(nkn_preset(cfg.preset), shared)
     return replace_config(base, list(cfg.nkn_overrides)) if cfg.nkn_overrides else base
 
 
 def _prior_key(cfg: AceConfig, human_data: str | None) -> dict[str, Any]:
     """What the prior depends on: its data, mapping rule, seed and its own config (not the retargeters')."""
-    return {"data": config_to_dict(cfg.data), "prior": config_to_dict(cfg.prior), "seed": cfg.seed,
-            "kl_only_mapping": cfg.kl_only_mapping, "human_data": human_data}
+    return {
+        "data": config_to_dict(cfg.data),
+        "prior": config_to_dict(cfg.prior),
+        "seed": cfg.seed,
+        "kl_only_mapping": cfg.kl_only_mapping,
+        "human_data": human_data,
+    }
 
 
 def evaluate_runs(
@@ -366,13 +170,22 @@ def evaluate_runs(
     if videos < 0 or not video_seconds > 0:
         raise ConfigError(f"--videos must be >= 0 and --video-seconds > 0, got {videos} and {video_seconds}")
     methods = find_methods(runs)
-    log(f"{len(methods)} retargeters of {methods[0].creature}: "
-        + ", ".join(f"{m.name} (seed {m.seed})" for m in methods))
+    log(
+        f"{len(methods)} retargeters of {methods[0].creature}: "
+        + ", ".join(f"{m.name} (seed {m.seed})" for m in methods)
+    )
     reference, chosen = reference_for(methods, human_data=human_data, limit=clips)
     evaluation = evaluate_methods(methods, chosen, reference, keep=videos, device=device, log=log)
     folder = Path(out) if out is not None else Path(f"evaluation_{methods[0].creature}")
-    write_report(evaluation, folder, videos=videos, video_suffix=video_suffix, video_seconds=video_seconds,
-                 video_size=video_size, log=log)
+    write_report(
+        evaluation,
+        folder,
+        videos=videos,
+        video_suffix=video_suffix,
+        video_seconds=video_seconds,
+        video_size=video_size,
+        log=log,
+    )
     return folder
 
 
@@ -396,7 +209,9 @@ def plan_stages(
     base = _ace_config(cfg, 0)
     _nkn_config(cfg, base, 0)  # unknown NKN overrides fail before anything trains
     prior_run = runs / "ace_seed0"
-    nkn_bar = cfg.progress and _lanes_at_once(cfg) < 2  # beside the ACE lane's bar, a second would overwrite it
+    nkn_bar = (
+        cfg.progress and lanes_at_once(cfg.jobs, cfg.device) < 2
+    )  # beside the ACE lane's bar, a second would overwrite it
 
     def data() -> None:
         motions = character_motions(creature, base.data, progress=cfg.progress)
@@ -407,8 +222,10 @@ def plan_stages(
         train_prior(prior_run / "prior", prepared, base, device=cfg.device, progress=cfg.progress)
 
     source = None if human_data is None else os.fspath(human_data)
-    stages = [Stage("data", runs / "data", data, {"data": config_to_dict(base.data)}),
-              Stage("prior", prior_run / "prior", prior, _prior_key(base, source), lane="ACE")]
+    stages = [
+        Stage("data", runs / "data", data, {"data": config_to_dict(base.data)}),
+        Stage("prior", prior_run / "prior", prior, _prior_key(base, source), lane="ACE"),
+    ]
     names: list[str] = []
     for seed in range(cfg.seeds):
         ace = _ace_config(cfg, seed)
@@ -419,8 +236,9 @@ def plan_stages(
             folder = run / VARIANTS[variant][0]
 
             def train(c: AceConfig = c, run: Path = run, variant: str = variant, p: Path | None = shared_prior) -> None:
-                train_ace(run, creature, c, variant=variant, human_data=human_data, prior_dir=p, device=cfg.device,
-                          **quiet)
+                train_ace(
+                    run, creature, c, variant=variant, human_data=human_data, prior_dir=p, device=cfg.device, **quiet
+                )
 
             key = {"config": config_to_dict(c), "variant": variant, "human_data": source}
             stages.append(Stage(f"{label} seed {seed}", folder, train, key, lane="ACE"))
@@ -429,20 +247,36 @@ def plan_stages(
         ncfg = _nkn_config(cfg, ace, seed)
 
         def nkn(ncfg: NknConfig = ncfg, nkn_run: Path = nkn_run) -> None:
-            train_nkn(nkn_run, ncfg, human_data=human_data, creature=creature, device=cfg.device,
-                      progress=nkn_bar, log=log)
+            train_nkn(
+                nkn_run, ncfg, human_data=human_data, creature=creature, device=cfg.device, progress=nkn_bar, log=log
+            )
 
         key = {"config": config_to_dict(ncfg), "human_data": source}
         stages.append(Stage(f"NKN seed {seed}", nkn_run, nkn, key, lane="NKN"))
         names.append(os.fspath(nkn_run.relative_to(root)))
 
     def evaluate() -> None:
-        evaluate_runs([runs / f"{kind}_seed{s}" for s in range(cfg.seeds) for kind in ("ace", "nkn")], root / "report",
-                      human_data=human_data, clips=cfg.clips, videos=cfg.videos, video_suffix=cfg.video_suffix,
-                      video_seconds=cfg.video_seconds, video_size=cfg.video_size, log=log)
+        evaluate_runs(
+            [runs / f"{kind}_seed{s}" for s in range(cfg.seeds) for kind in ("ace", "nkn")],
+            root / "report",
+            human_data=human_data,
+            clips=cfg.clips,
+            videos=cfg.videos,
+            video_suffix=cfg.video_suffix,
+            video_seconds=cfg.video_seconds,
+            video_size=cfg.video_size,
+            log=log,
+        )
 
-    report = {"stages": names, "human_data": source, "clips": cfg.clips, "videos": cfg.videos,
-              "video_suffix": cfg.video_suffix, "video_seconds": cfg.video_seconds, "video_size": list(cfg.video_size)}
+    report = {
+        "stages": names,
+        "human_data": source,
+        "clips": cfg.clips,
+        "videos": cfg.videos,
+        "video_suffix": cfg.video_suffix,
+        "video_seconds": cfg.video_seconds,
+        "video_size": list(cfg.video_size),
+    }
     stages.append(Stage("evaluate", root / "report", evaluate, report, downstream=True))
     return stages
 
@@ -470,13 +304,15 @@ def reproduce_table1(
     """
     started = time.perf_counter()
     stages = plan_stages(creature, out, cfg, human_data=human_data, log=log)
-    run_stages(stages, jobs=_lanes_at_once(cfg), log=log)
+    run_stages(stages, jobs=lanes_at_once(cfg.jobs, cfg.device), log=log)
     recorded = 0.0
     for stage in stages:
         try:
             recorded += float(json.loads((stage.folder / DONE_FILE).read_text())["seconds"])
         except (OSError, ValueError, KeyError):
             pass
-    log(f"{creature.name}: {time.perf_counter() - started:.0f} s this time; {recorded:.0f} s of stage time in all "
-        f"({recorded / 60:.1f} min, lanes added up)")
+    log(
+        f"{creature.name}: {time.perf_counter() - started:.0f} s this time; {recorded:.0f} s of stage time in all "
+        f"({recorded / 60:.1f} min, lanes added up)"
+    )
     return (Path(out) / "report" / "table.md").read_text(encoding="utf-8")
