@@ -220,6 +220,45 @@ class Run(Generic[C]):
         """Where the checkpoint is (or will be) written."""
         return self.dir / CHECKPOINT_FILE
 
+    # ------------------------------------------------------------------- a folder, unopened
+
+    @staticmethod
+    def progress(run_dir: str | os.PathLike[str]) -> tuple[int, int, int]:
+        """``(epoch reached, epochs configured, seed)`` of a run folder, read without opening it.
+
+        The epoch and seed come from its checkpoint, the epochs from the ``epochs`` field of its
+        ``config.yaml`` (0 when the config has none).
+
+        Raises:
+            RunError: The checkpoint or the config is missing, damaged or holds no position.
+        """
+        folder = Path(run_dir)
+        position = load_checkpoint(folder / CHECKPOINT_FILE).get("position")
+        config_file = folder / CONFIG_FILE
+        try:
+            config = yaml.safe_load(config_file.read_text(encoding="utf-8")) or {}
+            epochs = int(config.get("epochs", 0))
+            return int(position["epoch"]), epochs, int(position.get("seed", 0))
+        except (OSError, yaml.YAMLError) as exc:
+            reason = getattr(exc, "strerror", None) or exc
+            raise RunError(
+                f"cannot read the run's config: {reason}", location=SourceLocation(str(config_file))
+            ) from exc
+        except (AttributeError, KeyError, TypeError, ValueError) as exc:  # not a mapping, or not numbers
+            raise RunError(f"no training position or epoch count: {exc}", location=SourceLocation(str(folder))) from exc
+
+    @staticmethod
+    def is_finished(run_dir: str | os.PathLike[str]) -> bool:
+        """Whether a run folder's checkpoint has reached the epochs of its ``config.yaml`` (:meth:`progress`).
+
+        ``False`` for a run still training, and for a missing folder, checkpoint or config or a damaged one.
+        """
+        try:
+            epoch, epochs, _ = Run.progress(run_dir)
+        except RunError:
+            return False
+        return epoch >= epochs
+
     # ------------------------------------------------------------------------------- modules
 
     def wrap(self, module: nn.Module) -> nn.Module:
@@ -421,8 +460,10 @@ class Run(Generic[C]):
         if (self.dir / CHECKPOINT_FILE).exists() and not (run_file.exists() and config_file.exists()):
             # E.g. a SIGTERM checkpoint that landed in a folder deleted under the run: nothing says what it is.
             missing = " and ".join(f.name for f in (run_file, config_file) if not f.exists())
-            raise RunError(f"a checkpoint without {missing}: not a complete run folder; use another folder",
-                           location=SourceLocation(str(self.dir / CHECKPOINT_FILE)))
+            raise RunError(
+                f"a checkpoint without {missing}: not a complete run folder; use another folder",
+                location=SourceLocation(str(self.dir / CHECKPOINT_FILE)),
+            )
         if run_file.exists():
             try:
                 saved = yaml.safe_load(run_file.read_text(encoding="utf-8")) or {}
