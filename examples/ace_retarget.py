@@ -44,8 +44,7 @@ def main(argv: list[str] | None = None) -> int:
 def run(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from morphkit.motion import load_motions, write_motion
-    from morphkit.motion.io_commands import write_robot_commands
+    from morphkit.motion import load_motions, write_motion_files
     from morphkit.retarget.ace.config import preset
     from morphkit.retarget.ace.data import evaluation_clips
     from morphkit.retarget.ace.retarget import AceRetargeter
@@ -61,12 +60,7 @@ def run(args: argparse.Namespace) -> int:
     results = model.retarget(clips)  # one batched rollout over every clip
     out.mkdir(parents=True, exist_ok=True)
     for r in results:
-        for suffix in FORMATS:
-            path = out / f"{r.motion.name}{suffix}"
-            if suffix == ".csv":
-                write_robot_commands(r.motion, path)  # base velocity, body height and pitch, arm joints
-            else:
-                write_motion(r.motion, path)
+        write_motion_files(r.motion, out / r.motion.name, FORMATS)  # .csv: base velocity, height, pitch, arm joints
         human, creature = (float(np.linalg.norm(np.diff(m.root_pose()[:, :2], axis=0), axis=1).sum())
                            for m in (r.source, r.motion))  # root path length on the ground
         print(f"{r.source.name}: {r.motion.frame_count} frames, the human walks {human:.2f} m, "

@@ -35,8 +35,7 @@ def main(argv: list[str] | None = None) -> int:
 
 def run(args: argparse.Namespace) -> int:
     from morphkit.io import read_morphology
-    from morphkit.motion import write_motion
-    from morphkit.motion.io_commands import write_robot_commands
+    from morphkit.motion import write_motion_files
     from morphkit.retarget.ace.config import preset
     from morphkit.retarget.ace.data import character_motions, evaluation_clips
     from morphkit.retarget.ace.evaluate import dataset_row, evaluate_clips
@@ -56,9 +55,7 @@ def run(args: argparse.Namespace) -> int:
     results = model.retarget(clips)
     (out / "clips").mkdir(parents=True, exist_ok=True)
     for r in results:
-        for suffix in (".npz", ".bvh"):
-            write_motion(r.motion, out / "clips" / f"{r.motion.name}{suffix}")
-        write_robot_commands(r.motion, out / "clips" / f"{r.motion.name}.csv")
+        write_motion_files(r.motion, out / "clips" / r.motion.name, (".npz", ".bvh", ".csv"))
     fmap = model.feature_map(clips[0])
     character = character_motions(creature, cfg.data, progress=False)
     rows = [

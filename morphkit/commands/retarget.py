@@ -20,8 +20,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--run", required=True, dest="run_dir", metavar="RUN", help="an ACE run folder (morphkit train ace)")
     p.add_argument("--motion", required=True, nargs="+", metavar="CLIP_OR_DIR", help="human motion files or folders")
     p.add_argument("--out", required=True, metavar="OUT", help="output folder, or a file for one clip")
-    p.add_argument("--stage", metavar="DIR",
-                   help="retargeter stage folder (default RUN/retarget; e.g. RUN/retarget_wofea)")
+    p.add_argument(
+        "--stage", metavar="DIR", help="retargeter stage folder (default RUN/retarget; e.g. RUN/retarget_wofea)"
+    )
     p.add_argument("--formats", default="npz,csv", help="folder output: comma-separated suffixes (default npz,csv)")
     p.add_argument("--device", default="cpu", help="torch device (default cpu)")
     p.set_defaults(run=run)
@@ -31,8 +32,7 @@ def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from morphkit.errors import ConfigError
-    from morphkit.motion import load_motions, write_motion
-    from morphkit.motion.io_commands import write_robot_commands
+    from morphkit.motion import load_motions, write_motion_files
     from morphkit.retarget.ace.retarget import AceRetargeter
 
     out = Path(args.out)
@@ -49,12 +49,9 @@ def run(args: argparse.Namespace) -> int:
     if not single:
         out.mkdir(parents=True, exist_ok=True)
     for r in results:
-        for f in formats:
-            path = out if single else out / f"{r.motion.name}{f}"
-            if f == ".csv":
-                write_robot_commands(r.motion, path)
-            else:
-                write_motion(r.motion, path)
+        # One clip into a file: OUT's own name and suffix (case kept); a folder: a file per clip and format.
+        stem, suffixes = (out.with_suffix(""), [out.suffix]) if single else (out / r.motion.name, formats)
+        for path in write_motion_files(r.motion, stem, suffixes):
             print(path)
         if r.clamp.coordinates:
             print(f"  {r.motion.name}: {r.clamp}")

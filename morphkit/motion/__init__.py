@@ -9,6 +9,7 @@ Importing this package loads NumPy and PyYAML only; FK (Warp), USD (``pxr``) and
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -36,6 +37,7 @@ from morphkit.motion.io_bvh import ground_motion as ground_motion
 from morphkit.motion.io_bvh import motion_to_bvh as motion_to_bvh
 from morphkit.motion.io_bvh import read_bvh_motion as read_bvh_motion
 from morphkit.motion.io_bvh import write_bvh_motion as write_bvh_motion
+from morphkit.motion.io_commands import write_robot_commands
 from morphkit.motion.io_npz import read_npz_motion as read_npz_motion
 from morphkit.motion.io_npz import write_npz_motion as write_npz_motion
 from morphkit.motion.motion import Motion as Motion
@@ -96,6 +98,7 @@ __all__ = [
     "world_end_effectors",
     "write_bvh_motion",
     "write_motion",
+    "write_motion_files",
     "write_npz_motion",
     "write_usd_motion",
 ]
@@ -208,3 +211,37 @@ def write_motion(motion: Motion, path: str | os.PathLike[str], **options: Any) -
             f"cannot write {p.suffix or '(no suffix)'!r} motions; supported: {', '.join(MOTION_WRITE_SUFFIXES)}",
             location=SourceLocation(str(path)),
         )
+
+
+def write_motion_files(
+    motion: Motion, stem: str | os.PathLike[str], formats: Sequence[str] = (".npz", ".bvh", ".csv")
+) -> list[Path]:
+    """Write ``motion`` once per format, each to ``stem`` + its suffix (atomically, as each writer does).
+
+    Args:
+        motion: The motion.
+        stem: The output path without a suffix (``out/clips/walk``); missing folders are created.
+        formats: Suffixes, with or without the dot: those of :func:`write_motion` (``.npz``, ``.bvh``,
+            ``.usd``, ``.usda``, ``.usdc``) and ``.csv``, robot commands
+            (:func:`~morphkit.motion.io_commands.write_robot_commands`).
+
+    Returns:
+        The files written, in the order of ``formats``.
+
+    Raises:
+        MotionFormatError: an unknown format, before anything is written.
+    """
+    suffixes = ["." + f.lstrip(".") for f in formats]
+    known = (*MOTION_WRITE_SUFFIXES, ".csv")
+    for suffix in suffixes:
+        if suffix.lower() not in known:
+            raise MotionFormatError(f"cannot write {suffix!r} files; supported: {', '.join(known)}")
+    paths = []
+    for suffix in suffixes:
+        path = Path(f"{os.fspath(stem)}{suffix}")
+        if suffix.lower() == ".csv":
+            write_robot_commands(motion, path)
+        else:
+            write_motion(motion, path)
+        paths.append(path)
+    return paths
