@@ -22,6 +22,9 @@ metric                             what it measures
                                    own :func:`longest_flight`; lower is better
 :func:`follow_score`               Pearson correlation of paired human and creature 1-D series
                                    (:func:`pearson_follow`), per pair and mean; higher is better
+:func:`matched_reference`          the creature's Ψ rows resampled so that root speed and yaw rate
+                                   (:func:`motion_content`) match the evaluated clips'
+                                   (:func:`matched_indices`): a content-matched reference for FID, DIV
 =================================  ==================================================================
 
 Ψ is :func:`morphkit.motion.features` / :func:`morphkit.motion.motion_features` (§6.3). DIV, FID
@@ -51,6 +54,10 @@ from morphkit.metrics._follow import CONSTANT_SERIES_RTOL as CONSTANT_SERIES_RTO
 from morphkit.metrics._follow import FollowScore as FollowScore
 from morphkit.metrics._follow import follow_score as follow_score
 from morphkit.metrics._follow import pearson_follow as pearson_follow
+from morphkit.metrics._matched import MatchedSample as MatchedSample
+from morphkit.metrics._matched import matched_indices as matched_indices
+from morphkit.metrics._matched import matched_reference as matched_reference
+from morphkit.metrics._matched import motion_content as motion_content
 from morphkit.metrics._unrealistic import UnrealisticFrames as UnrealisticFrames
 from morphkit.metrics._unrealistic import UnrealisticFrameThresholds as UnrealisticFrameThresholds
 from morphkit.metrics._unrealistic import unrealistic_frame_ratio as unrealistic_frame_ratio
@@ -64,6 +71,7 @@ __all__ = [
     "UFR_STRICT",
     "FollowScore",
     "FootContactFigures",
+    "MatchedSample",
     "PhysDiffFigures",
     "UnrealisticFrameThresholds",
     "UnrealisticFrames",
@@ -76,6 +84,9 @@ __all__ = [
     "frechet_distance",
     "gaussian_statistics",
     "longest_flight",
+    "matched_indices",
+    "matched_reference",
+    "motion_content",
     "pearson_follow",
     "physdiff_figures",
     "skating_ratio",
