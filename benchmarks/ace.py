@@ -46,7 +46,8 @@ def _prior_step(state_dim: int, preset: str, batch: int, repeats: int, gflops: f
 
     from morphkit.retarget.ace.config import preset as get_preset
     from morphkit.retarget.ace.model import build_vae
-    from morphkit.retarget.networks import kl_divergence, matmul_flops
+    from morphkit.retarget.ace.networks import kl_divergence
+    from morphkit.retarget.networks import matmul_flops
 
     cfg = get_preset(preset).prior
     vae = build_vae(state_dim, cfg)
@@ -95,7 +96,7 @@ def _adversarial_step(data: Any, preset: str, batch: int, repeats: int, gflops: 
         opt_d.zero_grad(set_to_none=True)
         loss_d.backward()
         opt_d.step()
-        psi_r, _ = fm.character_psi(fake)
+        psi_r = fm.psi_of_fixed(fm.creature_with_fk(fake)[0])
         loss_g = F.softplus(-T.disc_logits(disc, disc, ft)).mean() + feature_loss(fm.human_psi(x_h), psi_r)
         opt_g.zero_grad(set_to_none=True)
         loss_g.backward()

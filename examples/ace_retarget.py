@@ -45,9 +45,9 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from morphkit.motion import load_motions, write_motion_files
+    from morphkit.retarget import load
     from morphkit.retarget.ace.config import preset
-    from morphkit.retarget.ace.data import evaluation_clips
-    from morphkit.retarget.ace.retarget import AceRetargeter
+    from morphkit.retarget.training_data import evaluation_clips
 
     started = time.perf_counter()
     cfg = preset("smoke" if args.smoke else "quick")
@@ -56,7 +56,7 @@ def run(args: argparse.Namespace) -> int:
     limit = 2 if args.smoke else args.clips
 
     clips = load_motions(args.motion)[:limit] if args.motion else evaluation_clips(None, cfg.data, limit=limit)
-    model = AceRetargeter(run_dir, retarget_dir=args.stage, device=args.device)
+    model = load(run_dir, stage=args.stage, device=args.device)
     results = model.retarget(clips)  # one batched rollout over every clip
     out.mkdir(parents=True, exist_ok=True)
     for r in results:

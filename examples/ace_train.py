@@ -34,14 +34,13 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def run(args: argparse.Namespace) -> int:
+    from morphkit.evaluation.table import dataset_row, evaluate_clips, write_table
     from morphkit.io import read_morphology
     from morphkit.motion import write_motion_files
+    from morphkit.retarget import load
     from morphkit.retarget.ace.config import preset
-    from morphkit.retarget.ace.data import character_motions, evaluation_clips
-    from morphkit.retarget.ace.evaluate import dataset_row, evaluate_clips
-    from morphkit.retarget.ace.report import write_table
-    from morphkit.retarget.ace.retarget import AceRetargeter
     from morphkit.retarget.ace.train import train_ace
+    from morphkit.retarget.training_data import character_motions, evaluation_clips
 
     started = time.perf_counter()
     name = "smoke" if args.smoke else args.preset
@@ -50,19 +49,17 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.out) if args.out else Path("runs") / f"ace_{creature.name}_{name}"
     train_ace(out, creature, cfg, human_data=args.human_data)
 
-    model = AceRetargeter(out)
+    model = load(out)
     clips = evaluation_clips(args.human_data, cfg.data, limit=2 if args.smoke else args.clips)
     results = model.retarget(clips)
     (out / "clips").mkdir(parents=True, exist_ok=True)
     for r in results:
         write_motion_files(r.motion, out / "clips" / r.motion.name, (".npz", ".bvh", ".csv"))
-    fmap = model.feature_map(clips[0])
     character = character_motions(creature, cfg.data, progress=False)
     rows = [
-        dataset_row(character, fmap.creature_ees, fmap.creature_length, seed=cfg.seed),
-        evaluate_clips("ACE", [r.source for r in results], [r.motion for r in results], character,
-                       creature_ees=fmap.creature_ees, human_ees=fmap.human_ees,
-                       creature_length=fmap.creature_length, human_length=fmap.human_length, seed=cfg.seed),
+        dataset_row(character, model.pairing, seed=cfg.seed),
+        evaluate_clips(model.label, [r.source for r in results], [r.motion for r in results], character,
+                       model.pairing, seed=cfg.seed),
     ]
     table = write_table(rows, out / "metrics")
     print(table)

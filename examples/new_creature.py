@@ -43,10 +43,10 @@ def run(args: argparse.Namespace) -> int:
     from morphkit.graph import EndEffectorRole
     from morphkit.io import read_morphology
     from morphkit.motion import load_motions, write_motion
+    from morphkit.retarget import load
     from morphkit.retarget.ace.config import preset
-    from morphkit.retarget.ace.data import character_motions, evaluation_clips
-    from morphkit.retarget.ace.retarget import AceRetargeter
     from morphkit.retarget.ace.train import train_ace
+    from morphkit.retarget.training_data import character_motions, evaluation_clips
     from morphkit.synth.report import format_report, quality_report
 
     started = time.perf_counter()
@@ -85,7 +85,7 @@ def run(args: argparse.Namespace) -> int:
 
     # 6. Retarget a human clip it never saw, and 7. render the comparison.
     clips = load_motions([args.motion]) if args.motion else evaluation_clips(None, cfg.data, limit=1)
-    result = AceRetargeter(run_dir).retarget(clips[:1])[0]
+    result = load(run_dir).retarget(clips[:1])[0]
     write_motion(result.motion, out / f"{result.motion.name}.bvh")
     travel = np.linalg.norm(result.motion.root_pose()[-1, :2] - result.motion.root_pose()[0, :2])
     print(f"retargeted {clips[0].name} ({result.motion.frame_count} frames, root ends {travel:.2f} m from its start): "

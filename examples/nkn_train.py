@@ -65,7 +65,7 @@ def run(args: argparse.Namespace) -> int:
                        limit=2 if args.smoke else args.clips)
     (out / "clips").mkdir(parents=True, exist_ok=True)
     if creature is not None:
-        motions = model.retarget(clips)
+        motions = [r.motion for r in model.retarget(clips)]
         for m in motions:
             write_motion(m, out / "clips" / f"{m.name}.npz")
         contact = [contact_metrics(m) for m in motions]
@@ -73,8 +73,8 @@ def run(args: argparse.Namespace) -> int:
               f"{sum(c['sliding'] for c in contact) / len(contact):.3f} m/s")
         shown = (clips[0], motions[0])
     else:
-        seen = [(model.skeletons[c["name"]], True) for c in model.meta["characters"] if c["clips"]][:2]
-        seen += [(model.skeletons[c["name"]], True) for c in model.meta["characters"] if not c["clips"]][:1]
+        seen = [(model.skeletons[c["name"]], True) for c in model.artifact.characters if c["clips"]][:2]
+        seen += [(model.skeletons[c["name"]], True) for c in model.artifact.characters if not c["clips"]][:1]
         unseen = [(scale_limbs(model.template, s, name=n), False) for n, s in EVALUATION_VARIANTS.items()]
         if args.smoke:
             seen, unseen = seen[:1], unseen[:1]
@@ -82,7 +82,7 @@ def run(args: argparse.Namespace) -> int:
         print(write_scores(rows, out / "evaluation"))
         print(f"plots: {out / 'plots'} ({len(plots)} PNGs)")
         target = unseen[0][0]
-        motion = model.retarget(clips[:1], target)[0]
+        motion = model.retarget(clips[:1], target)[0].motion
         shown = (clips[0], motion)
     for suffix in (".npz", ".bvh"):
         write_motion(shown[1], out / "clips" / f"{shown[1].name}{suffix}")

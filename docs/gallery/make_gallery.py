@@ -71,12 +71,12 @@ def _motion_sheet(creature, path: Path) -> None:
 def _retargeted(run_dir: Path, out: Path) -> None:
     """A held-out embedded human clip and its retargeting by the run, six synced frames side by side."""
     from morphkit.render import contact_sheet, iter_side_by_side_frames, write_image
+    from morphkit.retarget import load
     from morphkit.retarget.ace.config import preset
-    from morphkit.retarget.ace.data import evaluation_clips
-    from morphkit.retarget.ace.retarget import AceRetargeter
+    from morphkit.retarget.training_data import evaluation_clips
 
     clip = evaluation_clips(None, preset("quick").data, limit=1)[0]
-    result = AceRetargeter(run_dir).retarget([clip])[0]
+    result = load(run_dir).retarget([clip])[0]
     idx = [round(i * (clip.frame_count - 1) / 5) for i in range(6)]
     frames = list(iter_side_by_side_frames([result.source, result.motion], frame_indices=idx, size=PANEL,
                                            labels=("human", result.motion.morphology.name), progress=False))

@@ -12,16 +12,19 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "retarget",
         help="retarget human clips onto the run's creature; writes .npz/.bvh/.usda motions and .csv robot commands",
         description=(
-            "Roll a trained ACE run over human clips (batched) and write the creature's motions. OUT ending in a "
-            "motion suffix names the file for a single clip; otherwise OUT is a folder with one file per clip and "
-            "format (--formats). .csv files are robot commands: base velocity, body height and pitch, arm joints."
+            "Roll a trained run (ACE, or NKN) over human clips (batched) and write the creature's motions. OUT "
+            "ending in a motion suffix names the file for a single clip; otherwise OUT is a folder with one file per "
+            "clip and format (--formats). .csv files are robot commands: base velocity, body height and pitch, arm "
+            "joints."
         ),
     )
-    p.add_argument("--run", required=True, dest="run_dir", metavar="RUN", help="an ACE run folder (morphkit train ace)")
+    p.add_argument("--run", required=True, dest="run_dir", metavar="RUN",
+                   help="a trained run folder (morphkit train ace|nkn)")
     p.add_argument("--motion", required=True, nargs="+", metavar="CLIP_OR_DIR", help="human motion files or folders")
     p.add_argument("--out", required=True, metavar="OUT", help="output folder, or a file for one clip")
     p.add_argument(
-        "--stage", metavar="DIR", help="retargeter stage folder (default RUN/retarget; e.g. RUN/retarget_wofea)"
+        "--stage", metavar="DIR",
+        help="ACE runs: retargeter stage folder or variant (default RUN/retarget; e.g. RUN/retarget_wofea, ace-wofea)",
     )
     p.add_argument("--formats", default="npz,csv", help="folder output: comma-separated suffixes (default npz,csv)")
     p.add_argument("--device", default="cpu", help="torch device (default cpu)")
@@ -33,7 +36,7 @@ def run(args: argparse.Namespace) -> int:
 
     from morphkit.errors import ConfigError
     from morphkit.motion import load_motions, write_motion_files
-    from morphkit.retarget.ace.retarget import AceRetargeter
+    from morphkit.retarget import load
 
     out = Path(args.out)
     single = out.suffix.lower() in FORMATS
@@ -44,7 +47,7 @@ def run(args: argparse.Namespace) -> int:
     clips = load_motions(args.motion)
     if single and len(clips) != 1:
         raise ConfigError(f"--out {out} names one file but {len(clips)} clips were given: pass a folder")
-    model = AceRetargeter(args.run_dir, retarget_dir=args.stage, device=args.device)
+    model = load(args.run_dir, stage=args.stage, device=args.device)
     results = model.retarget(clips)
     if not single:
         out.mkdir(parents=True, exist_ok=True)

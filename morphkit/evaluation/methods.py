@@ -1,10 +1,10 @@
 """The methods of a comparison: every finished retargeter of the given run folders, by Table-1 name.
 
-An ACE run folder (``ace.yaml``) gives one method per finished retargeter stage (``retarget/`` is
-ACE, ``retarget_wofea/`` ACEwoFea, ``retarget_woadv/`` ACEwoAdv, ``retarget_contact/`` ACE+contact);
-a stage folder given directly gives that stage only. An NKN run folder (``nkn.yaml``) of the
-cross-morphology mode gives NKN. A folder that holds run folders gives all of theirs. Runs of one
-method and several seeds are averaged in the report.
+An ACE run folder gives one method per finished retargeter stage (one per
+:class:`~morphkit.retarget.ace.config.AceVariant`: ACE, ACEwoFea, ACEwoAdv, ACE+contact); a stage
+folder given directly gives that stage only. An NKN run folder of the cross-morphology mode gives
+NKN. A folder that holds run folders gives all of theirs. Runs of one method and several seeds are
+averaged in the report.
 """
 
 from __future__ import annotations
@@ -15,14 +15,11 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-import yaml
-
 from morphkit.errors import RunError, SourceLocation
-from morphkit.retarget.ace.evaluate import STAGE_LABELS
-from morphkit.retarget.ace.train import META_FILE as ACE_META
-from morphkit.retarget.checkpoint import load_checkpoint
-from morphkit.retarget.nkn.train import META_FILE as NKN_META
-from morphkit.retarget.run import CHECKPOINT_FILE, CONFIG_FILE, RUN_FILE
+from morphkit.retarget.ace.checkpoint import AceArtifact
+from morphkit.retarget.ace.config import AceVariant
+from morphkit.retarget.nkn.checkpoint import NknArtifact
+from morphkit.retarget.run import CHECKPOINT_FILE, RUN_FILE, Run
 
 __all__ = ["METHOD_ORDER", "Method", "find_methods", "method_order"]
 
@@ -32,16 +29,14 @@ METHOD_ORDER = ("ACE", "NKN", "ACEwoFea", "ACEwoAdv", "ACE+contact")
 
 @dataclass(frozen=True)
 class Method:
-    """One trained retargeter."""
+    """One trained retargeter (open it with :func:`morphkit.retarget.load` ``(run, stage=stage)``)."""
 
     name: str
     """Table-1 name: ``ACE``, ``ACEwoFea``, ``ACEwoAdv``, ``ACE+contact`` or ``NKN``."""
-    kind: str
-    """``"ace"`` or ``"nkn"``."""
     run: Path
-    """The run folder (ACE: holds ``ace.yaml``; NKN: ``nkn.yaml``)."""
+    """The run folder."""
     stage: Path
-    """The folder of the trained networks (ACE: ``run/retarget*``; NKN: ``run``)."""
+    """The folder of the trained networks (ACE: a retargeter stage inside ``run``; NKN: ``run``)."""
     creature: str
     seed: int
 
@@ -51,23 +46,9 @@ def method_order(name: str) -> tuple[int, str]:
     return (METHOD_ORDER.index(name), "") if name in METHOD_ORDER else (len(METHOD_ORDER), name)
 
 
-def _yaml(path: Path) -> dict:
-    try:
-        return yaml.safe_load(path.read_text(encoding="utf-8")) or {}
-    except (OSError, yaml.YAMLError) as exc:
-        raise RunError(f"cannot read it: {exc}", location=SourceLocation(str(path))) from exc
-
-
-def _progress(stage: Path) -> tuple[int, int, int]:
-    """``(epoch reached, epochs configured, seed)`` of a Run folder."""
-    position = load_checkpoint(stage / CHECKPOINT_FILE)["position"]
-    epochs = int((_yaml(stage / CONFIG_FILE) if (stage / CONFIG_FILE).is_file() else {}).get("epochs", 0))
-    return int(position["epoch"]), epochs, int(position.get("seed", 0))
-
-
 def _finished(stage: Path, label: str) -> int | None:
     """The seed of a finished stage; ``None`` (with a warning) for one still training."""
-    epoch, epochs, seed = _progress(stage)
+    epoch, epochs, seed = Run.progress(stage)
     if epoch < epochs:
         warnings.warn(f"{stage}: {label} has trained {epoch} of {epochs} epochs; left out of the comparison",
                       stacklevel=3)
@@ -75,49 +56,50 @@ def _finished(stage: Path, label: str) -> int | None:
     return seed
 
 
-def _ace_methods(run: Path, stages: Sequence[str] | None) -> list[Method]:
-    creature = str(_yaml(run / ACE_META).get("creature"))
+def _ace_methods(run: Path, variants: Sequence[AceVariant] | None) -> list[Method]:
+    creature = str(AceArtifact.creature_name(run))
     out = []
-    for folder, label in STAGE_LABELS.items():
-        if stages is not None and folder not in stages:
-            continue
-        stage = run / folder
+    for variant in variants or AceVariant:
+        stage = run / variant.folder
         if not (stage / CHECKPOINT_FILE).is_file():
             continue
-        seed = _finished(stage, label)
+        seed = _finished(stage, variant.label)
         if seed is not None:
-            out.append(Method(label, "ace", run, stage, creature, seed))
+            out.append(Method(variant.label, run, stage, creature, seed))
     return out
 
 
 def _nkn_method(run: Path) -> list[Method]:
-    meta = _yaml(run / NKN_META)
+    meta = NknArtifact.header(run) or {}
     if meta.get("mode") != "cross":
         raise RunError("an NKN run over human skeletons retargets human to human; the comparison needs its "
                        "cross-morphology mode (morphkit train nkn CREATURE)", location=SourceLocation(str(run)))
     if not (run / CHECKPOINT_FILE).is_file():
         raise RunError("NKN run without a checkpoint (not trained yet)", location=SourceLocation(str(run)))
     seed = _finished(run, "NKN")
-    return [] if seed is None else [Method("NKN", "nkn", run, run, str(meta.get("creature")), seed)]
+    return [] if seed is None else [Method("NKN", run, run, str(meta.get("creature")), seed)]
+
+
+def _is_run(path: Path) -> bool:
+    return AceArtifact.is_run(path) or NknArtifact.is_run(path)
 
 
 def _methods_of(path: Path) -> list[Method]:
     if not path.exists():
         raise RunError("no such run folder", location=SourceLocation(str(path)))
-    if (path / ACE_META).is_file():
+    if AceArtifact.is_run(path):
         return _ace_methods(path, None)
-    if (path / NKN_META).is_file():
+    if NknArtifact.is_run(path):
         return _nkn_method(path)
-    if (path / RUN_FILE).is_file() and (path.parent / ACE_META).is_file():
-        if path.name not in STAGE_LABELS:
-            raise RunError(f"not a retargeter stage of an ACE run (stages: {', '.join(STAGE_LABELS)})",
+    if (path / RUN_FILE).is_file() and AceArtifact.is_run(path.parent):
+        variant = next((v for v in AceVariant if v.folder == path.name), None)
+        if variant is None:
+            raise RunError(f"not a retargeter stage of an ACE run (stages: {', '.join(v.folder for v in AceVariant)})",
                            location=SourceLocation(str(path)))
-        return _ace_methods(path.parent, [path.name])
-    children = sorted(p for p in path.iterdir() if (p / ACE_META).is_file() or (p / NKN_META).is_file()) \
-        if path.is_dir() else []
+        return _ace_methods(path.parent, [variant])
+    children = sorted(p for p in path.iterdir() if _is_run(p)) if path.is_dir() else []
     if not children:
-        raise RunError(f"not an ACE or NKN run folder (no {ACE_META} or {NKN_META}), nor a folder of run folders",
-                       location=SourceLocation(str(path)))
+        raise RunError("not an ACE or NKN run folder, nor a folder of run folders", location=SourceLocation(str(path)))
     return [m for child in children for m in _methods_of(child)]
 
 

@@ -29,8 +29,8 @@ import numpy as np
 from morphkit._atomic import atomic_path, atomic_write_text
 from morphkit.evaluation.evaluate import Evaluation
 from morphkit.evaluation.methods import method_order
+from morphkit.evaluation.table import TableRow
 from morphkit.evaluation.targets import TargetCheck, check_targets, format_targets
-from morphkit.retarget.ace.evaluate import TableRow
 from morphkit.retarget.tables import write_table_files
 
 __all__ = [
@@ -274,7 +274,7 @@ def write_index(out: str | os.PathLike[str], evaluation: Evaluation, rows: Seque
     checks = check_targets(rows) if checks is None else checks
     ref = evaluation.reference
     frames = sum(c.frame_count for c in evaluation.clips)
-    pairs = ", ".join(f"{c}→{h}" for c, h in zip(ref.creature_ees, ref.human_ees, strict=True))
+    pairs = ", ".join(f"{c}→{h}" for c, h in ref.pairing.mapping.items())
     table = _html_table(
         ["method", "runs", *(f"{c} {b}" for _, c, b in METRICS), "frames"],
         [[r.name, str(r.runs) if r.seeds else "–",
@@ -292,8 +292,8 @@ def write_index(out: str | os.PathLike[str], evaluation: Evaluation, rows: Seque
         f"{html.escape(ref.human_data or 'embedded default human motion')}), scored against "
         f"{sum(m.frame_count for m in ref.character)} frames of the creature's synthesised data set. "
         f"Ψ pairing: {html.escape(pairs)} "
-        f"(from {html.escape(ref.source)}); body lengths {ref.creature_length:.3f} m (creature), "
-        f"{ref.human_length:.3f} m (human).</p>",
+        f"(from {html.escape(ref.source)}); body lengths {ref.pairing.creature_length:.3f} m (creature), "
+        f"{ref.pairing.human_length:.3f} m (human).</p>",
         "<h2>Table 1</h2>", table,
         "<p>DIV → : best closest to the data set's. FID, L_fea, UFR: lower is better. Mean ± sample std over "
         "runs (seeds) of a method. Definitions: <code>morphkit.metrics</code> (docs/guides/evaluate.md).</p>",
@@ -342,8 +342,8 @@ def write_report(
     ref = evaluation.reference
     summary = {
         "creature": ref.creature.name, "human_data": ref.human_data, "reference": ref.source,
-        "mapping": dict(zip(ref.creature_ees, ref.human_ees, strict=True)), "creature_length": ref.creature_length,
-        "human_length": ref.human_length, "character_frames": sum(m.frame_count for m in ref.character),
+        "mapping": ref.pairing.mapping, "creature_length": ref.pairing.creature_length,
+        "human_length": ref.pairing.human_length, "character_frames": sum(m.frame_count for m in ref.character),
         "clips": {c.name: c.frame_count for c in evaluation.clips},
         "table": [r.as_dict() for r in rows], "runs": records,
         "targets": [{"claim": c.claim, "met": c.met, "measured": c.detail} for c in checks],

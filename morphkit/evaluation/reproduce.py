@@ -45,18 +45,17 @@ from morphkit.evaluation.report import write_report
 # Re-exported (stage_done is not used here): the runner's names stay importable from where they were first.
 from morphkit.evaluation.stages import DONE_FILE, Stage, lanes_at_once, run_stages, stage_done  # noqa: F401
 from morphkit.graph import Morphology
-from morphkit.retarget.ace.config import AceConfig
+from morphkit.retarget.ace.checkpoint import PRIOR_STAGE
+from morphkit.retarget.ace.config import AceConfig, AceVariant
 from morphkit.retarget.ace.config import preset as ace_preset
-from morphkit.retarget.ace.data import character_motions
-from morphkit.retarget.ace.train import VARIANTS, prepare, train_ace, train_prior
+from morphkit.retarget.ace.train import prepare, train_ace, train_prior
 from morphkit.retarget.config import config_to_dict, replace_config
 from morphkit.retarget.nkn import NknConfig, train_nkn
 from morphkit.retarget.nkn import preset as nkn_preset
+from morphkit.retarget.training_data import character_motions
 
 __all__ = ["NKN_BUDGET", "ReproduceConfig", "evaluate_runs", "plan_stages", "reproduce_table1"]
 
-ACE_STAGES = (("ACE", "ace"), ("ACEwoFea", "ace-wofea"), ("ACEwoAdv", "ace-woadv"), ("ACE+contact", "ace-contact"))
-"""Table-1 name and ACE variant of each ACE stage, in training order."""
 
 
 @dataclass(frozen=True)
@@ -219,29 +218,32 @@ def plan_stages(
 
     def prior() -> None:
         prepared = prepare(prior_run, creature, base, human_data=human_data, **quiet)
-        train_prior(prior_run / "prior", prepared, base, device=cfg.device, progress=cfg.progress)
+        train_prior(prior_run / PRIOR_STAGE, prepared, base, device=cfg.device, progress=cfg.progress)
 
     source = None if human_data is None else os.fspath(human_data)
     stages = [
         Stage("data", runs / "data", data, {"data": config_to_dict(base.data)}),
-        Stage("prior", prior_run / "prior", prior, _prior_key(base, source), lane="ACE"),
+        Stage("prior", prior_run / PRIOR_STAGE, prior, _prior_key(base, source), lane="ACE"),
     ]
     names: list[str] = []
     for seed in range(cfg.seeds):
         ace = _ace_config(cfg, seed)
         run = runs / f"ace_seed{seed}"
-        shared_prior = None if seed == 0 else prior_run / "prior"
-        for label, variant in ACE_STAGES:
-            c = replace_config(ace, {"retarget.w_contact": cfg.contact_weight}) if variant == "ace-contact" else ace
-            folder = run / VARIANTS[variant][0]
+        shared_prior = None if seed == 0 else prior_run / PRIOR_STAGE
+        for variant in AceVariant:
+            contact = variant is AceVariant.ACE_CONTACT
+            c = replace_config(ace, {"retarget.w_contact": cfg.contact_weight}) if contact else ace
+            folder = run / variant.folder
 
-            def train(c: AceConfig = c, run: Path = run, variant: str = variant, p: Path | None = shared_prior) -> None:
+            def train(
+                c: AceConfig = c, run: Path = run, variant: AceVariant = variant, p: Path | None = shared_prior
+            ) -> None:
                 train_ace(
                     run, creature, c, variant=variant, human_data=human_data, prior_dir=p, device=cfg.device, **quiet
                 )
 
-            key = {"config": config_to_dict(c), "variant": variant, "human_data": source}
-            stages.append(Stage(f"{label} seed {seed}", folder, train, key, lane="ACE"))
+            key = {"config": config_to_dict(c), "variant": variant.value, "human_data": source}
+            stages.append(Stage(f"{variant.label} seed {seed}", folder, train, key, lane="ACE"))
             names.append(os.fspath(folder.relative_to(root)))
         nkn_run = runs / f"nkn_seed{seed}"
         ncfg = _nkn_config(cfg, ace, seed)

@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from morphkit.errors import ConfigError
-from morphkit.metrics._unrealistic import UnrealisticFrameThresholds, _contact_over_difference
+from morphkit.metrics._unrealistic import UnrealisticFrameThresholds, contact_over_difference
 
 if TYPE_CHECKING:
     from morphkit.motion import Motion
@@ -204,7 +204,7 @@ def foot_contact_figures(
         speed = eval_sliding_speed(
             pos, motion.fps, feet=idx, height_threshold=thr.contact_height, ground_height=g
         ).numpy()  # [T, F] [m/s]
-        sliding = (speed > thr.sliding_speed) & _contact_over_difference(height < thr.contact_height)
+        sliding = (speed > thr.sliding_speed) & contact_over_difference(height < thr.contact_height)
     return FootContactFigures(_frozen(sliding), _frozen(penetration), names)
 
 

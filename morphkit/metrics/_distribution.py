@@ -24,7 +24,7 @@ FID_EPS = 1e-6
 """Diagonal offset added to both covariances when $\\Sigma_a\\Sigma_b$ is singular (pytorch-fid's ``eps``)."""
 
 
-def _as_matrix(x: Any, what: str) -> np.ndarray:
+def as_matrix(x: Any, what: str) -> np.ndarray:
     """``x`` (NumPy array, torch tensor on any device, nested lists) as float64 [N, D]; leading dims flattened."""
     if hasattr(x, "detach") and hasattr(x, "cpu"):  # a torch tensor, without importing torch here
         x = x.detach().cpu().numpy()
@@ -67,7 +67,7 @@ def diversity(psi: Any, *, subset_size: int = DEFAULT_SUBSET_SIZE, rng: np.rando
     Raises:
         ConfigError: if ``psi`` is empty, not [..., D] or non-finite, or ``subset_size`` < 1.
     """
-    x = _as_matrix(psi, "diversity: psi")
+    x = as_matrix(psi, "diversity: psi")
     n = x.shape[0]
     if n == 0:
         raise ConfigError("diversity: no feature vectors")
@@ -92,7 +92,7 @@ def gaussian_statistics(psi: Any) -> tuple[np.ndarray, np.ndarray]:
     Raises:
         ConfigError: with fewer than 2 vectors (no covariance), or a bad shape or value.
     """
-    x = _as_matrix(psi, "psi")
+    x = as_matrix(psi, "psi")
     if x.shape[0] < 2:
         raise ConfigError(f"a covariance needs at least 2 feature vectors, got {x.shape[0]}")
     return x.mean(axis=0), np.atleast_2d(np.cov(x, rowvar=False))

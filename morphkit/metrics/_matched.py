@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from morphkit.errors import ConfigError
-from morphkit.metrics._distribution import _as_matrix
+from morphkit.metrics._distribution import as_matrix
 from morphkit.motion import ROOT_FEATURE_DIM
 
 __all__ = ["MatchedSample", "matched_indices", "matched_reference", "motion_content"]
@@ -201,7 +201,7 @@ def matched_reference(reference_psi: Any, query_psi: Any, **kw: Any) -> tuple[np
     Raises:
         ConfigError: as :func:`matched_indices`, or Ψ with fewer than 11 features.
     """
-    ref = _as_matrix(reference_psi, "matched_reference: reference_psi")
-    query = _as_matrix(query_psi, "matched_reference: query_psi")
+    ref = as_matrix(reference_psi, "matched_reference: reference_psi")
+    query = as_matrix(query_psi, "matched_reference: query_psi")
     sample = matched_indices(motion_content(ref), motion_content(query), **kw)
     return ref[sample.indices], sample

@@ -156,7 +156,7 @@ def _compile(morphology: Morphology) -> _Compiled:
     return _Compiled(model, model.kernel_cache().setdefault("ufr_self_collision_pairs", {}))
 
 
-def _contact_over_difference(contact: np.ndarray) -> np.ndarray:
+def contact_over_difference(contact: np.ndarray) -> np.ndarray:
     """``contact`` [T, F], kept only where the foot is also in contact at every frame its velocity comes from.
 
     Motion velocities follow :data:`morphkit.conventions.VELOCITY_DIFFERENCE`: backward differences,
@@ -247,7 +247,7 @@ def unrealistic_frame_ratio(
         height = eval_foot_heights(pos, feet=foot_idx, ground_height=g).numpy()  # [T, F] [m]
         speed = eval_sliding_speed(pos, motion.fps, feet=foot_idx, height_threshold=thr.contact_height,
                                    ground_height=g).numpy()  # [T, F] [m/s]
-        contact = _contact_over_difference(height < thr.contact_height)
+        contact = contact_over_difference(height < thr.contact_height)
         sliding = ((speed > thr.sliding_speed) & contact).any(axis=-1)
     collision = np.zeros(T, dtype=bool)
     pairs = compiled.self_collision_pairs(thr.rest_margin)

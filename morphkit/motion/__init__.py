@@ -29,6 +29,7 @@ from morphkit.motion.ee_mapping import kl_divergence as kl_divergence
 from morphkit.motion.ee_mapping import map_end_effectors as map_end_effectors
 from morphkit.motion.ee_mapping import read_override as read_override
 from morphkit.motion.features import ROOT_FEATURE_DIM as ROOT_FEATURE_DIM
+from morphkit.motion.features import Pairing as Pairing
 from morphkit.motion.features import feature_dim as feature_dim
 from morphkit.motion.features import features as features
 from morphkit.motion.features import motion_features as motion_features
@@ -63,6 +64,7 @@ __all__ = [
     "Motion",
     "MotionDataset",
     "NormStats",
+    "Pairing",
     "StateLayout",
     "body_length",
     "bvh_to_motion",

@@ -22,7 +22,8 @@ human's end-effectors in the order the mapping pairs them with the creature's.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -33,12 +34,14 @@ from morphkit.motion.states import (
     StateLayout,
     character_state_from_motion,
     character_state_layout,
+    human_state_from_motion,
+    human_state_layout,
 )
 
 if TYPE_CHECKING:
     from morphkit.motion.motion import Motion
 
-__all__ = ["ROOT_FEATURE_DIM", "feature_dim", "features", "motion_features"]
+__all__ = ["ROOT_FEATURE_DIM", "Pairing", "feature_dim", "features", "motion_features"]
 
 ROOT_FEATURE_DIM = 11
 """Dimensions of Ψ before the end-effector block (height 1, orientation 4, velocities 6)."""
@@ -114,3 +117,50 @@ def motion_features(
     state = character_state_from_motion(motion)
     body = body_length(motion.morphology, motion) if length is None else length
     return features(state, layout, length=body, ee_names=ee_names)
+
+
+@dataclass(frozen=True)
+class Pairing:
+    """How a creature's Ψ and a human's Ψ are compared: mapped end-effectors, pair by pair, and the
+    body length each side divides by (ACE §6.3, Eq. 9–11).
+
+    One value for training (the feature loss), retargeting and evaluation (L_fea, FID, DIV), so the
+    three measure the same Ψ.
+    """
+
+    creature_ees: tuple[str, ...]
+    """Creature end-effectors in Ψ's order."""
+    human_ees: tuple[str, ...]
+    """The human end-effector paired with each of ``creature_ees`` (same order)."""
+    creature_length: float
+    """The creature's body length [m] (:func:`~morphkit.motion.scale.body_length` on its data set)."""
+    human_length: float
+    """The human's body length [m] (on the human data the run was trained on)."""
+
+    def __post_init__(self) -> None:
+        if len(self.creature_ees) != len(self.human_ees):
+            raise ConfigError(f"a pairing needs as many human end-effectors ({len(self.human_ees)}) as creature "
+                              f"ones ({len(self.creature_ees)})")
+        object.__setattr__(self, "creature_ees", tuple(self.creature_ees))
+        object.__setattr__(self, "human_ees", tuple(self.human_ees))
+        object.__setattr__(self, "creature_length", float(self.creature_length))
+        object.__setattr__(self, "human_length", float(self.human_length))
+
+    @staticmethod
+    def from_mapping(mapping: Mapping[str, str], creature_length: float, human_length: float) -> Pairing:
+        """The pairing of ``{creature_ee: human_ee}`` (an :attr:`EndEffectorMapping.mapping`)."""
+        return Pairing(tuple(mapping), tuple(mapping.values()), creature_length, human_length)
+
+    @property
+    def mapping(self) -> dict[str, str]:
+        """``{creature_ee: human_ee}``."""
+        return dict(zip(self.creature_ees, self.human_ees, strict=True))
+
+    def creature_psi(self, motion: Motion) -> np.ndarray:
+        """Ψ of a creature motion's frames [T, 11 + 3k] (end-effectors through FK)."""
+        return motion_features(motion, ee_names=self.creature_ees, length=self.creature_length)
+
+    def human_psi(self, motion: Motion) -> np.ndarray:
+        """Ψ of a human motion's frames [T, 11 + 3k], its end-effectors in the creature's order."""
+        layout = human_state_layout(motion.morphology)
+        return features(human_state_from_motion(motion), layout, length=self.human_length, ee_names=self.human_ees)

@@ -1,4 +1,5 @@
-"""Trainer layer: shared run machinery (config, checkpoints, exact resume, logs, torchrun) and networks.
+"""Trainer layer: shared run machinery (config, checkpoints, exact resume, logs, torchrun), the data every
+trainer reads, the retargeter protocol, and network building blocks.
 
 Torch only: trainers reach the kernels through ``morphkit.torch``, never Warp directly, and never
 name a creature. Method packages (``ace/``, ``nkn/``) build on this.
@@ -8,7 +9,10 @@ name a creature. Method packages (``ace/``, ``nkn/``) build on this.
 * :mod:`~morphkit.retarget.run`: :class:`Run`, the run folder and the resumable training loop.
 * :mod:`~morphkit.retarget.logs`: ``metrics.csv`` and TensorBoard events.
 * :mod:`~morphkit.retarget.distributed`: DistributedDataParallel under ``torchrun``.
-* :mod:`~morphkit.retarget.networks`: MLPs, MANN mixture of experts, the motion VAE (ACE §4).
+* :mod:`~morphkit.retarget.networks`: activations by name, MLPs, FLOP counting.
+* :mod:`~morphkit.retarget.training_data`: the data every trainer reads (character and human motion, the split).
+* :mod:`~morphkit.retarget.retargeter`: the :class:`Retargeter` protocol.
+* :mod:`~morphkit.retarget.runs`: :func:`load`, any trained run folder as a :class:`Retargeter`.
 """
 
 from morphkit.retarget.checkpoint import CHECKPOINT_FORMAT as CHECKPOINT_FORMAT
@@ -38,23 +42,17 @@ from morphkit.retarget.logs import TENSORBOARD_DIR as TENSORBOARD_DIR
 from morphkit.retarget.logs import MetricsLog as MetricsLog
 from morphkit.retarget.logs import read_metrics as read_metrics
 from morphkit.retarget.networks import MLP as MLP
-from morphkit.retarget.networks import ExpertLinear as ExpertLinear
-from morphkit.retarget.networks import GatingNetwork as GatingNetwork
-from morphkit.retarget.networks import MixtureOfExperts as MixtureOfExperts
-from morphkit.retarget.networks import MotionEncoder as MotionEncoder
-from morphkit.retarget.networks import MotionPrior as MotionPrior
-from morphkit.retarget.networks import MotionVAE as MotionVAE
-from morphkit.retarget.networks import VAEOutput as VAEOutput
-from morphkit.retarget.networks import kl_divergence as kl_divergence
 from morphkit.retarget.networks import make_activation as make_activation
 from morphkit.retarget.networks import matmul_flops as matmul_flops
-from morphkit.retarget.networks import reparameterize as reparameterize
+from morphkit.retarget.retargeter import RetargetedClip as RetargetedClip
+from morphkit.retarget.retargeter import Retargeter as Retargeter
 from morphkit.retarget.run import CHECKPOINT_FILE as CHECKPOINT_FILE
 from morphkit.retarget.run import CONFIG_FILE as CONFIG_FILE
 from morphkit.retarget.run import RUN_FILE as RUN_FILE
 from morphkit.retarget.run import Run as Run
 from morphkit.retarget.run import Stateful as Stateful
 from morphkit.retarget.run import derive_seed as derive_seed
+from morphkit.retarget.runs import load as load
 
 __all__ = [
     "CHECKPOINT_FILE",
@@ -67,16 +65,11 @@ __all__ = [
     "RUN_FILE",
     "TENSORBOARD_DIR",
     "DistributedContext",
-    "ExpertLinear",
-    "GatingNetwork",
     "MetricsLog",
-    "MixtureOfExperts",
-    "MotionEncoder",
-    "MotionPrior",
-    "MotionVAE",
+    "RetargetedClip",
+    "Retargeter",
     "Run",
     "Stateful",
-    "VAEOutput",
     "all_gather_objects",
     "all_reduce_max",
     "all_reduce_mean",
@@ -85,7 +78,7 @@ __all__ = [
     "config_to_dict",
     "derive_seed",
     "init_distributed",
-    "kl_divergence",
+    "load",
     "load_checkpoint",
     "make_activation",
     "matmul_flops",
@@ -93,7 +86,6 @@ __all__ = [
     "preset_config",
     "read_config",
     "read_metrics",
-    "reparameterize",
     "replace_config",
     "rng_state",
     "save_checkpoint",

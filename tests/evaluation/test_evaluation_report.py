@@ -17,9 +17,9 @@ from morphkit_testing import spot_like
 
 from morphkit.evaluation import Evaluation, Method, MethodResult, Reference, format_summary, summarize
 from morphkit.evaluation.report import VIDEO_FPS, render_videos, write_index, write_report
-from morphkit.motion import Motion
-from morphkit.retarget.ace.config import DataConfig
-from morphkit.retarget.ace.evaluate import TableRow
+from morphkit.evaluation.table import TableRow
+from morphkit.motion import Motion, Pairing
+from morphkit.retarget.training_data import DataConfig
 
 DATASET = TableRow("Dataset", 2.25, 0.0, None, 0.0026, 1200)
 # (name, seed, DIV, FID, L_fea, UFR), shuffled: the table orders them as the paper does.
@@ -69,9 +69,9 @@ def _evaluation(tmp_path: Path) -> Evaluation:
     creature = spot_like()
     rest = np.tile(creature.rest_q(), (40, 1))
     character = [Motion(creature, 30.0, rest, "walk")]
-    ref = Reference(creature, DataConfig(character_frames=40), ("fl_foot",), ("left_foot",), 0.5, 0.9, None,
+    ref = Reference(creature, DataConfig(character_frames=40), Pairing(("fl_foot",), ("left_foot",), 0.5, 0.9), None,
                     "constructed", character)
-    results = [MethodResult(Method(row.name, "ace", tmp_path / "run", tmp_path / "run" / row.name, creature.name, seed),
+    results = [MethodResult(Method(row.name, tmp_path / "run", tmp_path / "run" / row.name, creature.name, seed),
                             row, {"self_collision": 0.0, "foot_penetration": 0.0, "foot_sliding": row.ufr}, [])
                for seed, row in _rows()]
     clips = [Motion(creature, 30.0, rest, "clip_a")]

@@ -257,7 +257,7 @@ def test_a_shared_prior_is_found_when_retargeting(tmp_path, human_dir, dog, cach
 def _dog_feature_map(dog: Path, frames: int = 40):
     from dataclasses import replace
 
-    from morphkit.motion import NormStats, character_state_from_motion, character_state_layout
+    from morphkit.motion import NormStats, Pairing, character_state_from_motion, character_state_layout
     from morphkit.retarget.ace.model import FeatureMap
     from morphkit.synth import SynthConfig, synthesize
 
@@ -268,7 +268,7 @@ def _dog_feature_map(dog: Path, frames: int = 40):
     lay = character_state_layout(m)
     stats = NormStats.fit([x])
     ees = tuple(e.name for e in m.end_effectors)
-    return FeatureMap(m, lay, lay, stats, stats, ees, ees, 0.4, 0.4), x, motion
+    return FeatureMap(m, lay, lay, stats, stats, Pairing(ees, ees, 0.4, 0.4)), x, motion
 
 
 def test_prior_foot_term_is_zero_on_data_and_the_squared_step_error_otherwise(dog):
@@ -322,8 +322,7 @@ def test_residual_prior_foot_term_and_exported_discriminator_train_and_log(tmp_p
 def test_character_data_cache_is_keyed_by_the_synthesis_source(tmp_path, dog, monkeypatch):
     """A second call is served from the cache; a change to the synthesis code (its source digest) is not."""
     import morphkit.synth
-    from morphkit.retarget.ace.config import DataConfig
-    from morphkit.retarget.ace.data import character_motions
+    from morphkit.retarget.training_data import DataConfig, character_motions
 
     data = DataConfig(character_frames=60)
     m = read_morphology(dog)

@@ -6,17 +6,16 @@ import pytest
 import torch
 from torch.utils.flop_counter import FlopCounterMode
 
-from morphkit.retarget.networks import (
-    MLP,
+from morphkit.retarget.ace.networks import (
     ExpertLinear,
     MixtureOfExperts,
     MotionEncoder,
     MotionPrior,
     MotionVAE,
     kl_divergence,
-    matmul_flops,
     reparameterize,
 )
+from morphkit.retarget.networks import MLP, matmul_flops
 
 
 def _blend_reference(layer: ExpertLinear, x: torch.Tensor, alpha: torch.Tensor) -> torch.Tensor:

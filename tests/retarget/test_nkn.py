@@ -172,7 +172,7 @@ def test_smoke_losses_decrease_and_the_run_retargets(trained, data_dir):
     model = NknRetargeter(trained)
     clip = walk_motion(human(), 30, seed=9)
     for target in (None, *list(model.skeletons)[:2], scale_limbs(model.template, {"legs": 0.7})):
-        out = model.retarget([clip, clip.slice(0, 20)], target)
+        out = [r.motion for r in model.retarget([clip, clip.slice(0, 20)], target)]
         assert [m.frame_count for m in out] == [30, 20]
         assert all(np.isfinite(m.q).all() for m in out)
         # Online (causal): a prefix, padded in the batch, is retargeted alike (up to float32 rounding).
@@ -236,7 +236,7 @@ def test_cross_morphology_mode_on_a_yaml_creature(tmp_path, data_dir, monkeypatc
     assert np.isfinite(_rows(run, "loss_g")).all() and len(_rows(run, "loss_d")) > 0
     model = NknRetargeter(run)
     clips = [walk_motion(human(), 25, seed=1), walk_motion(human(), 18, seed=2)]
-    out = model.retarget(clips)
+    out = [r.motion for r in model.retarget(clips)]
     assert [m.morphology.name for m in out] == ["testdog", "testdog"]
     assert [m.frame_count for m in out] == [25, 18] and all(np.isfinite(m.q).all() for m in out)
     lo, hi = dog.coordinate_limits

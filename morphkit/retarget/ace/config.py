@@ -20,22 +20,12 @@ retarget.discriminate_exported=false`` trains the paper's ACE exactly.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from enum import Enum
 
-__all__ = ["PRESETS", "AceConfig", "DataConfig", "PriorConfig", "RetargetConfig", "preset"]
+from morphkit.errors import ConfigError
+from morphkit.retarget.training_data import DataConfig
 
-
-@dataclass(frozen=True)
-class DataConfig:
-    """Where the training states come from."""
-
-    character_frames: int = 200_000
-    """Synthesised character frames (§7.1: 200k states per character)."""
-    fps: float = 30.0
-    """Frame rate of both data sets [1/s] (human clips are resampled to it)."""
-    synth_seed: int = 0
-    """Seed of the character's synthesis."""
-    human_frames: int = 6_000
-    """Frames of the embedded default human motion (used when no human data is given)."""
+__all__ = ["PRESETS", "AceConfig", "AceVariant", "DataConfig", "PriorConfig", "RetargetConfig", "preset"]
 
 
 @dataclass(frozen=True)
@@ -102,6 +92,10 @@ class RetargetConfig:
     adversarial gradient flows through that FK."""
     w_contact: float = 0.0
     """Beyond the paper: foot sliding + ground penetration of the FK'd motion (0: off, as ACE)."""
+    feature_loss: bool = True
+    """Train with w_fea·L_fea (False: the paper's ACEwoFea ablation)."""
+    adversarial: bool = True
+    """Train with w_adv·L_adv and the discriminator (False: the paper's ACEwoAdv ablation)."""
     window: int = 32
     """Human frames per training rollout."""
     tbptt: int = 8
@@ -175,3 +169,72 @@ def preset(name: str) -> AceConfig:
     from morphkit.retarget.config import preset_config
 
     return preset_config(PRESETS, name)
+
+
+class AceVariant(str, Enum):
+    """A retargeter of Table 1: its trainer name (the value), stage folder, label and ablation flags.
+
+    ``ACE_CONTACT`` is ACE with ``retarget.w_contact > 0`` (beyond the paper).
+    """
+
+    ACE = "ace"
+    WO_FEA = "ace-wofea"
+    WO_ADV = "ace-woadv"
+    ACE_CONTACT = "ace-contact"
+
+    @property
+    def folder(self) -> str:
+        """Its stage folder inside an ACE run."""
+        return {"ace": "retarget", "ace-wofea": "retarget_wofea", "ace-woadv": "retarget_woadv",
+                "ace-contact": "retarget_contact"}[self.value]
+
+    @property
+    def label(self) -> str:
+        """Its name in Table 1."""
+        labels = {"ace": "ACE", "ace-wofea": "ACEwoFea", "ace-woadv": "ACEwoAdv", "ace-contact": "ACE+contact"}
+        return labels[self.value]
+
+    @property
+    def feature_loss(self) -> bool:
+        """Whether it trains with the feature loss."""
+        return self is not AceVariant.WO_FEA
+
+    @property
+    def adversarial(self) -> bool:
+        """Whether it trains with the adversarial loss."""
+        return self is not AceVariant.WO_ADV
+
+    def configure(self, cfg: RetargetConfig) -> RetargetConfig:
+        """``cfg`` with this variant's ablation flags, so its ``config.yaml`` records what was trained."""
+        return replace(cfg, feature_loss=self.feature_loss, adversarial=self.adversarial)
+
+    @staticmethod
+    def parse(name: str | AceVariant) -> AceVariant:
+        """The variant of a trainer name, stage folder or Table-1 label.
+
+        Raises:
+            ConfigError: none of them.
+        """
+        if isinstance(name, AceVariant):
+            return name
+        for v in AceVariant:
+            if name in (v.value, v.folder, v.label):
+                return v
+        raise ConfigError(f"unknown ACE variant {name!r}; expected one of: {', '.join(v.value for v in AceVariant)}")
+
+    @staticmethod
+    def of_flags(*, feature_loss: bool = True, adversarial: bool = True, contact_weight: float = 0.0) -> AceVariant:
+        """The variant of a set of ablation flags (one ablation at a time).
+
+        Raises:
+            ConfigError: both losses off, or the contact term combined with an ablation.
+        """
+        if not feature_loss and not adversarial:
+            raise ConfigError("--no-feature-loss and --no-adversarial together leave nothing to train")
+        if contact_weight > 0 and not (feature_loss and adversarial):
+            raise ConfigError("--contact-weight combines with full ACE only")
+        if not feature_loss:
+            return AceVariant.WO_FEA
+        if not adversarial:
+            return AceVariant.WO_ADV
+        return AceVariant.ACE_CONTACT if contact_weight > 0 else AceVariant.ACE

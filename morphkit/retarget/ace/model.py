@@ -1,6 +1,6 @@
 """ACE's networks and its feature function on generated states.
 
-* :func:`build_vae` — encoder c and MANN prior π (§4, §6.4), from :mod:`morphkit.retarget.networks`.
+* :func:`build_vae` — encoder c and MANN prior π (§4, §6.4), from :mod:`morphkit.retarget.ace.networks`.
 * :class:`Generator` — G(x^h_t, x^r_{t-1}) → ẑ_t, an MLP with LeakyReLU (§5.1, §6.4).
 * :class:`Discriminator` — D(x^r_{t-1}, x^r_t) → logit, an MLP with SiLU (§5.2, §6.4).
 * :class:`FeatureMap` — Ψ (§6.3) of human states and of generated character states, with the
@@ -19,9 +19,10 @@ from torch import nn
 
 import morphkit.torch as mt
 from morphkit.graph import BaseType, Morphology
-from morphkit.motion import NormStats, StateLayout, compiled_model, features
+from morphkit.motion import NormStats, Pairing, StateLayout, compiled_model, features
 from morphkit.retarget.ace.config import PriorConfig, RetargetConfig
-from morphkit.retarget.networks import MLP, MotionEncoder, MotionPrior, MotionVAE
+from morphkit.retarget.ace.networks import MotionEncoder, MotionPrior, MotionVAE
+from morphkit.retarget.networks import MLP
 
 __all__ = ["Discriminator", "FeatureMap", "Generator", "build_vae"]
 
@@ -66,8 +67,7 @@ class FeatureMap:
         creature: The character.
         creature_layout, human_layout: State layouts.
         creature_stats, human_stats: Normalisation statistics of the two state sets.
-        creature_ees, human_ees: Mapped end-effector names, pair by pair (``EndEffectorMapping.feature_order``).
-        creature_length, human_length: Body lengths [m] the two Ψ divide by.
+        pairing: Mapped end-effectors, pair by pair, and the body lengths the two Ψ divide by.
     """
 
     creature: Morphology
@@ -75,10 +75,23 @@ class FeatureMap:
     human_layout: StateLayout
     creature_stats: NormStats
     human_stats: NormStats
-    creature_ees: tuple[str, ...]
-    human_ees: tuple[str, ...]
-    creature_length: float
-    human_length: float
+    pairing: Pairing
+
+    @property
+    def creature_ees(self) -> tuple[str, ...]:
+        return self.pairing.creature_ees
+
+    @property
+    def human_ees(self) -> tuple[str, ...]:
+        return self.pairing.human_ees
+
+    @property
+    def creature_length(self) -> float:
+        return self.pairing.creature_length
+
+    @property
+    def human_length(self) -> float:
+        return self.pairing.human_length
 
     def __post_init__(self) -> None:
         self.model = compiled_model(self.creature)
@@ -121,11 +134,6 @@ class FeatureMap:
         own = x[..., self._ee_slice].reshape(ee.shape)
         fixed = torch.cat([x[..., : self._ee_slice.start], ee.flatten(-2), x[..., self._ee_slice.stop :]], dim=-1)
         return fixed, (own - ee).detach().norm(dim=-1)
-
-    def character_psi(self, x_norm: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        """Ψ of normalised generated states [..., Sr] (ee from FK) and the state/FK gap [..., E] [m]."""
-        fixed, gap = self.creature_with_fk(x_norm)
-        return self.psi_of_fixed(fixed), gap
 
     def psi_of_fixed(self, fixed: torch.Tensor) -> torch.Tensor:
         """Ψ of denormalised states whose ee block is already FK's (:meth:`creature_with_fk`)."""

@@ -2,7 +2,7 @@
 
 :class:`AceRetargeter` loads a run folder (creature, statistics, mapping, start states, the prior
 and a retargeter) and rolls G and π over each human clip, batched over clips. A rollout starts from
-the character state (among the run's ``start_states.npz``) whose Ψ is nearest the human's first
+the character state (among the run's start states) whose Ψ is nearest the human's first
 frame's Ψ; the generated states are decoded into a :class:`~morphkit.motion.Motion` with
 :func:`~morphkit.motion.decode_character_states`, placed where the human starts (its root's ground
 position and heading).
@@ -10,10 +10,8 @@ position and heading).
 
 from __future__ import annotations
 
-import json
 import os
 from collections.abc import Sequence
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -21,56 +19,60 @@ import torch
 import yaml
 
 from morphkit.errors import ConfigError, MotionFormatError, RunError, SourceLocation
-from morphkit.io import read_morphology
 from morphkit.motion import (
-    ClampReport,
     Motion,
-    NormStats,
     character_state_layout,
     decode_character_states,
     human_state_from_motion,
     human_state_layout,
 )
-from morphkit.retarget.ace.config import PriorConfig, RetargetConfig
+from morphkit.retarget.ace.checkpoint import AceArtifact
+from morphkit.retarget.ace.config import AceVariant, PriorConfig, RetargetConfig
 from morphkit.retarget.ace.model import FeatureMap, Generator, build_vae
-from morphkit.retarget.ace.train import META_FILE, rollout
+from morphkit.retarget.ace.train import PRIOR_TRAINER, rollout
 from morphkit.retarget.checkpoint import load_checkpoint
 from morphkit.retarget.config import read_config
+from morphkit.retarget.retargeter import RetargetedClip
 from morphkit.retarget.run import CHECKPOINT_FILE, CONFIG_FILE, RUN_FILE
 from morphkit.rotations import yaw_from_quat
 
-__all__ = ["AceRetargeter", "RetargetedClip"]
-
-
-@dataclass(frozen=True)
-class RetargetedClip:
-    """One retargeted clip: the creature's motion, its states and what decoding clamped."""
-
-    source: Motion
-    motion: Motion
-    states: np.ndarray
-    """[T, Sr] generated character states (denormalised)."""
-    clamp: ClampReport
+__all__ = ["AceRetargeter", "RetargetedClip"]  # RetargetedClip: re-exported from the protocol
 
 
 def _need(path: Path) -> Path:
     if not path.exists():
-        raise RunError(f"not an ACE run folder: {path.name} is missing", location=SourceLocation(str(path.parent)))
+        raise RunError(f"not a trained ACE stage: {path.name} is missing", location=SourceLocation(str(path.parent)))
     return path
 
 
 def _stage_trainer(stage: Path) -> str:
-    meta = yaml.safe_load(_need(stage / RUN_FILE).read_text()) or {}
-    return str(meta.get("trainer", ""))
+    path = stage / RUN_FILE
+    if not path.is_file():
+        raise RunError(f"not a trained stage: {RUN_FILE} is missing", location=SourceLocation(str(stage)))
+    return str((yaml.safe_load(path.read_text()) or {}).get("trainer", ""))
+
+
+def _stage_dir(run: Path, stage: str | os.PathLike[str] | None) -> Path:
+    if stage is None:
+        return run / AceVariant.ACE.folder
+    path = Path(stage)
+    if path.exists() or os.sep in str(stage):
+        return path
+    try:
+        return run / AceVariant.parse(str(stage)).folder
+    except ConfigError:
+        return path
 
 
 class AceRetargeter:
-    """A trained ACE run, ready to retarget (``torch.no_grad``, eval mode).
+    """A trained ACE run, ready to retarget (``torch.no_grad``, eval mode); a
+    :class:`~morphkit.retarget.retargeter.Retargeter`.
 
     Args:
-        run_dir: The ACE run folder (see :mod:`morphkit.retarget.ace.train`).
-        retarget_dir: The retargeter stage to use (default ``run_dir/retarget``; an ablation's folder).
-        prior_dir: The prior stage (default ``run_dir/prior``).
+        run_dir: The ACE run folder (:class:`~.checkpoint.AceArtifact`).
+        retarget_dir: The retargeter stage to use: a folder, or a variant's name (default the run's
+            ``retarget/``).
+        prior_dir: The prior stage (default the run's, or the prior it shares).
         device: Torch device.
 
     Raises:
@@ -86,47 +88,44 @@ class AceRetargeter:
         device: str | torch.device = "cpu",
     ) -> None:
         self.dir = Path(run_dir)
-        meta = yaml.safe_load(_need(self.dir / META_FILE).read_text()) or {}
-        self.meta = meta
-        self.creature = read_morphology(_need(self.dir / "creature.yaml"))
-        self.fps = float(meta["fps"])
+        self.artifact = AceArtifact.load(self.dir)
+        self.creature = self.artifact.creature
+        self.pairing = self.artifact.pairing
+        self.fps = self.artifact.fps
+        self.data = self.artifact.data
+        self.human_data = self.artifact.human_data
         self.device = torch.device(device)
-        c_stats = NormStats.load(_need(self.dir / "stats_character.npz"))
-        h_stats = NormStats.load(_need(self.dir / "stats_human.npz"))
-        mapping = json.loads(_need(self.dir / "mapping.json").read_text())["mapping"]
-        self.mapping: dict[str, str] = dict(mapping)
+        self.mapping: dict[str, str] = self.pairing.mapping
         self.layout = character_state_layout(self.creature)
-        with np.load(_need(self.dir / "start_states.npz")) as f:
-            self.start_states, self.start_psi = f["states"], f["psi"]
-        if prior_dir is None:
-            prior_dir = meta.get("prior_dir") or self.dir / "prior"
-        prior_dir = Path(prior_dir)
-        retarget_dir = Path(retarget_dir) if retarget_dir is not None else self.dir / "retarget"
-        if not _stage_trainer(prior_dir).startswith("ace-prior"):
+        prior_dir = Path(prior_dir) if prior_dir is not None else self.artifact.prior_stage(self.dir)
+        retarget_dir = _stage_dir(self.dir, retarget_dir)
+        if _stage_trainer(prior_dir) != PRIOR_TRAINER:
             raise RunError("not an ACE prior stage", location=SourceLocation(str(prior_dir / RUN_FILE)))
         trainer = _stage_trainer(retarget_dir)
-        if not trainer.startswith("ace"):
+        try:
+            self.variant = AceVariant.parse(trainer)
+        except ConfigError:
             raise RunError(f"stage of trainer {trainer!r}, not an ACE retargeter",
-                           location=SourceLocation(str(retarget_dir / RUN_FILE)))
-        self.trainer = trainer
+                           location=SourceLocation(str(retarget_dir / RUN_FILE))) from None
+        self.trainer = self.variant.value
+        """The stage's trainer name (``ace``, ``ace-wofea``, ...)."""
+        self.label = self.variant.label
+        self.stage = retarget_dir
         pc = read_config(PriorConfig, _need(prior_dir / CONFIG_FILE))
         rc = read_config(RetargetConfig, _need(retarget_dir / CONFIG_FILE))
         vae = build_vae(self.layout.dim, pc)
         vae.load_state_dict(load_checkpoint(_need(prior_dir / CHECKPOINT_FILE))["states"]["model"])
         self.prior = vae.prior.to(self.device).eval()
-        self._c_stats, self._h_stats = c_stats, h_stats
-        self._h_dim = h_stats.mean.shape[0]
+        self._c_stats, self._h_stats = self.artifact.character_stats, self.artifact.human_stats
+        self._h_dim = self._h_stats.mean.shape[0]
         self.generator = Generator(self._h_dim, self.layout.dim, pc.latent, rc)
         self.generator.load_state_dict(load_checkpoint(_need(retarget_dir / CHECKPOINT_FILE))["states"]["generator"])
         self.generator.to(self.device).eval()
-        self._human_length = float(meta["human_body_length"])
-        self._creature_length = float(meta["creature_body_length"])
 
     def feature_map(self, human_layout_of: Motion) -> FeatureMap:
         """The run's Ψ pairing, for clips of ``human_layout_of``'s skeleton."""
         return FeatureMap(self.creature, self.layout, human_state_layout(human_layout_of.morphology), self._c_stats,
-                          self._h_stats, tuple(self.mapping), tuple(self.mapping.values()), self._creature_length,
-                          self._human_length)
+                          self._h_stats, self.pairing)
 
     def _human_states(self, clip: Motion) -> np.ndarray:
         if abs(clip.fps - self.fps) > 1e-6:
@@ -135,7 +134,7 @@ class AceRetargeter:
         if x.shape[1] != self._h_dim:
             raise MotionFormatError(
                 f"clip {clip.name!r} has human states of {x.shape[1]} dims; this run was trained on "
-                f"{self._h_dim} ({self.meta.get('human_skeleton')!r} skeleton)"
+                f"{self._h_dim} ({self.artifact.human_skeleton!r} skeleton)"
             )
         return x
 
@@ -164,8 +163,8 @@ class AceRetargeter:
         x_h = torch.as_tensor(self._h_stats.normalize(padded), dtype=torch.float32, device=self.device)
         fmap = self.feature_map(clips[0])
         psi_h = fmap.human_psi(x_h[:, 0]).cpu().numpy()
-        nearest = np.argmin(((self.start_psi[None] - psi_h[:, None]) ** 2).sum(-1), axis=1)
-        x0 = torch.as_tensor(self._c_stats.normalize(self.start_states[nearest]), dtype=torch.float32,
+        nearest = np.argmin(((self.artifact.start_psi[None] - psi_h[:, None]) ** 2).sum(-1), axis=1)
+        x0 = torch.as_tensor(self._c_stats.normalize(self.artifact.start_states[nearest]), dtype=torch.float32,
                              device=self.device)
         _, gen = rollout(self.generator, self.prior, x_h, x0)
         gen_np = self._c_stats.denormalize(gen.double().cpu().numpy())

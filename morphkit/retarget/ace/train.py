@@ -1,14 +1,6 @@
 """Training ACE: data preparation, the motion prior (§4) and the adversarial retargeter (§5).
 
-An ACE run folder::
-
-    ace.yaml               creature, human data, body lengths, mapping source (checked on reopen)
-    creature.yaml          the character's description (so the run retargets without the original file)
-    stats_character.npz    normalisation of x^r        stats_human.npz   normalisation of x^h
-    mapping.json           end-effector mapping (Eq. 11) with every KL value
-    start_states.npz       character states a retargeting rollout may start from, with their Ψ
-    prior/                 the motion prior's Run folder (trainer "ace-prior")
-    retarget/              the retargeter's Run folder (trainer "ace"; an ablation names itself)
+The run folder's files are :class:`~.checkpoint.AceArtifact`'s (written here once, by :func:`prepare`).
 
 Each stage is a :class:`~morphkit.retarget.run.Run` and resumes exactly: re-running the same
 command continues where it stopped; a finished stage is skipped. A prior can be shared: ablations
@@ -17,7 +9,6 @@ point ``prior_dir`` at another run's ``prior/`` (train the prior once, three ret
 
 from __future__ import annotations
 
-import json
 import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -26,18 +17,16 @@ from typing import Any
 
 import numpy as np
 import torch
-import yaml
 from torch.nn import functional as F
 
-from morphkit._atomic import atomic_path, atomic_write_text
 from morphkit.errors import ConfigError, RunError, SourceLocation
 from morphkit.graph import EndEffectorRole, Morphology
-from morphkit.io import write_morphology
 from morphkit.metrics import feature_loss
 from morphkit.motion import (
     EndEffectorMapping,
     Motion,
     NormStats,
+    Pairing,
     body_length,
     character_state_from_motion,
     character_state_layout,
@@ -48,15 +37,15 @@ from morphkit.motion import (
     map_end_effectors,
     world_end_effectors,
 )
-from morphkit.retarget.ace.config import AceConfig, PriorConfig, RetargetConfig
-from morphkit.retarget.ace.data import StateWindows, character_motions, human_motions
+from morphkit.retarget.ace.checkpoint import META_FILE, PRIOR_STAGE, AceArtifact
+from morphkit.retarget.ace.config import AceConfig, AceVariant, PriorConfig, RetargetConfig
 from morphkit.retarget.ace.model import Discriminator, FeatureMap, Generator, build_vae
+from morphkit.retarget.ace.networks import MotionVAE, kl_divergence
 from morphkit.retarget.distributed import average_gradients, broadcast_parameters, init_distributed
-from morphkit.retarget.networks import MotionVAE, kl_divergence
-from morphkit.retarget.run import CHECKPOINT_FILE, Run
+from morphkit.retarget.run import Run
+from morphkit.retarget.training_data import StateWindows, character_motions, human_motions
 
 __all__ = [
-    "VARIANTS",
     "AceData",
     "disc_logits",
     "foot_indices",
@@ -69,10 +58,10 @@ __all__ = [
     "train_ace",
     "train_prior",
     "train_retargeter",
-    "variant_of",
 ]
 
-META_FILE = "ace.yaml"
+PRIOR_TRAINER = "ace-prior"
+"""The prior stage's trainer name (its ``run.yaml``)."""
 START_STATES = 512
 """Character states kept in a run as rollout starts for retargeting (chosen by Ψ nearest the human's first frame)."""
 
@@ -112,12 +101,10 @@ def prepare(
     """
     _check_creature(creature)
     run = Path(run_dir)
-    meta_path = run / META_FILE
-    if meta_path.is_file():
-        meta = yaml.safe_load(meta_path.read_text()) or {}
-        if meta.get("creature") != creature.name:
-            raise RunError(f"run folder is of creature {meta.get('creature')!r}, not {creature.name!r}",
-                           location=SourceLocation(str(meta_path)))
+    existing = AceArtifact.creature_name(run)
+    if existing is not None and existing != creature.name:
+        raise RunError(f"run folder is of creature {existing!r}, not {creature.name!r}",
+                       location=SourceLocation(str(run / META_FILE)))
     log(f"character data: synthesising {cfg.data.character_frames} frames of {creature.name} (cached)")
     character = character_motions(creature, cfg.data, cache_dir=cache_dir, progress=progress)
     human = human_motions(human_data, cfg.data)
@@ -135,28 +122,13 @@ def prepare(
                                               {e.name: e.role for e in human_m.end_effectors})
     mapping = map_end_effectors(c_dist, h_dist, override=mapping_override, roles=roles)
     c_stats, h_stats = NormStats.fit(c_states), NormStats.fit(h_states)
-    c_ees, h_ees = mapping.feature_order()
+    pairing = Pairing.from_mapping(mapping.mapping, c_len, h_len)
     fmap = FeatureMap(creature, character_state_layout(creature), human_state_layout(human_m), c_stats, h_stats,
-                      c_ees, h_ees, c_len, h_len)
+                      pairing)
     if _main_process():
-        run.mkdir(parents=True, exist_ok=True)
-        write_morphology(creature, run / "creature.yaml")
-        c_stats.save(run / "stats_character.npz")
-        h_stats.save(run / "stats_human.npz")
-        atomic_write_text(run / "mapping.json", json.dumps(mapping.to_json(), indent=1))
-        _save_start_states(run / "start_states.npz", c_states, fmap, cfg.seed)
-        meta = {
-            "creature": creature.name,
-            "human_data": None if human_data is None else os.fspath(human_data),
-            "human_skeleton": human_m.name,
-            "creature_body_length": float(c_len),
-            "human_body_length": float(h_len),
-            "fps": float(cfg.data.fps),
-            "data": {"character_frames": cfg.data.character_frames, "synth_seed": cfg.data.synth_seed,
-                     "human_frames": cfg.data.human_frames},
-            "mapping": dict(mapping.mapping),
-        }
-        atomic_write_text(meta_path, yaml.safe_dump(meta, sort_keys=False))
+        starts, start_psi = _start_states(c_states, fmap, cfg.seed)
+        AceArtifact(creature, c_stats, h_stats, pairing, mapping.to_json(), starts, start_psi, cfg.data,
+                    None if human_data is None else os.fspath(human_data), human_m.name).save(run)
     log("end-effector mapping (KL, Eq. 11): " + ", ".join(f"{c} -> {h}" for c, h in mapping.mapping.items()))
     return AceData(creature, character, human, c_states, h_states, fmap, mapping)
 
@@ -165,14 +137,12 @@ def _main_process() -> bool:
     return int(os.environ.get("RANK", "0")) == 0
 
 
-def _save_start_states(path: Path, states: Sequence[np.ndarray], fmap: FeatureMap, seed: int) -> None:
+def _start_states(states: Sequence[np.ndarray], fmap: FeatureMap, seed: int) -> tuple[np.ndarray, np.ndarray]:
     flat = np.concatenate(list(states), axis=0)
     rng = np.random.default_rng(seed)
     pick = rng.choice(flat.shape[0], size=min(START_STATES, flat.shape[0]), replace=False)
     x = flat[np.sort(pick)]
-    psi = features(x, fmap.creature_layout, length=fmap.creature_length, ee_names=fmap.creature_ees)
-    with atomic_path(path) as tmp, open(tmp, "wb") as f:
-        np.savez(f, states=x, psi=psi)
+    return x, features(x, fmap.creature_layout, length=fmap.creature_length, ee_names=fmap.creature_ees)
 
 
 # ---- stage 1: the motion prior ----------------------------------------------------------------
@@ -187,18 +157,6 @@ def sampling_probability(cfg: PriorConfig, epoch: int) -> float:
     if ramp <= 0 or epoch >= teacher + ramp:
         return 1.0
     return (epoch - teacher + 1) / (ramp + 1)
-
-
-def _finished(run_dir: Path, trainer: str, epochs: int) -> bool:
-    path = run_dir / CHECKPOINT_FILE
-    if not path.is_file():
-        return False
-    from morphkit.retarget.checkpoint import load_checkpoint
-
-    try:
-        return load_checkpoint(path)["position"]["epoch"] >= epochs
-    except RunError:
-        return False
 
 
 def train_prior(
@@ -218,7 +176,7 @@ def train_prior(
     windows = StateWindows.build(data.character_states, pc.rollout + 1, data.features.creature_stats)
     feet = foot_indices(data.creature)
     use_feet = pc.foot_weight > 0 and bool(feet)
-    with Run(prior_dir, trainer="ace-prior", config=pc, creature=data.creature.name, seed=cfg.seed, device=device,
+    with Run(prior_dir, trainer=PRIOR_TRAINER, config=pc, creature=data.creature.name, seed=cfg.seed, device=device,
              progress=progress) as run:
         vae = build_vae(windows.states.shape[1], pc).to(run.device)
         model = run.wrap(vae)
@@ -362,26 +320,25 @@ def train_retargeter(
     vae: MotionVAE,
     cfg: AceConfig,
     *,
-    trainer: str = "ace",
+    variant: AceVariant | str = AceVariant.ACE,
     device: str | torch.device | None = None,
     progress: bool = True,
-    use_feature_loss: bool = True,
-    use_adversarial: bool = True,
 ) -> Generator:
     """Train (or resume, or load when finished) G and D (Eq. 3–10) from a trained prior π (kept frozen).
 
     Args:
-        trainer: Run name of the variant (``ace``, ``ace-wofea``, ``ace-woadv``, ``ace-contact``).
-        use_feature_loss: False trains ACEwoFea (w_fea·L_fea removed).
-        use_adversarial: False trains ACEwoAdv (w_adv·L_adv removed, no discriminator step).
+        variant: The retargeter (:class:`~.config.AceVariant`); its ablation flags are set in the
+            retarget config, so the stage's ``config.yaml`` records what was trained.
     """
-    rc: RetargetConfig = cfg.retarget
+    variant = AceVariant.parse(variant)
+    rc: RetargetConfig = variant.configure(cfg.retarget)
+    use_feature_loss, use_adversarial = rc.feature_loss, rc.adversarial
     fmap = data.features
     humans = StateWindows.build(data.human_states, rc.window, fmap.human_stats)
     reals = StateWindows.build(data.character_states, 2, fmap.creature_stats)
     starts = StateWindows.build(data.character_states, 1, fmap.creature_stats)
     sh, sr = humans.states.shape[1], reals.states.shape[1]
-    with Run(retarget_dir, trainer=trainer, config=rc, creature=data.creature.name, seed=cfg.seed, device=device,
+    with Run(retarget_dir, trainer=variant.value, config=rc, creature=data.creature.name, seed=cfg.seed, device=device,
              progress=progress) as run:
         dev = run.device
         prior = frozen_prior(vae.to(dev))
@@ -452,35 +409,12 @@ def disc_logits(d_model: torch.nn.Module, disc: torch.nn.Module, transitions: to
             p.requires_grad_(True)
 
 
-VARIANTS = {
-    "ace": ("retarget", True, True),
-    "ace-wofea": ("retarget_wofea", False, True),
-    "ace-woadv": ("retarget_woadv", True, False),
-    "ace-contact": ("retarget_contact", True, True),
-}
-"""Variant → (stage folder in the run, feature loss on, adversarial loss on). ``ace-contact`` is ACE
-with ``retarget.w_contact > 0`` (beyond the paper)."""
-
-
-def variant_of(*, feature_loss: bool = True, adversarial: bool = True, contact_weight: float = 0.0) -> str:
-    """The variant name of a set of ablation flags (one ablation at a time)."""
-    if not feature_loss and not adversarial:
-        raise ConfigError("--no-feature-loss and --no-adversarial together leave nothing to train")
-    if contact_weight > 0 and not (feature_loss and adversarial):
-        raise ConfigError("--contact-weight combines with full ACE only")
-    if not feature_loss:
-        return "ace-wofea"
-    if not adversarial:
-        return "ace-woadv"
-    return "ace-contact" if contact_weight > 0 else "ace"
-
-
 def train_ace(
     run_dir: str | os.PathLike[str],
     creature: Morphology,
     cfg: AceConfig,
     *,
-    variant: str = "ace",
+    variant: AceVariant | str = AceVariant.ACE,
     human_data: str | os.PathLike[str] | None = None,
     mapping_override: dict[str, str] | None = None,
     prior_dir: str | os.PathLike[str] | None = None,
@@ -493,24 +427,21 @@ def train_ace(
     Returns:
         The retargeter's stage folder.
     """
-    if variant not in VARIANTS:
-        raise ConfigError(f"unknown ACE variant {variant!r}; expected one of: {', '.join(VARIANTS)}")
+    variant = AceVariant.parse(variant)
     run = Path(run_dir)
-    folder, use_fea, use_adv = VARIANTS[variant]
     # One process group for every stage under torchrun (a Run that created it would destroy it).
     init_distributed(device)
     data = prepare(run, creature, cfg, human_data=human_data, mapping_override=mapping_override, progress=progress,
                    log=log)
-    prior = Path(prior_dir) if prior_dir is not None else run / "prior"
     if prior_dir is not None and _main_process():
         # A shared prior is recorded, so retargeting with this run finds it.
-        meta = yaml.safe_load((run / META_FILE).read_text()) or {}
-        meta["prior_dir"] = os.fspath(prior.resolve())
-        atomic_write_text(run / META_FILE, yaml.safe_dump(meta, sort_keys=False))
+        artifact = AceArtifact.load(run)
+        artifact.prior_dir = os.fspath(Path(prior_dir).resolve())
+        artifact.save_meta(run)
+    prior = Path(prior_dir) if prior_dir is not None else run / PRIOR_STAGE
     log(f"motion prior: {prior}")
     vae = train_prior(prior, data, cfg, device=device, progress=progress)
-    stage = run / folder
-    log(f"retargeter ({variant}): {stage}")
-    train_retargeter(stage, data, vae, cfg, trainer=variant, device=device, progress=progress,
-                     use_feature_loss=use_fea, use_adversarial=use_adv)
+    stage = run / variant.folder
+    log(f"retargeter ({variant.value}): {stage}")
+    train_retargeter(stage, data, vae, cfg, variant=variant, device=device, progress=progress)
     return stage

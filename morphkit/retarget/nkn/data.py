@@ -37,6 +37,7 @@ from morphkit.retarget.nkn.skeleton import (
     topology_difference,
     with_offsets,
 )
+from morphkit.retarget.training_data import DataConfig, character_motions, split_evaluation_clips
 
 __all__ = [
     "Character",
@@ -119,7 +120,6 @@ def data_characters(human_data: HumanData, data: NknDataConfig, *, exclude_evalu
         MotionFormatError: no motion files, clips of several topologies in one folder, a folder of another
             topology without a link map, or only evaluation clips.
     """
-    from morphkit.retarget.ace.data import split_evaluation_clips
     from morphkit.retarget.nkn.mapping import find_link_map, map_motion
 
     template: Morphology | None = None
@@ -147,30 +147,21 @@ def data_characters(human_data: HumanData, data: NknDataConfig, *, exclude_evalu
 
 
 def _embedded_motion(frames: int, seed: int, fps: float) -> list[Motion]:
-    try:
-        from morphkit.synth import default_human_motion
-    except ImportError:  # an older morphkit.synth: the shipped human under the default synthesis
-        from morphkit.io import read_morphology
-        from morphkit.synth import synthesize
+    from morphkit.synth import default_human_motion
 
-        human = read_morphology("human")
-        return list(synthesize(human, frames=frames, seed=seed, fps=fps, progress=False).motions)
     return list(default_human_motion(frames=frames, seed=seed, fps=fps))
 
 
 def embedded_characters(data: NknDataConfig, *, progress: bool = False,
                         cache_dir: str | os.PathLike[str] | None = None) -> list[Character]:
     """The embedded default: the shipped human's synthesised motion and ``synth_variants`` moved variants."""
-    from morphkit.retarget.ace.config import DataConfig
-    from morphkit.retarget.ace.data import character_motions
-
     base = _group(_embedded_motion(data.human_frames, data.synth_seed, data.fps), "default_human", "synthesised")
     out = list(base)
     variants = random_variants(base[0].morphology, data.synth_variants, spread=data.variant_range,
                                seed=data.variant_seed + 100, prefix="default_human_moved")
     for v in variants:
-        ace = DataConfig(character_frames=data.synth_variant_frames, fps=data.fps, synth_seed=data.synth_seed)
-        out.append(Character(v, character_motions(v, ace, cache_dir=cache_dir, progress=progress), "synthesised"))
+        synth = DataConfig(character_frames=data.synth_variant_frames, fps=data.fps, synth_seed=data.synth_seed)
+        out.append(Character(v, character_motions(v, synth, cache_dir=cache_dir, progress=progress), "synthesised"))
     return out
 
 
@@ -197,8 +188,6 @@ def evaluation_clips(human_data: HumanData | None, data: NknDataConfig, *,
     holds none of them), or embedded default clips of another seed."""
     if human_data is None:
         return _embedded_motion(max(data.human_frames // 4, 2 * data.test_frames), data.synth_seed + 1000, data.fps)
-    from morphkit.retarget.ace.data import split_evaluation_clips
-
     motions = load_motions(as_folders(human_data)[0], cache_dir=cache_dir, fps=data.fps)
     _, held = split_evaluation_clips(motions)
     return held or motions

@@ -240,7 +240,7 @@ def compare_with_baseline(retargeter: NknRetargeter, clips: Sequence[Motion],
     rows = [score("source", clips[0].morphology, True, clips, clips)]
     plots: list[Path] = []
     for target, seen in targets:
-        nkn = retargeter.retarget(clips, target)
+        nkn = [r.motion for r in retargeter.retarget(clips, target)]
         cycles = retargeter.cycle(clips, target)
         copy = [copy_rotations(c, target) for c in clips]
         rows.append(score("NKN", target, seen, clips, nkn, cycles))

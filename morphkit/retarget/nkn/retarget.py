@@ -1,6 +1,7 @@
 """Retargeting with a trained NKN run, and the copy-rotations baseline (§5 "Baseline methods").
 
-:class:`NknRetargeter` loads a run folder and retargets clips online (the encoder and decoder are
+:class:`NknRetargeter` (a :class:`~morphkit.retarget.retargeter.Retargeter`) loads a run folder and
+retargets clips online (the encoder and decoder are
 causal: frame ``t`` depends on frames ``≤ t`` only). The network's local output is placed in the
 world by integrating its global motion (:func:`~.features.integrate_global_motion`) from where the
 source clip starts (its root's ground position and heading). The release's test-time fix-ups (the
@@ -23,17 +24,19 @@ import yaml
 
 from morphkit.errors import ConfigError, MotionFormatError, RunError, SourceLocation
 from morphkit.graph import BaseType, JointType, Morphology
-from morphkit.io import read_morphology
-from morphkit.motion import Motion, NormStats
+from morphkit.motion import Motion
 from morphkit.retarget.checkpoint import load_checkpoint
 from morphkit.retarget.config import read_config
+from morphkit.retarget.nkn.checkpoint import NknArtifact
 from morphkit.retarget.nkn.config import NknConfig
 from morphkit.retarget.nkn.features import global_motion, integrate_global_motion, local_positions
 from morphkit.retarget.nkn.fk import SkeletonFK
 from morphkit.retarget.nkn.model import GeneratorOutput
 from morphkit.retarget.nkn.skeleton import bone_offsets, check_same_topology
-from morphkit.retarget.nkn.train import META_FILE, build_networks, cpu_threads
+from morphkit.retarget.nkn.train import TRAINERS, build_networks, cpu_threads
+from morphkit.retarget.retargeter import RetargetedClip
 from morphkit.retarget.run import CHECKPOINT_FILE, CONFIG_FILE, RUN_FILE
+from morphkit.retarget.training_data import DataConfig
 from morphkit.rotations import quat_from_yaw, quat_multiply, quat_normalize, yaw_from_quat
 
 __all__ = ["NknRetargeter", "copy_rotations", "world_motion"]
@@ -101,24 +104,27 @@ class NknRetargeter:
                  threads: int | None = 1) -> None:
         self.dir = Path(run_dir)
         self.threads = threads
-        self.meta = yaml.safe_load(_need(self.dir / META_FILE).read_text()) or {}
+        self.artifact = NknArtifact.load(self.dir)
         trainer = str((yaml.safe_load(_need(self.dir / RUN_FILE).read_text()) or {}).get("trainer", ""))
-        if not trainer.startswith("nkn"):
+        if trainer not in TRAINERS:
             raise RunError(f"run of trainer {trainer!r}, not NKN", location=SourceLocation(str(self.dir / RUN_FILE)))
-        self.mode = str(self.meta["mode"])
-        self.fps = float(self.meta["fps"])
+        self.mode = self.artifact.mode
+        self.fps = self.artifact.fps
         self.device = torch.device(device)
         self.config = read_config(NknConfig, _need(self.dir / CONFIG_FILE))
-        self.template = read_morphology(_need(self.dir / "template.yaml"))
-        self.skeletons: dict[str, Morphology] = {
-            c["name"]: read_morphology(_need(self.dir / "skeletons" / f"{c['name']}.yaml"))
-            for c in self.meta["characters"]}
+        self.template = self.artifact.template
+        self.skeletons: dict[str, Morphology] = dict(self.artifact.skeletons)
         """The training characters' skeletons by name (the *seen* characters)."""
-        self.creature: Morphology | None = None
-        stats = [NormStats.load(_need(self.dir / f)) for f in ("source_features.npz", "source_offsets.npz")]
-        if self.mode == "cross":
-            self.creature = read_morphology(_need(self.dir / "creature.yaml"))
-            stats += [NormStats.load(_need(self.dir / f)) for f in ("target_features.npz", "target_offsets.npz")]
+        self.creature: Morphology | None = self.artifact.creature
+        self.label = "NKN"
+        self.pairing = None
+        nd = self.config.data
+        self.data = DataConfig(character_frames=nd.character_frames, fps=self.fps, synth_seed=nd.synth_seed,
+                               human_frames=nd.human_frames)
+        self.human_data: str | None = (self.artifact.human_data or [None])[0]
+        stats = [self.artifact.source_features, self.artifact.source_offsets]
+        if self.creature is not None:
+            stats += [self.artifact.target_features, self.artifact.target_offsets]
         nets = build_networks(self.config, self.template, stats[0], stats[1], self.creature,
                               *(stats[2:] if self.creature is not None else ()))
         states = load_checkpoint(_need(self.dir / CHECKPOINT_FILE))["states"]
@@ -171,18 +177,20 @@ class NknRetargeter:
             return self.generator(x, off.expand(x.shape[0], -1, -1)), lengths
 
     def retarget(self, clips: Sequence[Motion], target: Morphology | str | None = None, *,
-                 batch_size: int = 32) -> list[Motion]:
+                 batch_size: int = 32) -> list[RetargetedClip]:
         """Retarget clips of the run's source topology onto ``target`` (a skeleton of that topology,
         the name of a training character, or the run's creature; default: the template / creature).
+        Clips at another frame rate are resampled to the run's.
 
         Raises:
             ConfigError: no clips, or an unknown target name.
-            MotionFormatError: a clip or target of another topology, or another frame rate.
+            MotionFormatError: a clip or target of another topology.
         """
         if not clips:
             raise ConfigError("no clips to retarget")
         tgt = self._target(target)
-        out: list[Motion] = []
+        clips = [c if abs(c.fps - self.fps) < 1e-6 else c.resample(self.fps) for c in clips]
+        out: list[RetargetedClip] = []
         for lo in range(0, len(clips), batch_size):
             batch = list(clips[lo : lo + batch_size])
             result, lengths = self._run(batch, tgt)
@@ -190,8 +198,9 @@ class NknRetargeter:
             v = result.v.double().cpu().numpy()
             for i, (clip, n) in enumerate(zip(batch, lengths, strict=True)):
                 root = clip.root_pose()[0]
-                out.append(world_motion(tgt, q[i, :n], v[i, :n], self.fps, start_xy=(root[0], root[1]),
-                                        start_yaw=float(yaw_from_quat(root[3:])), name=f"{clip.name}_nkn_{tgt.name}"))
+                motion = world_motion(tgt, q[i, :n], v[i, :n], self.fps, start_xy=(root[0], root[1]),
+                                      start_yaw=float(yaw_from_quat(root[3:])), name=f"{clip.name}_nkn_{tgt.name}")
+                out.append(RetargetedClip(clip, motion))
         return out
 
     @torch.no_grad()

@@ -15,15 +15,8 @@ G's loss: cycle + same-skeleton square loss + λ·twist + ω·smoothing + β·ad
 only while the running mean of $g(\\hat x^B)$ (decay 0.99, from 0.5) is above 0.3 (App. E, as the
 release). Both networks: Adam (β1 = 0.5), gradients clipped at global norm 25.
 
-A run folder::
-
-    nkn.yaml                mode, data source, characters (checked on reopen)
-    template.yaml           the source topology's template skeleton
-    skeletons/NAME.yaml     every training character's skeleton
-    creature.yaml           cross mode: the target creature
-    source_features.npz  source_offsets.npz      normalisation of the source side
-    target_features.npz  target_offsets.npz      cross mode: of the creature side
-    run.yaml config.yaml checkpoint.pt metrics.csv tensorboard/    the Run (trainer "nkn" or "nkn-cross")
+The run folder's files are :class:`~.checkpoint.NknArtifact`'s (written here once, by :func:`prepare`), beside
+the training Run's (trainer ``nkn`` or ``nkn-cross``).
 
 Re-running the same command resumes exactly (:class:`~morphkit.retarget.run.Run`).
 """
@@ -40,13 +33,11 @@ from typing import Any
 
 import numpy as np
 import torch
-import yaml
 
-from morphkit._atomic import atomic_write_text
 from morphkit.errors import ConfigError, RunError, SourceLocation
 from morphkit.graph import Morphology
-from morphkit.io import write_morphology
 from morphkit.motion import NormStats
+from morphkit.retarget.nkn.checkpoint import META_FILE, NknArtifact
 from morphkit.retarget.nkn.config import NknConfig
 from morphkit.retarget.nkn.data import Character, ClipBank, HumanData, as_folders, offset_stats, training_characters
 from morphkit.retarget.nkn.losses import (
@@ -58,11 +49,14 @@ from morphkit.retarget.nkn.losses import (
 )
 from morphkit.retarget.nkn.model import NknDiscriminator, NknGenerator, Side, motion_differences
 from morphkit.retarget.run import Run
+from morphkit.retarget.training_data import DataConfig, character_motions
 
-__all__ = ["META_FILE", "NknSetup", "build_networks", "cpu_threads", "prepare", "train_nkn"]
+__all__ = ["TRAINERS", "NknSetup", "build_networks", "cpu_threads", "prepare", "train_nkn"]
 
-META_FILE = "nkn.yaml"
-"""The NKN part of a run folder's identity."""
+
+
+TRAINERS = ("nkn", "nkn-cross")
+"""Trainer names of the two modes' Runs (same-topology, cross-morphology)."""
 
 
 @dataclass(eq=False)
@@ -123,14 +117,13 @@ def prepare(
     """
     run = Path(run_dir)
     mode = "skeletons" if creature is None else "cross"
-    meta_path = run / META_FILE
-    if meta_path.is_file():
-        meta = yaml.safe_load(meta_path.read_text()) or {}
+    meta = NknArtifact.header(run)
+    if meta is not None:
         mine = None if creature is None else creature.name
         if meta.get("mode") != mode or meta.get("creature") != mine:
             raise RunError(f"run folder is an NKN {meta.get('mode')} run (creature {meta.get('creature')!r}), "
                            f"not {mode} (creature {mine!r}); use another run folder",
-                           location=SourceLocation(str(meta_path)))
+                           location=SourceLocation(str(run / META_FILE)))
     characters = training_characters(human_data, cfg.data, progress=progress, log=log)
     if creature is not None:  # cross mode: sources are the characters with motion only
         characters = [c for c in characters if c.clips]
@@ -142,39 +135,23 @@ def prepare(
         f"{source.x.shape[0]} frames), {len(characters) - len(with_clips)} target-only variants")
     setup = NknSetup(mode, template, characters, source, feats, offs)
     if creature is not None:
-        from morphkit.retarget.ace.config import DataConfig
-        from morphkit.retarget.ace.data import character_motions
-
         log(f"creature data: synthesising {cfg.data.character_frames} frames of {creature.name} (cached)")
-        ace = DataConfig(character_frames=cfg.data.character_frames, fps=cfg.data.fps, synth_seed=cfg.data.synth_seed)
-        target = Character(creature, character_motions(creature, ace, cache_dir=cache_dir, progress=progress),
+        synth = DataConfig(character_frames=cfg.data.character_frames, fps=cfg.data.fps,
+                           synth_seed=cfg.data.synth_seed)
+        target = Character(creature, character_motions(creature, synth, cache_dir=cache_dir, progress=progress),
                            "creature")
         setup.creature = target
         setup.target = ClipBank([target], creature, cfg.clip_frames, fk_backend=cfg.fk_backend)
         setup.target_features = setup.target.stats(min_std=cfg.feature_min_std)
         setup.target_offsets = offset_stats([target], min_std=cfg.offset_min_std)
     if _main_process():
-        (run / "skeletons").mkdir(parents=True, exist_ok=True)
-        write_morphology(template, run / "template.yaml")
-        for c in characters:
-            write_morphology(c.morphology, run / "skeletons" / f"{c.name}.yaml")
-        feats.save(run / "source_features.npz")
-        offs.save(run / "source_offsets.npz")
-        if setup.creature is not None:
-            write_morphology(creature, run / "creature.yaml")  # type: ignore[arg-type]
-            setup.target_features.save(run / "target_features.npz")  # type: ignore[union-attr]
-            setup.target_offsets.save(run / "target_offsets.npz")  # type: ignore[union-attr]
-        meta = {
-            "mode": mode,
-            "creature": None if creature is None else creature.name,
-            "human_data": [os.fspath(f) for f in as_folders(human_data)] or None,
-            "fps": float(cfg.data.fps),
-            "template": template.name,
-            "characters": [{"name": c.name, "origin": c.origin, "clips": len(c.clips),
-                            "frames": int(sum(m.frame_count for m in c.clips)),
-                            "leg_length": float(c.morphology.leg_length)} for c in characters],
-        }
-        atomic_write_text(meta_path, yaml.safe_dump(meta, sort_keys=False))
+        NknArtifact(mode, template, {c.name: c.morphology for c in characters}, feats, offs, float(cfg.data.fps),
+                    [os.fspath(f) for f in as_folders(human_data)] or None,
+                    [{"name": c.name, "origin": c.origin, "clips": len(c.clips),
+                      "frames": int(sum(m.frame_count for m in c.clips)),
+                      "leg_length": float(c.morphology.leg_length)} for c in characters],
+                    creature=None if setup.creature is None else creature,
+                    target_features=setup.target_features, target_offsets=setup.target_offsets).save(run)
     return setup
 
 
@@ -242,7 +219,7 @@ def train_nkn(
 def _train(run: Path, cfg: NknConfig, human_data: HumanData | None, creature: Morphology | None,
            device: str | torch.device | None, progress: bool, log: Callable[[str], None]) -> Path:
     setup = prepare(run, cfg, human_data=human_data, creature=creature, progress=progress, log=log)
-    trainer = "nkn" if creature is None else "nkn-cross"
+    trainer = TRAINERS[0] if creature is None else TRAINERS[1]
     log(f"training {trainer}: {run}")
     with Run(run, trainer=trainer, config=cfg, creature=None if creature is None else creature.name, seed=cfg.seed,
              device=device, progress=progress) as r:

@@ -1,4 +1,5 @@
-"""ACE's training data: the character's synthesised motion and the human's motion, as state windows.
+"""The data every trainer reads, owned by none of them: the character's synthesised motion, the
+human's motion, the documented evaluation split, and state windows over clips.
 
 The character's data set is synthesised from its graph (:mod:`morphkit.synth`, §7.1: random
 commands over its speed range) and cached by content hash (the morphology, frame count, frame
@@ -25,9 +26,9 @@ from morphkit.errors import ConfigError, MotionFormatError, SourceLocation
 from morphkit.graph import Morphology
 from morphkit.motion import Motion, NormStats, load_motions
 from morphkit.motion.datasets import default_cache_dir
-from morphkit.retarget.ace.config import DataConfig
 
 __all__ = [
+    "DataConfig",
     "StateWindows",
     "character_motions",
     "evaluation_clips",
@@ -35,6 +36,21 @@ __all__ = [
     "human_motions",
     "split_evaluation_clips",
 ]
+
+
+@dataclass(frozen=True)
+class DataConfig:
+    """Where the training states come from."""
+
+    character_frames: int = 200_000
+    """Synthesised character frames (§7.1: 200k states per character)."""
+    fps: float = 30.0
+    """Frame rate of both data sets [1/s] (human clips are resampled to it)."""
+    synth_seed: int = 0
+    """Seed of the character's synthesis."""
+    human_frames: int = 6_000
+    """Frames of the embedded default human motion (used when no human data is given)."""
+
 
 
 def evaluation_split() -> tuple[str, ...]:

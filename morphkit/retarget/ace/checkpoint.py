@@ -1,0 +1,179 @@
+"""What a trained ACE run folder holds, and the only place its file names are spelled.
+
+An ACE run folder::
+
+    ace.yaml               creature, human data, body lengths, data configuration, mapping, shared prior
+    creature.yaml          the character's description (so the run retargets without the original file)
+    stats_character.npz    normalisation of x^r        stats_human.npz   normalisation of x^h
+    mapping.json           end-effector mapping (Eq. 11) with every KL value
+    start_states.npz       character states a retargeting rollout may start from, with their Ψ
+    prior/                 the motion prior's Run folder (trainer "ace-prior")
+    retarget*/             one Run folder per retargeter variant (:class:`~.config.AceVariant`)
+
+:class:`AceArtifact` is written once by training (:func:`~.train.prepare`) and read by
+retargeting, evaluation and the examples; nothing else opens these files. The pattern is Brax's
+``training/agents/ppo/checkpoint.py``: the checkpoint carries what is needed to use it.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from morphkit._atomic import atomic_path, atomic_write_text
+from morphkit.errors import RunError, SourceLocation
+from morphkit.graph import Morphology
+from morphkit.io import read_morphology, write_morphology
+from morphkit.motion import NormStats, Pairing
+from morphkit.retarget.training_data import DataConfig
+
+__all__ = ["META_FILE", "PRIOR_STAGE", "AceArtifact"]
+
+META_FILE = "ace.yaml"
+"""The file that makes a folder an ACE run."""
+PRIOR_STAGE = "prior"
+"""The motion prior's stage folder inside the run (unless the run shares another run's prior)."""
+_CREATURE = "creature.yaml"
+_CHARACTER_STATS = "stats_character.npz"
+_HUMAN_STATS = "stats_human.npz"
+_MAPPING = "mapping.json"
+_START_STATES = "start_states.npz"
+
+
+def _need(path: Path) -> Path:
+    if not path.exists():
+        raise RunError(f"not an ACE run folder: {path.name} is missing", location=SourceLocation(str(path.parent)))
+    return path
+
+
+def _read_meta(run: Path) -> dict[str, Any]:
+    path = _need(run / META_FILE)
+    try:
+        return yaml.safe_load(path.read_text(encoding="utf-8")) or {}
+    except (OSError, yaml.YAMLError) as exc:
+        raise RunError(f"cannot read it: {exc}", location=SourceLocation(str(path))) from exc
+
+
+@dataclass(eq=False)
+class AceArtifact:
+    """Everything a trained ACE run needs besides its networks' checkpoints."""
+
+    creature: Morphology
+    character_stats: NormStats
+    """Normalisation of the character's states x^r."""
+    human_stats: NormStats
+    """Normalisation of the human's states x^h."""
+    pairing: Pairing
+    """Ψ's end-effector pairs and body lengths (Eq. 9–11)."""
+    mapping: dict[str, Any]
+    """The end-effector mapping with its evidence (:meth:`~morphkit.motion.EndEffectorMapping.to_json`)."""
+    start_states: np.ndarray
+    """[N, Sr] denormalised character states a retargeting rollout may start from."""
+    start_psi: np.ndarray
+    """[N, 11 + 3k] their Ψ (creature side of :attr:`pairing`)."""
+    data: DataConfig
+    """Frames, frame rate and seed of the character's synthesised data set."""
+    human_data: str | None
+    """The human data folder trained on (``None``: the embedded default human motion)."""
+    human_skeleton: str
+    """Name of the human data's skeleton."""
+    prior_dir: str | None = None
+    """Another run's prior stage this run shares (``None``: its own ``prior/``)."""
+    extra: dict[str, Any] = field(default_factory=dict)
+    """Other keys of ``ace.yaml``, kept as they are."""
+
+    @property
+    def fps(self) -> float:
+        """Frame rate of the run's states [1/s]."""
+        return float(self.data.fps)
+
+    @staticmethod
+    def is_run(path: str | os.PathLike[str]) -> bool:
+        """Whether ``path`` is an ACE run folder."""
+        return (Path(path) / META_FILE).is_file()
+
+    @staticmethod
+    def creature_name(run_dir: str | os.PathLike[str]) -> str | None:
+        """The creature an existing run folder was prepared for (``None``: no run there yet)."""
+        run = Path(run_dir)
+        return str(_read_meta(run).get("creature")) if AceArtifact.is_run(run) else None
+
+    def prior_stage(self, run_dir: str | os.PathLike[str]) -> Path:
+        """The prior's stage folder of the run at ``run_dir``."""
+        return Path(self.prior_dir) if self.prior_dir else Path(run_dir) / PRIOR_STAGE
+
+    def _meta(self) -> dict[str, Any]:
+        meta: dict[str, Any] = {
+            "creature": self.creature.name,
+            "human_data": self.human_data,
+            "human_skeleton": self.human_skeleton,
+            "creature_body_length": self.pairing.creature_length,
+            "human_body_length": self.pairing.human_length,
+            "fps": float(self.data.fps),
+            "data": {"character_frames": self.data.character_frames, "synth_seed": self.data.synth_seed,
+                     "human_frames": self.data.human_frames},
+            "mapping": self.pairing.mapping,
+        }
+        if self.prior_dir is not None:
+            meta["prior_dir"] = self.prior_dir
+        return {**self.extra, **meta}
+
+    def save(self, run_dir: str | os.PathLike[str]) -> None:
+        """Write every file into ``run_dir`` (atomically, file by file; ``ace.yaml`` last)."""
+        run = Path(run_dir)
+        run.mkdir(parents=True, exist_ok=True)
+        write_morphology(self.creature, run / _CREATURE)
+        self.character_stats.save(run / _CHARACTER_STATS)
+        self.human_stats.save(run / _HUMAN_STATS)
+        atomic_write_text(run / _MAPPING, json.dumps(self.mapping, indent=1))
+        with atomic_path(run / _START_STATES) as tmp, open(tmp, "wb") as f:
+            np.savez(f, states=self.start_states, psi=self.start_psi)
+        self.save_meta(run)
+
+    def save_meta(self, run_dir: str | os.PathLike[str]) -> None:
+        """Rewrite ``ace.yaml`` only (e.g. after :attr:`prior_dir` changed)."""
+        atomic_write_text(Path(run_dir) / META_FILE, yaml.safe_dump(self._meta(), sort_keys=False))
+
+    @staticmethod
+    def load(run_dir: str | os.PathLike[str]) -> AceArtifact:
+        """Read an ACE run folder.
+
+        Raises:
+            RunError: a folder that is not an ACE run, or one with a file missing.
+        """
+        run = Path(run_dir)
+        meta = _read_meta(run)
+        try:
+            d = meta.get("data") or {}
+            data = DataConfig(character_frames=int(d.get("character_frames", DataConfig.character_frames)),
+                              fps=float(meta["fps"]), synth_seed=int(d.get("synth_seed", 0)),
+                              human_frames=int(d.get("human_frames", DataConfig.human_frames)))
+            mapping = json.loads(_need(run / _MAPPING).read_text())
+            pairing = Pairing.from_mapping(mapping["mapping"], float(meta["creature_body_length"]),
+                                           float(meta["human_body_length"]))
+        except (KeyError, TypeError, ValueError) as exc:
+            raise RunError(f"damaged ACE run folder: {exc!r}", location=SourceLocation(str(run / META_FILE))) from exc
+        with np.load(_need(run / _START_STATES)) as f:
+            states, psi = f["states"], f["psi"]
+        known = {"creature", "human_data", "human_skeleton", "creature_body_length", "human_body_length", "fps",
+                 "data", "mapping", "prior_dir"}
+        return AceArtifact(
+            creature=read_morphology(_need(run / _CREATURE)),
+            character_stats=NormStats.load(_need(run / _CHARACTER_STATS)),
+            human_stats=NormStats.load(_need(run / _HUMAN_STATS)),
+            pairing=pairing,
+            mapping=mapping,
+            start_states=states,
+            start_psi=psi,
+            data=data,
+            human_data=meta.get("human_data"),
+            human_skeleton=str(meta.get("human_skeleton", "")),
+            prior_dir=meta.get("prior_dir"),
+            extra={k: v for k, v in meta.items() if k not in known},
+        )
