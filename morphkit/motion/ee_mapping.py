@@ -18,7 +18,10 @@ paper's KL-only rule stays available): a foot goes to a human foot, a head to th
 tool to a hand, and KL chooses within the role — across all roles only where the human has none
 of that role. Within a role the choice is one assignment of least total KL in which no human
 end-effector takes two creature end-effectors while another of that role is free (two creature
-hands go to both human hands; four feet share two, two each or three and one as KL prefers).
+hands go to both human hands; four feet share two, two each or three and one as KL prefers). Within
+a role, KL is taken between distributions centred on their role group's mean, and left goes to left
+(:func:`map_end_effectors`; ours, so that a crab's claws, far outside any human wrist, map by how
+they move and to their own side).
 """
 
 from __future__ import annotations
@@ -265,7 +268,7 @@ def map_end_effectors(
     paper = {c: override.get(c, min(row, key=row.__getitem__)) for c, row in kl.items()}
     if roles is None:
         return EndEffectorMapping(dict(paper), kl, frozenset(override), "kl", paper)
-    by_role = _assign_by_role(kl, roles, override)
+    by_role = _assign_by_role(kl, roles, override, creature, human)
     role_names = {c: _role_name(roles[0][c]) for c in kl if c in roles[0]}
     rule, chosen = ("kl", paper) if kl_only else ("roles", by_role)
     return EndEffectorMapping(dict(chosen), kl, frozenset(override), rule, paper, by_role, role_names)
@@ -280,12 +283,38 @@ def _role_group(role: Any) -> str:
     return "hand" if name in ("hand", "tool") else name
 
 
+SIDE_TOLERANCE = 0.05
+"""An end-effector whose mean lateral coordinate (heading frame, body lengths) is beyond ±this is on
+the left (+y) or the right (−y); within it, in the middle (ours)."""
+SIDE_PENALTY = 1e6
+"""Added to the assignment cost of a left end-effector on a right one (or the reverse): chosen only
+where no end-effector of its own side or the middle is left."""
+
+
+def _side(g: Gaussian) -> int:
+    y = float(g.mean[1])
+    return 0 if abs(y) <= SIDE_TOLERANCE else (1 if y > 0 else -1)
+
+
+def _shifted(g: Gaussian, offset: np.ndarray) -> Gaussian:
+    return Gaussian(g.mean - offset, g.cov, g.count)
+
+
 def _assign_by_role(
     kl: Mapping[str, Mapping[str, float]],
     roles: tuple[Mapping[str, Any], Mapping[str, Any]],
     override: Mapping[str, str],
+    creature: Mapping[str, Gaussian],
+    human: Mapping[str, Gaussian],
 ) -> dict[str, str]:
-    """The role-aware mapping (module docstring): one least-total-KL assignment per role group."""
+    """The role-aware mapping (module docstring): one least-total-cost assignment per role group.
+
+    Within a group the cost is KL between the distributions **centred on their group's mean** (each
+    side's members' means averaged), so a creature whose claws sit far outside the human's wrists is
+    mapped by how its end-effectors spread and move, not by which human one happens to lie nearer;
+    and a left end-effector goes to a left one (:data:`SIDE_TOLERANCE`, :data:`SIDE_PENALTY`), so a
+    mirror-symmetric creature maps mirror-symmetrically. Overrides always win.
+    """
     from scipy.optimize import linear_sum_assignment
 
     creature_roles, human_roles = roles
@@ -301,21 +330,28 @@ def _assign_by_role(
         candidates = [h for h in humans if h in human_roles and _role_group(human_roles[h]) == group] or humans
         taken = {override[c] for c in members if c in override}
         out.update({c: override[c] for c in members if c in override})
+        c_mid = np.mean([creature[c].mean for c in members], axis=0)
+        h_mid = np.mean([human[h].mean for h in candidates], axis=0)
         members = [c for c in members if c not in override]
         free = [h for h in candidates if h not in taken] or candidates
         if not members:
             continue
-        cost = np.array([[kl[c][h] for h in free] for c in members])
+
+        def cost_of(c: str, h: str, c_mid: np.ndarray = c_mid, h_mid: np.ndarray = h_mid) -> float:
+            centred = kl_divergence(_shifted(creature[c], c_mid), _shifted(human[h], h_mid))
+            return centred + (SIDE_PENALTY if _side(creature[c]) * _side(human[h]) < 0 else 0.0)
+
+        cost = np.array([[cost_of(c, h) for h in free] for c in members])
         extra = len(members) - len(free)
         if extra > 0:
-            # Every free end-effector takes one creature end-effector; the rest go wherever KL
+            # Every free end-effector takes one creature end-effector; the rest go wherever the cost
             # is least among the candidates (extra columns costing each row's best).
-            best = np.array([min(kl[c][h] for h in candidates) for c in members])
+            best = np.array([min(cost_of(c, h) for h in candidates) for c in members])
             cost = np.concatenate([cost, np.repeat(best[:, None], extra, axis=1)], axis=1)
         rows, cols = linear_sum_assignment(cost)
         for r, k in zip(rows, cols, strict=True):
             c = members[r]
-            out[c] = free[k] if k < len(free) else min(candidates, key=kl[c].__getitem__)
+            out[c] = free[k] if k < len(free) else min(candidates, key=lambda h, c=c: cost_of(c, h))
     return {c: out[c] for c in kl}
 
 

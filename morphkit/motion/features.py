@@ -22,6 +22,7 @@ human's end-effectors in the order the mapping pairs them with the creature's.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -73,7 +74,18 @@ def _cat(parts: list[Any]) -> Any:
     return torch.cat(parts, dim=-1)
 
 
-def features(state: Any, layout: StateLayout, *, length: float, ee_names: Sequence[str] | None = None) -> Any:
+def _centred(ee: Any, centre: Sequence[float] | None) -> Any:
+    if centre is None:
+        return ee
+    if isinstance(ee, np.ndarray):
+        return ee - np.asarray(centre, dtype=ee.dtype)
+    import torch
+
+    return ee - torch.as_tensor(centre, dtype=ee.dtype, device=ee.device)
+
+
+def features(state: Any, layout: StateLayout, *, length: float, ee_names: Sequence[str] | None = None,
+             centre: Sequence[float] | None = None) -> Any:
     """Ψ of states (see the module docstring).
 
     Args:
@@ -81,6 +93,8 @@ def features(state: Any, layout: StateLayout, *, length: float, ee_names: Sequen
         layout: The states' layout (human or character).
         length: Body length [m] the lengths are divided by.
         ee_names: End-effectors to include, in this order (default: all, in layout order).
+        centre: Subtracted from the end-effector block after dividing by ``length`` [3 k] (the side's
+            mean over its own data set: :attr:`Pairing.creature_centre`); ``None``: not centred.
 
     Returns:
         [..., 11 + 3 k] features, same type as ``state``.
@@ -97,13 +111,14 @@ def features(state: Any, layout: StateLayout, *, length: float, ee_names: Sequen
         state[..., layout.slice("root_orientation")],
         state[..., layout.slice("root_linear_velocity")] * inv,
         state[..., layout.slice("root_angular_velocity")],
-        state[..., cols] * inv,
+        _centred(state[..., cols] * inv, centre),
     ]
     return _cat(parts)
 
 
 def motion_features(
-    motion: Motion, *, ee_names: Sequence[str] | None = None, length: float | None = None
+    motion: Motion, *, ee_names: Sequence[str] | None = None, length: float | None = None,
+    centre: Sequence[float] | None = None,
 ) -> np.ndarray:
     """Ψ of every frame of a motion, shape [T, 11 + 3 k].
 
@@ -112,11 +127,12 @@ def motion_features(
         ee_names: End-effectors to include, in this order (default: all).
         length: Body length [m] (default: :func:`~morphkit.motion.scale.body_length` of the
             morphology, measured on this motion; pass one length for every clip of a data set).
+        centre: See :func:`features`.
     """
     layout = character_state_layout(motion.morphology)
     state = character_state_from_motion(motion)
     body = body_length(motion.morphology, motion) if length is None else length
-    return features(state, layout, length=body, ee_names=ee_names)
+    return features(state, layout, length=body, ee_names=ee_names, centre=centre)
 
 
 @dataclass(frozen=True)
@@ -136,6 +152,11 @@ class Pairing:
     """The creature's body length [m] (:func:`~morphkit.motion.scale.body_length` on its data set)."""
     human_length: float
     """The human's body length [m] (on the human data the run was trained on)."""
+    creature_centre: tuple[float, ...] | None = None
+    """Mean of the creature's Ψ end-effector block over its own data set [3k] (body lengths, heading
+    frame), subtracted from it (``None``: Ψ not centred, as the paper and runs before centring)."""
+    human_centre: tuple[float, ...] | None = None
+    """The same for the human side, over the human data."""
 
     def __post_init__(self) -> None:
         if len(self.creature_ees) != len(self.human_ees):
@@ -145,10 +166,34 @@ class Pairing:
         object.__setattr__(self, "human_ees", tuple(self.human_ees))
         object.__setattr__(self, "creature_length", float(self.creature_length))
         object.__setattr__(self, "human_length", float(self.human_length))
+        for name in ("creature_centre", "human_centre"):
+            value = getattr(self, name)
+            if value is not None:
+                value = tuple(float(v) for v in value)
+                if len(value) != 3 * len(self.creature_ees):
+                    raise ConfigError(f"Pairing.{name} needs {3 * len(self.creature_ees)} values, got {len(value)}")
+                object.__setattr__(self, name, value)
+
+    @property
+    def centred(self) -> bool:
+        """Whether both sides' end-effector blocks are centred."""
+        return self.creature_centre is not None and self.human_centre is not None
+
+    def with_centres(self, creature: Sequence[Motion], human: Sequence[Motion]) -> Pairing:
+        """This pairing centred on data sets: each side's mean end-effector block over its own motions.
+
+        Centring removes the floor that the two bodies' different stances put under the feature
+        loss (a quadruped's feet stand ahead of and behind its root, a human's under it): what is
+        compared is how end-effectors move about where they usually are.
+        """
+        plain = dataclasses.replace(self, creature_centre=None, human_centre=None)
+        c = np.concatenate([plain.creature_psi(m) for m in creature])[:, ROOT_FEATURE_DIM:].mean(axis=0)
+        h = np.concatenate([plain.human_psi(m) for m in human])[:, ROOT_FEATURE_DIM:].mean(axis=0)
+        return dataclasses.replace(self, creature_centre=tuple(c.tolist()), human_centre=tuple(h.tolist()))
 
     @staticmethod
     def from_mapping(mapping: Mapping[str, str], creature_length: float, human_length: float) -> Pairing:
-        """The pairing of ``{creature_ee: human_ee}`` (an :attr:`EndEffectorMapping.mapping`)."""
+        """The (uncentred) pairing of ``{creature_ee: human_ee}`` (an :attr:`EndEffectorMapping.mapping`)."""
         return Pairing(tuple(mapping), tuple(mapping.values()), creature_length, human_length)
 
     @property
@@ -158,9 +203,11 @@ class Pairing:
 
     def creature_psi(self, motion: Motion) -> np.ndarray:
         """Ψ of a creature motion's frames [T, 11 + 3k] (end-effectors through FK)."""
-        return motion_features(motion, ee_names=self.creature_ees, length=self.creature_length)
+        return motion_features(motion, ee_names=self.creature_ees, length=self.creature_length,
+                               centre=self.creature_centre)
 
     def human_psi(self, motion: Motion) -> np.ndarray:
         """Ψ of a human motion's frames [T, 11 + 3k], its end-effectors in the creature's order."""
         layout = human_state_layout(motion.morphology)
-        return features(human_state_from_motion(motion), layout, length=self.human_length, ee_names=self.human_ees)
+        return features(human_state_from_motion(motion), layout, length=self.human_length, ee_names=self.human_ees,
+                        centre=self.human_centre)

@@ -232,3 +232,25 @@ def test_roles_never_stack_two_on_one_while_another_is_free() -> None:
     # An override occupies its human end-effector: the other claw takes the free wrist.
     over = map_end_effectors(creature, human, roles=(c_roles, h_roles), override={"claw_b": "rwrist"})
     assert over.mapping["claw_b"] == "rwrist" and over.mapping["claw_a"] == "lwrist"
+
+
+def test_roles_map_a_mirror_symmetric_creature_mirror_symmetrically() -> None:
+    """A symmetric creature whose claws sit far outside the human's wrists and whose feet are wider than
+    the human's narrow left foot: KL alone sends left end-effectors to the broad right ones; within roles,
+    centred and side-aware, every left end-effector goes left and every right one right."""
+    rng = np.random.default_rng(11)
+    human = {"lwrist": fit_gaussian(rng.normal([0.1, 0.3, 0.0], 0.05, (3000, 3))),
+             "rwrist": fit_gaussian(rng.normal([0.1, -0.3, 0.0], 0.5, (3000, 3))),
+             "lfoot": fit_gaussian(rng.normal([0.0, 0.1, -1.0], 0.02, (3000, 3))),
+             "rfoot": fit_gaussian(rng.normal([0.0, -0.1, -1.0], 0.3, (3000, 3)))}
+    creature = {f"{side}_{part}": fit_gaussian(rng.normal([x, sign * y, z], s, (3000, 3)))
+                for side, sign in (("l", 1.0), ("r", -1.0))
+                for part, x, y, z, s in (("claw", 0.9, 0.7, -0.3, 0.08), ("front_foot", 0.5, 0.4, -1.0, 0.05),
+                                         ("hind_foot", -0.5, 0.4, -1.0, 0.05))}
+    paper = map_end_effectors(creature, human).mapping
+    assert paper["l_claw"] == "rwrist" and paper["l_front_foot"] == "rfoot"  # KL alone crosses sides
+    roles = ({c: "hand" if "claw" in c else "foot" for c in creature},
+             {"lwrist": "hand", "rwrist": "hand", "lfoot": "foot", "rfoot": "foot"})
+    got = map_end_effectors(creature, human, roles=roles).mapping
+    assert got == {"l_claw": "lwrist", "l_front_foot": "lfoot", "l_hind_foot": "lfoot",
+                   "r_claw": "rwrist", "r_front_foot": "rfoot", "r_hind_foot": "rfoot"}
