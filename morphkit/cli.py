@@ -31,6 +31,7 @@ COMMANDS = [
     "synth",
     "train",
     "retarget",
+    "contacts",
     "evaluate",
 ]
 """Subcommand modules under ``morphkit.commands``, in help order."""

@@ -43,10 +43,14 @@ from morphkit.synth.human import default_human_motion as default_human_motion
 from morphkit.synth.legged import LegConfig as LegConfig
 from morphkit.synth.locomotion_commands import COMMAND_NAMES as COMMAND_NAMES
 from morphkit.synth.locomotion_commands import CommandConfig as CommandConfig
+from morphkit.synth.replan import CONTACT_MODES as CONTACT_MODES
+from morphkit.synth.replan import apply_contacts as apply_contacts
+from morphkit.synth.replan import replan_legs as replan_legs
 
 __all__ = [
     "ACTION_NAMES",
     "COMMAND_NAMES",
+    "CONTACT_MODES",
     "ActionConfig",
     "ActionSpan",
     "ArmConfig",
@@ -59,10 +63,12 @@ __all__ = [
     "SynthResult",
     "SynthRig",
     "analyse",
+    "apply_contacts",
     "default_human_clips",
     "default_human_motion",
     "iter_synthesize",
     "prepare",
+    "replan_legs",
     "source_digest",
     "synthesize",
 ]

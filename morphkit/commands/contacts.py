@@ -1,0 +1,42 @@
+"""``morphkit contacts IN OUT [--mode replan]``: the contact-aware export applied to any creature motion file."""
+
+from __future__ import annotations
+
+import argparse
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "contacts",
+        help="re-step a legged creature's legs along a motion's own root path (stance feet planted)",
+        description=(
+            "Apply a contact-aware export to a creature motion (.npz or .usd[a|c], which carry their creature; "
+            "any retargeter's output or a file you made): replan re-steps the legs with the synthesis' footstep "
+            "planner along the motion's root path, keeping the base and every non-leg joint."
+        ),
+    )
+    p.add_argument("motion", metavar="IN", help="a creature motion file (.npz, .usda, .usdc, .usd)")
+    p.add_argument("out", metavar="OUT", help="output motion file (.npz, .bvh, .usd[a|c]) or robot commands (.csv)")
+    p.add_argument("--mode", default="replan", choices=("replan", "none"), help="the export (default replan)")
+    p.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from morphkit.errors import ConfigError
+    from morphkit.metrics import foot_contact_figures
+    from morphkit.motion import read_motion, write_motion_files
+    from morphkit.synth import apply_contacts
+
+    if Path(args.out).resolve() == Path(args.motion).resolve():
+        raise ConfigError(f"OUT is IN ({args.out}): write the export to another file, the input is kept")
+    motion = read_motion(args.motion)
+    out = apply_contacts(motion, args.mode)
+    target = Path(args.out)
+    (written,) = write_motion_files(out, target.with_suffix(""), [target.suffix])
+    before, after = foot_contact_figures(motion), foot_contact_figures(out)
+    print(f"{written}: {motion.frame_count} frames; foot sliding {100 * before.sliding_rate:.1f} % → "
+          f"{100 * after.sliding_rate:.1f} % of foot-frames, penetration {100 * before.penetration_rate:.1f} % → "
+          f"{100 * after.penetration_rate:.1f} %")
+    return 0

@@ -1,0 +1,122 @@
+"""Contact-aware export by re-planning: a motion's legs stepped again by the synthesis' footstep planner.
+
+A retargeted motion (ACE's, NKN's, any file's) keeps its root path, body height and tilt and every
+non-leg joint; its legs are replaced by what :class:`~morphkit.synth.legged.LeggedController` plans
+along that root path — stance feet fixed in the world until they lift, swing arcs between — solved
+by the same damped-least-squares IK as the synthesis. The retargeter decides *where the body goes*
+and what the arms do; the planner decides *where the feet go*, so a stance foot cannot slide.
+
+Choices that are ours (named here and in the docs):
+
+* the root's heading-frame velocity and yaw rate the planner is fed are the path's central
+  differences (one-sided at the ends), smoothed over ``smoothing_seconds``; the path beyond the last
+  frame holds still (the planner looks ahead to place touchdowns);
+* a leg IK warm-starts from the previous frame's solution (the first frame: the creature's stance
+  pose), never from the retargeter's leg angles, which are what is being replaced;
+* nothing but the legs moves: an arm or head the retargeter put through the ground stays there
+  (the upper body is the retargeter's to answer for).
+
+Creatures without legs (wheeled, planar, fixed bases, gliders) come back unchanged.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from morphkit.errors import ConfigError
+from morphkit.motion.motion import Motion
+from morphkit.rotations import yaw_from_quat
+from morphkit.synth.core import SynthConfig, prepare
+from morphkit.synth.legged import LeggedController
+from morphkit.synth.wheeled import Locomotion
+
+__all__ = ["CONTACT_MODES", "apply_contacts", "replan_legs"]
+
+CONTACT_MODES = ("none", "replan")
+"""Contact-aware export modes: ``none`` (the retargeter's raw output, the paper's), ``replan`` (:func:`replan_legs`)."""
+
+
+def _smooth(x: np.ndarray, frames: int) -> np.ndarray:
+    """Centred moving average over ``2 frames + 1`` samples along axis 0 (edges: shrinking window)."""
+    if frames <= 0 or len(x) < 3:
+        return x
+    c = np.cumsum(np.concatenate([np.zeros((1, *x.shape[1:])), x]), axis=0)
+    n = len(x)
+    lo = np.clip(np.arange(n) - frames, 0, n)
+    hi = np.clip(np.arange(n) + frames + 1, 0, n)
+    return (c[hi] - c[lo]) / (hi - lo).reshape(-1, *([1] * (x.ndim - 1)))
+
+
+def replan_legs(motion: Motion, *, config: SynthConfig | None = None, smoothing_seconds: float = 0.1) -> Motion:
+    """``motion`` with its legs re-planned along its own root path (see the module docstring).
+
+    Args:
+        motion: A motion of a legged creature (floating base).
+        config: Synthesis configuration (leg parameters, IK iterations; default :class:`SynthConfig`).
+        smoothing_seconds: Half-width of the moving average on the velocities fed to the planner [s].
+
+    Returns:
+        A motion of the same creature, frame rate and length: base coordinates and non-leg joints
+        bit-identical to ``motion``'s, leg joints re-solved.
+    """
+    m = motion.morphology
+    rig = prepare(m, fps=motion.fps, config=config)
+    if rig.locomotion != Locomotion.LEGGED or rig.legs is None or motion.frame_count == 0:
+        return motion
+    cfg = rig.config
+    fps = motion.fps
+    T = motion.frame_count
+    root = motion.root_pose()
+    xy = root[:, :2]
+    yaw = np.unwrap(np.asarray(yaw_from_quat(root[:, 3:]), dtype=float))
+    # velocities the planner needs: world → heading frame, smoothed
+    d_xy = np.gradient(xy, axis=0) * fps if T > 1 else np.zeros_like(xy)
+    w = np.gradient(yaw) * fps if T > 1 else np.zeros(T)
+    c, s = np.cos(yaw), np.sin(yaw)
+    v = np.stack([c * d_xy[:, 0] + s * d_xy[:, 1], -s * d_xy[:, 0] + c * d_xy[:, 1]], axis=-1)
+    k = round(smoothing_seconds * fps)
+    v, w = _smooth(v, k), _smooth(w, k)
+    pad = int(np.ceil(cfg.look_ahead_seconds * fps))
+    path_xy = np.concatenate([xy, np.repeat(xy[-1:], pad, axis=0)])[None]
+    path_yaw = np.concatenate([yaw, np.repeat(yaw[-1:], pad)])[None]
+    solver = rig.solver
+    legs = LeggedController(rig.legs, cfg.legs, fps, path_xy[:, 0], path_yaw[:, 0])
+    leg_mask = solver.leg_mask
+    nb = m.base_coordinate_count
+    leg_coords = np.zeros(m.coordinate_count, dtype=bool)
+    # the IK mask is over DoFs; map it onto coordinates through the joints it touches
+    qd, qs = m.joint_qd_start, m.joint_q_start
+    for j in range(len(m.joints)):
+        if leg_mask[qd[j]:qd[j + 1]].any():
+            leg_coords[qs[j]:qs[j + 1]] = True
+    leg_coords[:nb] = False
+    out = np.array(motion.q, dtype=float, copy=True)
+    q_legs = np.array(rig.q_stance, dtype=float)[leg_coords]
+    choice = np.zeros(1)
+    for t in range(T):
+        legs.step(t, path_xy, path_yaw, v[t : t + 1], w[t : t + 1], choice)
+        q = out[t : t + 1].copy()
+        q[0, leg_coords] = q_legs
+        solver.constrain(q)
+        targets = legs.feet() - solver.ankle_offsets(legs.foot_yaw)
+        weight = np.where(legs.stance, 1.0, 0.02)
+        q = solver.solve(q, targets, key="replan_legs", ee=solver.leg_ee, mask=leg_mask,
+                         min_iterations=cfg.ik_iterations, max_iterations=cfg.ik_max_iterations,
+                         tolerance=cfg.ik_tolerance, weight=weight)
+        q = solver.level_ankles(q, legs.foot_yaw)
+        q_legs = q[0, leg_coords].copy()
+        out[t, leg_coords] = q_legs
+    return motion.replace(q=out)
+
+
+def apply_contacts(motion: Motion, mode: str) -> Motion:
+    """The contact-aware export ``mode`` (one of :data:`CONTACT_MODES`) of a retargeted motion.
+
+    Raises:
+        ConfigError: an unknown mode.
+    """
+    if mode == "none":
+        return motion
+    if mode == "replan":
+        return replan_legs(motion)
+    raise ConfigError(f"unknown contact mode {mode!r}; expected one of: {', '.join(CONTACT_MODES)}")
