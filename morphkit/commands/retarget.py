@@ -5,6 +5,9 @@ from __future__ import annotations
 import argparse
 
 FORMATS = (".npz", ".bvh", ".usda", ".usd", ".usdc", ".csv")
+DEFAULT_NKN_TARGET = "short_legs"
+"""The skeleton an NKN run over human skeletons retargets onto when ``--target`` is not given: the first
+unseen bone-length variant of the evaluation."""
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -27,6 +30,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="ACE runs: retargeter stage folder or variant (default RUN/retarget; e.g. RUN/retarget_wofea, ace-wofea)",
     )
     p.add_argument("--formats", default="npz,csv", help="folder output: comma-separated suffixes (default npz,csv)")
+    p.add_argument("--contacts", default="replan", choices=("none", "replan"),
+                   help="contact-aware export: replan re-steps a legged creature's legs along the retargeted root "
+                        "path (stance feet planted; body and arms kept); none writes the raw output (default replan)")
+    p.add_argument("--target", metavar="SKELETON",
+                   help="NKN runs over human skeletons: a training character's name, a bone-length variant "
+                        "(short_legs, long_legs, long_arms_short_legs, tall) or a BVH/YAML skeleton (default: the "
+                        "first unseen variant, short_legs)")
     p.add_argument("--device", default="cpu", help="torch device (default cpu)")
     p.set_defaults(run=run)
 
@@ -47,7 +57,9 @@ def run(args: argparse.Namespace) -> int:
     clips = load_motions(args.motion)
     if single and len(clips) != 1:
         raise ConfigError(f"--out {out} names one file but {len(clips)} clips were given: pass a folder")
-    model = load(args.run_dir, stage=args.stage, device=args.device)
+    model = load(args.run_dir, stage=args.stage, device=args.device, contacts=args.contacts, target=args.target)
+    if model.creature is None and args.target is None:  # NKN between human skeletons: an unseen skeleton
+        model = load(args.run_dir, device=args.device, contacts=args.contacts, target=DEFAULT_NKN_TARGET)
     results = model.retarget(clips)
     if not single:
         out.mkdir(parents=True, exist_ok=True)

@@ -46,6 +46,7 @@ from morphkit.retarget.networks import make_activation as make_activation
 from morphkit.retarget.networks import matmul_flops as matmul_flops
 from morphkit.retarget.retargeter import RetargetedClip as RetargetedClip
 from morphkit.retarget.retargeter import Retargeter as Retargeter
+from morphkit.retarget.retargeter import WithContacts as WithContacts
 from morphkit.retarget.run import CHECKPOINT_FILE as CHECKPOINT_FILE
 from morphkit.retarget.run import CONFIG_FILE as CONFIG_FILE
 from morphkit.retarget.run import RUN_FILE as RUN_FILE
@@ -70,6 +71,7 @@ __all__ = [
     "Retargeter",
     "Run",
     "Stateful",
+    "WithContacts",
     "all_gather_objects",
     "all_reduce_max",
     "all_reduce_mean",

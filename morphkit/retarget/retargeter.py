@@ -7,17 +7,20 @@ the examples use only it, through :func:`morphkit.retarget.runs.load`.
 
 from __future__ import annotations
 
+import dataclasses
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
 
 import numpy as np
 
+from morphkit.errors import ConfigError, RunError, SourceLocation
 from morphkit.graph import Morphology
 from morphkit.motion import ClampReport, Motion, Pairing
 from morphkit.retarget.training_data import DataConfig
 
-__all__ = ["RetargetedClip", "Retargeter"]
+__all__ = ["RetargetedClip", "Retargeter", "WithContacts", "check_finite"]
 
 
 @dataclass(frozen=True)
@@ -32,6 +35,23 @@ class RetargetedClip:
     """[T, Sr] the method's own denormalised output states, where it has them (ACE)."""
     clamp: ClampReport = field(default_factory=lambda: ClampReport(0.0, 0.0, ()))
     """Joint coordinates decoding had to clamp into their limits (nothing, for methods that do not clamp)."""
+
+
+def check_finite(motion: Motion, *, run: str | os.PathLike[str], clip: str) -> Motion:
+    """``motion`` when every coordinate is finite; else one error naming the run, the clip and the frame
+    (a retargeter never hands a NaN on, let alone writes one to disk).
+
+    Raises:
+        RunError: the first frame with a non-finite coordinate.
+    """
+    bad = ~np.isfinite(motion.q).all(axis=1)
+    if bad.any():
+        frame = int(np.argmax(bad))
+        coords = [n for n, ok in zip(motion.morphology.coordinate_names, np.isfinite(motion.q[frame]), strict=True)
+                  if not ok]
+        raise RunError(f"clip {clip!r}: non-finite output at frame {frame} of {motion.frame_count} "
+                       f"({', '.join(coords[:4])})", location=SourceLocation(os.fspath(run)))
+    return motion
 
 
 @runtime_checkable
@@ -54,3 +74,29 @@ class Retargeter(Protocol):
     def retarget(self, clips: Sequence[Motion]) -> list[RetargetedClip]:
         """Retarget human clips, batched; one result per clip, in order."""
         ...
+
+
+class WithContacts:
+    """A :class:`Retargeter` whose motions go through a contact-aware export
+    (:func:`morphkit.synth.apply_contacts`: ``replan`` re-steps the legs along the retargeted root
+    path); its label gains ``+mode``."""
+
+    def __init__(self, retargeter: Retargeter, mode: str) -> None:
+        from morphkit.synth import CONTACT_MODES
+
+        if mode not in CONTACT_MODES:
+            raise ConfigError(f"unknown contact mode {mode!r}; expected one of: {', '.join(CONTACT_MODES)}")
+        self.inner, self.mode = retargeter, mode
+        self.label = retargeter.label if mode == "none" else f"{retargeter.label}+{mode}"
+        self.creature, self.pairing, self.fps = retargeter.creature, retargeter.pairing, retargeter.fps
+        self.data, self.human_data = retargeter.data, retargeter.human_data
+
+    def retarget(self, clips: Sequence[Motion]) -> list[RetargetedClip]:
+        """The inner retargeter's clips, each motion through the export."""
+        return [self.export(r) for r in self.inner.retarget(clips)]
+
+    def export(self, clip: RetargetedClip) -> RetargetedClip:
+        """One raw clip through the export (its states and clamp report are the raw output's)."""
+        from morphkit.synth import apply_contacts
+
+        return dataclasses.replace(clip, motion=apply_contacts(clip.motion, self.mode))

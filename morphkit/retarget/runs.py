@@ -13,13 +13,14 @@ from pathlib import Path
 import torch
 
 from morphkit.errors import RunError, SourceLocation
-from morphkit.retarget.retargeter import Retargeter
+from morphkit.retarget.retargeter import Retargeter, WithContacts
 
 __all__ = ["load"]
 
 
 def load(run: str | os.PathLike[str], *, stage: str | os.PathLike[str] | None = None,
-         device: str | torch.device = "cpu") -> Retargeter:
+         device: str | torch.device = "cpu", contacts: str = "none",
+         target: str | None = None) -> Retargeter:
     """Open a trained run folder as a :class:`Retargeter`, whichever method trained it.
 
     Args:
@@ -27,6 +28,9 @@ def load(run: str | os.PathLike[str], *, stage: str | os.PathLike[str] | None = 
         stage: ACE only: the retargeter stage to use (a folder, or a variant name such as ``ace-wofea``;
             default ``retarget``).
         device: Torch device.
+        contacts: Contact-aware export of its motions (:data:`morphkit.synth.CONTACT_MODES`; ``none``: raw).
+        target: NKN runs over human skeletons: the skeleton to retarget onto (a training character, a
+            bone-length variant name or a skeleton file; default the template).
 
     Raises:
         RunError: a folder no method recognises (naming what it holds), or a damaged run.
@@ -42,17 +46,24 @@ def load(run: str | os.PathLike[str], *, stage: str | os.PathLike[str] | None = 
     if AceArtifact.is_run(path.parent) and not AceArtifact.is_run(path) and stage is None:
         path, stage = path.parent, path  # a stage folder given directly
     if AceArtifact.is_run(path):
+        if target is not None:
+            raise RunError("an ACE run retargets onto its own creature: --target applies to NKN runs over human "
+                           "skeletons", location=SourceLocation(str(path)))
         from morphkit.retarget.ace.retarget import AceRetargeter
 
-        return AceRetargeter(path, retarget_dir=stage, device=device)
+        return _with(AceRetargeter(path, retarget_dir=stage, device=device), contacts)
     if NknArtifact.is_run(path):
         if stage is not None:
             raise RunError("an NKN run has one retargeter: --stage applies to ACE runs only",
                            location=SourceLocation(str(path)))
         from morphkit.retarget.nkn.retarget import NknRetargeter
 
-        return NknRetargeter(path, device=device)
+        return _with(NknRetargeter(path, device=device, target=target), contacts)
     held = sorted(p.name for p in path.iterdir())[:8] if path.is_dir() else []
     raise RunError(f"not an ACE run folder (no {ace_marker}) nor an NKN run folder (no {nkn_marker})"
                    + (f"; it holds: {', '.join(held)}" if held else "; it is empty or not a folder"),
                    location=SourceLocation(str(path)))
+
+
+def _with(retargeter: Retargeter, contacts: str) -> Retargeter:
+    return retargeter if contacts == "none" else WithContacts(retargeter, contacts)

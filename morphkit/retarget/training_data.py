@@ -16,6 +16,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import torch
@@ -50,6 +51,11 @@ class DataConfig:
     """Seed of the character's synthesis."""
     human_frames: int = 6_000
     """Frames of the embedded default human motion (used when no human data is given)."""
+    stand_probability: float | None = None
+    """Probability that a segment of the character's synthesised commands stands still (its arms, head
+    and tail keep moving: in-place upper-body motion); ``None``: the synthesis' own default
+    (:attr:`morphkit.synth.CommandConfig.stand_probability`, 0.1). Ours: the paper draws random
+    commands only, while held-out humans mostly stand, bend and reach."""
 
 
 
@@ -69,6 +75,19 @@ def split_evaluation_clips(motions: Sequence[Motion]) -> tuple[list[Motion], lis
 def _morphology_key(morphology: Morphology) -> str:
     # The frozen dataclass's repr lists every link, joint, shape and end-effector: a content hash.
     return hashlib.sha256(repr(morphology).encode()).hexdigest()[:16]
+
+
+def _stand_key(data: DataConfig) -> str:
+    # the default leaves the key (and so every existing cache entry) as it was
+    return "" if data.stand_probability is None else f"|stand={data.stand_probability!r}"
+
+
+def _synth_config(data: DataConfig) -> Any:
+    from morphkit.synth import CommandConfig, SynthConfig
+
+    if data.stand_probability is None:
+        return None
+    return SynthConfig(commands=CommandConfig(stand_probability=data.stand_probability))
 
 
 def character_motions(
@@ -92,7 +111,7 @@ def character_motions(
     cache = Path(cache_dir) if cache_dir is not None else default_cache_dir()
     key = hashlib.sha256(
         f"{_morphology_key(morphology)}|{data.character_frames}|{data.fps}|{data.synth_seed}|{__version__}|"
-        f"{source_digest()}".encode()
+        f"{source_digest()}{_stand_key(data)}".encode()
     ).hexdigest()[:24]
     path = cache / f"synth_{morphology.name}_{key}.npz"
     if path.is_file():
@@ -105,7 +124,7 @@ def character_motions(
         except (OSError, KeyError, ValueError):
             pass  # a damaged cache entry is rebuilt
     result = synthesize(morphology, frames=data.character_frames, fps=data.fps, seed=data.synth_seed,
-                        progress=progress)
+                        config=_synth_config(data), progress=progress)
     motions = list(result.motions)
     cache.mkdir(parents=True, exist_ok=True)
     with atomic_path(path) as tmp, open(tmp, "wb") as f:

@@ -334,3 +334,34 @@ def test_character_data_cache_is_keyed_by_the_synthesis_source(tmp_path, dog, mo
     monkeypatch.setattr(morphkit.synth, "source_digest", lambda: "another synthesis")
     character_motions(m, data, cache_dir=tmp_path, progress=False)
     assert len(list(tmp_path.glob("synth_*.npz"))) == 2
+
+
+def test_generator_latent_stays_inside_its_bound_for_any_output():
+    """ẑ = μ + b·σ·tanh(g/b): inside μ ± b·σ however large G's raw output, ≈ μ + σ·g for small g, g itself at b = 0."""
+    from dataclasses import replace
+
+    from morphkit.retarget.ace.config import RetargetConfig
+    from morphkit.retarget.ace.model import Generator
+
+    torch.manual_seed(0)
+    cfg = replace(RetargetConfig(), generator_hidden=(16,), latent_bound=3.0)
+    gen = Generator(5, 7, 4, cfg)
+    mean, std = torch.tensor([0.5, -1.0, 0.0, 2.0]), torch.tensor([0.1, 2.0, 1.0, 0.3])
+    gen.set_latent_range(mean, std)
+    with torch.no_grad():
+        for p in gen.mlp.parameters():
+            p.mul_(1e3)  # raw outputs in the thousands
+    x_h, x_prev = torch.randn(256, 5), torch.randn(256, 7)
+    z = gen(x_h, x_prev)
+    raw = gen.mlp(torch.cat([x_h, x_prev], -1))
+    assert raw.abs().max() > 100
+    assert ((z - mean).abs() <= 3.0 * std + 1e-6).all()
+    assert ((z - mean).abs() > 2.9 * std).float().mean() > 0.5  # saturated, not clipped to the mean
+    with torch.no_grad():
+        for p in gen.mlp.parameters():
+            p.mul_(1e-5)
+    small = gen.mlp(torch.cat([x_h, x_prev], -1))
+    torch.testing.assert_close(gen(x_h, x_prev), mean + std * small, atol=1e-4, rtol=1e-3)
+    unbounded = Generator(5, 7, 4, replace(cfg, latent_bound=0.0))
+    unbounded.load_state_dict(gen.state_dict())
+    torch.testing.assert_close(unbounded(x_h, x_prev), small)

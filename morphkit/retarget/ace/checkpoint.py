@@ -2,7 +2,7 @@
 
 An ACE run folder::
 
-    ace.yaml               creature, human data, body lengths, data configuration, mapping, shared prior
+    ace.yaml               creature, human data, body lengths, Ψ centres, data configuration, mapping, shared prior
     creature.yaml          the character's description (so the run retargets without the original file)
     stats_character.npz    normalisation of x^r        stats_human.npz   normalisation of x^h
     mapping.json           end-effector mapping (Eq. 11) with every KL value
@@ -17,6 +17,7 @@ retargeting, evaluation and the examples; nothing else opens these files. The pa
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 from dataclasses import dataclass, field
@@ -120,6 +121,9 @@ class AceArtifact:
                      "human_frames": self.data.human_frames},
             "mapping": self.pairing.mapping,
         }
+        if self.pairing.centred:
+            meta["psi_centre"] = {"creature": list(self.pairing.creature_centre or ()),
+                                  "human": list(self.pairing.human_centre or ())}
         if self.prior_dir is not None:
             meta["prior_dir"] = self.prior_dir
         return {**self.extra, **meta}
@@ -157,12 +161,15 @@ class AceArtifact:
             mapping = json.loads(_need(run / _MAPPING).read_text())
             pairing = Pairing.from_mapping(mapping["mapping"], float(meta["creature_body_length"]),
                                            float(meta["human_body_length"]))
+            centre = meta.get("psi_centre")
+            if centre:
+                pairing = dataclasses.replace(pairing, creature_centre=centre["creature"], human_centre=centre["human"])
         except (KeyError, TypeError, ValueError) as exc:
             raise RunError(f"damaged ACE run folder: {exc!r}", location=SourceLocation(str(run / META_FILE))) from exc
         with np.load(_need(run / _START_STATES)) as f:
             states, psi = f["states"], f["psi"]
         known = {"creature", "human_data", "human_skeleton", "creature_body_length", "human_body_length", "fps",
-                 "data", "mapping", "prior_dir"}
+                 "data", "mapping", "prior_dir", "psi_centre"}
         return AceArtifact(
             creature=read_morphology(_need(run / _CREATURE)),
             character_stats=NormStats.load(_need(run / _CHARACTER_STATS)),

@@ -36,15 +36,32 @@ def build_vae(state_dim: int, cfg: PriorConfig) -> MotionVAE:
 
 
 class Generator(nn.Module):
-    """G(x^h_t, x^r_{t-1}) → ẑ_t (normalised states in, latent out)."""
+    """G(x^h_t, x^r_{t-1}) → ẑ_t (normalised states in, latent out).
+
+    With ``cfg.latent_bound`` b > 0 the MLP's output g is squashed into the prior's latent range,
+    ẑ = μ + b·σ·tanh(g/b) (μ, σ: buffers set by :meth:`set_latent_range`, saved with G), so ẑ stays
+    within b standard deviations of what the encoder produces on the data whatever g is.
+    """
 
     def __init__(self, human_dim: int, character_dim: int, latent: int, cfg: RetargetConfig) -> None:
         super().__init__()
         self.mlp = MLP(human_dim + character_dim, cfg.generator_hidden, latent, activation="leaky_relu")
+        self.bound = float(cfg.latent_bound)
+        self.register_buffer("z_mean", torch.zeros(latent))
+        self.register_buffer("z_std", torch.ones(latent))
+
+    @torch.no_grad()
+    def set_latent_range(self, mean: torch.Tensor, std: torch.Tensor) -> None:
+        """The encoder's latent mean and standard deviation on the data [Z] (what the bound is relative to)."""
+        self.z_mean.copy_(mean)
+        self.z_std.copy_(std)
 
     def forward(self, x_h: torch.Tensor, x_prev: torch.Tensor) -> torch.Tensor:
         """``x_h`` [..., Sh], ``x_prev`` [..., Sr] → ẑ [..., Z]."""
-        return self.mlp(torch.cat([x_h, x_prev], dim=-1))
+        g = self.mlp(torch.cat([x_h, x_prev], dim=-1))
+        if self.bound <= 0:
+            return g
+        return self.z_mean + self.bound * self.z_std * torch.tanh(g / self.bound)
 
 
 class Discriminator(nn.Module):
@@ -101,7 +118,7 @@ class FeatureMap:
     def human_psi(self, x_h: torch.Tensor) -> torch.Tensor:
         """Ψ of normalised human states [..., Sh] → [..., 11 + 3k]."""
         return features(self.human_stats.denormalize(x_h), self.human_layout, length=self.human_length,
-                        ee_names=self.human_ees)
+                        ee_names=self.human_ees, centre=self.pairing.human_centre)
 
     def local_q(self, x: torch.Tensor) -> torch.Tensor:
         """Coordinates [..., C] that put the root at the heading frame's origin with the state's tilt and joints.
@@ -137,4 +154,5 @@ class FeatureMap:
 
     def psi_of_fixed(self, fixed: torch.Tensor) -> torch.Tensor:
         """Ψ of denormalised states whose ee block is already FK's (:meth:`creature_with_fk`)."""
-        return features(fixed, self.creature_layout, length=self.creature_length, ee_names=self.creature_ees)
+        return features(fixed, self.creature_layout, length=self.creature_length, ee_names=self.creature_ees,
+                        centre=self.pairing.creature_centre)

@@ -10,6 +10,7 @@ position and heading).
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from collections.abc import Sequence
 from pathlib import Path
@@ -32,7 +33,7 @@ from morphkit.retarget.ace.model import FeatureMap, Generator, build_vae
 from morphkit.retarget.ace.train import PRIOR_TRAINER, rollout
 from morphkit.retarget.checkpoint import load_checkpoint
 from morphkit.retarget.config import read_config
-from morphkit.retarget.retargeter import RetargetedClip
+from morphkit.retarget.retargeter import RetargetedClip, check_finite
 from morphkit.retarget.run import CHECKPOINT_FILE, CONFIG_FILE, RUN_FILE
 from morphkit.rotations import yaw_from_quat
 
@@ -118,8 +119,12 @@ class AceRetargeter:
         self.prior = vae.prior.to(self.device).eval()
         self._c_stats, self._h_stats = self.artifact.character_stats, self.artifact.human_stats
         self._h_dim = self._h_stats.mean.shape[0]
+        state = load_checkpoint(_need(retarget_dir / CHECKPOINT_FILE))["states"]["generator"]
+        if "z_mean" not in state:  # trained before the latent bound: G's output is used as it was trained
+            rc = dataclasses.replace(rc, latent_bound=0.0)
+            state = {**state, "z_mean": torch.zeros(pc.latent), "z_std": torch.ones(pc.latent)}
         self.generator = Generator(self._h_dim, self.layout.dim, pc.latent, rc)
-        self.generator.load_state_dict(load_checkpoint(_need(retarget_dir / CHECKPOINT_FILE))["states"]["generator"])
+        self.generator.load_state_dict(state)
         self.generator.to(self.device).eval()
 
     def feature_map(self, human_layout_of: Motion) -> FeatureMap:
@@ -174,5 +179,6 @@ class AceRetargeter:
             start = (root[0], root[1], float(yaw_from_quat(root[3:])))
             motion, clamp = decode_character_states(x[:n], self.creature, self.fps, initial_pose=start,
                                                     name=f"{clip.name}_{self.creature.name}")
+            check_finite(motion, run=self.dir, clip=clip.name)
             result.append(RetargetedClip(clip, motion, x[:n], clamp))
         return result

@@ -51,6 +51,7 @@ __all__ = [
     "foot_indices",
     "frozen_prior",
     "gradient_penalty",
+    "latent_range",
     "prepare",
     "prior_foot_term",
     "rollout",
@@ -123,6 +124,8 @@ def prepare(
     mapping = map_end_effectors(c_dist, h_dist, override=mapping_override, roles=roles)
     c_stats, h_stats = NormStats.fit(c_states), NormStats.fit(h_states)
     pairing = Pairing.from_mapping(mapping.mapping, c_len, h_len)
+    if cfg.centre_features:
+        pairing = pairing.with_centres(character, human)
     fmap = FeatureMap(creature, character_state_layout(creature), human_state_layout(human_m), c_stats, h_stats,
                       pairing)
     if _main_process():
@@ -142,7 +145,8 @@ def _start_states(states: Sequence[np.ndarray], fmap: FeatureMap, seed: int) -> 
     rng = np.random.default_rng(seed)
     pick = rng.choice(flat.shape[0], size=min(START_STATES, flat.shape[0]), replace=False)
     x = flat[np.sort(pick)]
-    return x, features(x, fmap.creature_layout, length=fmap.creature_length, ee_names=fmap.creature_ees)
+    return x, features(x, fmap.creature_layout, length=fmap.creature_length, ee_names=fmap.creature_ees,
+                       centre=fmap.pairing.creature_centre)
 
 
 # ---- stage 1: the motion prior ----------------------------------------------------------------
@@ -227,6 +231,20 @@ def frozen_prior(vae: MotionVAE) -> torch.nn.Module:
     for p in prior.parameters():
         p.requires_grad_(False)
     return prior
+
+
+@torch.no_grad()
+def latent_range(vae: MotionVAE, transitions: StateWindows, *, batch: int = 8192) -> tuple[torch.Tensor, torch.Tensor]:
+    """Mean and standard deviation [Z] of the encoder's posterior means over every data transition
+    (normalised two-frame windows), on the encoder's device."""
+    device = next(vae.encoder.parameters()).device
+    encoder = vae.encoder.eval()
+    mus = []
+    for lo in range(0, len(transitions), batch):
+        w = transitions.windows(torch.arange(lo, min(lo + batch, len(transitions))), device)
+        mus.append(encoder(w[:, 0], w[:, 1])[0])
+    mu = torch.cat(mus)
+    return mu.mean(0), mu.std(0).clamp_min(1e-6)
 
 
 def rollout(
@@ -343,6 +361,7 @@ def train_retargeter(
         dev = run.device
         prior = frozen_prior(vae.to(dev))
         gen = Generator(sh, sr, vae.prior.latent_features, rc).to(dev)
+        gen.set_latent_range(*latent_range(vae, reals))
         disc = Discriminator(sr, rc).to(dev)
         # Not DDP: its hooks miss the gradient penalty's double backward; gradients are averaged by hand.
         for module in (gen, disc):

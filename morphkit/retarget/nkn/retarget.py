@@ -24,22 +24,28 @@ import yaml
 
 from morphkit.errors import ConfigError, MotionFormatError, RunError, SourceLocation
 from morphkit.graph import BaseType, JointType, Morphology
+from morphkit.io import read_morphology
 from morphkit.motion import Motion
 from morphkit.retarget.checkpoint import load_checkpoint
 from morphkit.retarget.config import read_config
 from morphkit.retarget.nkn.checkpoint import NknArtifact
 from morphkit.retarget.nkn.config import NknConfig
-from morphkit.retarget.nkn.features import global_motion, integrate_global_motion, local_positions
+from morphkit.retarget.nkn.features import GLOBAL_DIM, global_motion, integrate_global_motion, local_positions
 from morphkit.retarget.nkn.fk import SkeletonFK
 from morphkit.retarget.nkn.model import GeneratorOutput
-from morphkit.retarget.nkn.skeleton import bone_offsets, check_same_topology
+from morphkit.retarget.nkn.skeleton import EVALUATION_VARIANTS, bone_offsets, check_same_topology, scale_limbs
 from morphkit.retarget.nkn.train import TRAINERS, build_networks, cpu_threads
-from morphkit.retarget.retargeter import RetargetedClip
+from morphkit.retarget.retargeter import RetargetedClip, check_finite
 from morphkit.retarget.run import CHECKPOINT_FILE, CONFIG_FILE, RUN_FILE
 from morphkit.retarget.training_data import DataConfig
 from morphkit.rotations import quat_from_yaw, quat_multiply, quat_normalize, yaw_from_quat
 
-__all__ = ["NknRetargeter", "copy_rotations", "world_motion"]
+__all__ = ["GLOBAL_MOTION_BOUND", "NknRetargeter", "copy_rotations", "world_motion"]
+
+GLOBAL_MOTION_BOUND = 6.0
+"""NKN's predicted global motion (root velocity, yaw rate) is clipped to this many standard deviations of
+the training data's about its mean before it is integrated (ours: finite output by construction; a
+clip far outside the training data once gave a non-finite root at frame 585)."""
 
 
 def _need(path: Path) -> Path:
@@ -101,7 +107,7 @@ class NknRetargeter:
     """
 
     def __init__(self, run_dir: str | os.PathLike[str], *, device: str | torch.device = "cpu",
-                 threads: int | None = 1) -> None:
+                 threads: int | None = 1, target: Morphology | str | None = None) -> None:
         self.dir = Path(run_dir)
         self.threads = threads
         self.artifact = NknArtifact.load(self.dir)
@@ -117,6 +123,8 @@ class NknRetargeter:
         """The training characters' skeletons by name (the *seen* characters)."""
         self.creature: Morphology | None = self.artifact.creature
         self.label = "NKN"
+        self.target: Morphology | None = None
+        """What :meth:`retarget` retargets onto when not told (skeletons mode: the template unless set)."""
         self.pairing = None
         nd = self.config.data
         self.data = DataConfig(character_frames=nd.character_frames, fps=self.fps, synth_seed=nd.synth_seed,
@@ -134,6 +142,26 @@ class NknRetargeter:
         self.generator = nets["generator"]
         self.inverse = nets.get("inverse")
         self._source_fk = SkeletonFK(self.template)
+        if target is not None:
+            self.target = self.resolve_target(target)
+
+    def resolve_target(self, target: Morphology | str) -> Morphology:
+        """A target skeleton from a name — a training character's, or a bone-length variant of the template
+        (:data:`~.skeleton.EVALUATION_VARIANTS`) — a description or BVH file, or a morphology.
+
+        Raises:
+            ConfigError: an unknown name, or a target for a cross-morphology run.
+            MotionFormatError: a skeleton of another topology.
+        """
+        if isinstance(target, str) and self.creature is None and target not in self.skeletons:
+            if target in EVALUATION_VARIANTS:
+                return scale_limbs(self.template, EVALUATION_VARIANTS[target], name=target)
+            if Path(target).suffix:
+                return self._target(read_morphology(target))
+            known = [*self.skeletons, *EVALUATION_VARIANTS]
+            raise ConfigError(f"unknown target {target!r}: a training character, a bone-length variant or a "
+                              f"skeleton file; names: {', '.join(known)}")
+        return self._target(target)
 
     def _target(self, target: Morphology | str | None) -> Morphology:
         if self.creature is not None:
@@ -188,20 +216,28 @@ class NknRetargeter:
         """
         if not clips:
             raise ConfigError("no clips to retarget")
-        tgt = self._target(target)
+        tgt = self._target(target if target is not None else self.target)
         clips = [c if abs(c.fps - self.fps) < 1e-6 else c.resample(self.fps) for c in clips]
         out: list[RetargetedClip] = []
         for lo in range(0, len(clips), batch_size):
             batch = list(clips[lo : lo + batch_size])
             result, lengths = self._run(batch, tgt)
             q = result.q.double().cpu().numpy()
-            v = result.v.double().cpu().numpy()
+            v = self._bounded(result.v.double().cpu().numpy())
             for i, (clip, n) in enumerate(zip(batch, lengths, strict=True)):
                 root = clip.root_pose()[0]
                 motion = world_motion(tgt, q[i, :n], v[i, :n], self.fps, start_xy=(root[0], root[1]),
                                       start_yaw=float(yaw_from_quat(root[3:])), name=f"{clip.name}_nkn_{tgt.name}")
-                out.append(RetargetedClip(clip, motion))
+                out.append(RetargetedClip(clip, check_finite(motion, run=self.dir, clip=clip.name)))
         return out
+
+    def _bounded(self, v: np.ndarray) -> np.ndarray:
+        """Global motion [..., 4] clipped to :data:`GLOBAL_MOTION_BOUND` standard deviations of the output
+        side's training data about its mean (integrated, an unbounded velocity leaves the world)."""
+        side = self.generator.side
+        mean = side.x_mean[-GLOBAL_DIM:].double().cpu().numpy()
+        std = side.x_std[-GLOBAL_DIM:].double().cpu().numpy()
+        return np.clip(np.nan_to_num(v, nan=0.0), mean - GLOBAL_MOTION_BOUND * std, mean + GLOBAL_MOTION_BOUND * std)
 
     @torch.no_grad()
     def cycle(self, clips: Sequence[Motion], target: Morphology | str | None = None) -> list[np.ndarray]:
