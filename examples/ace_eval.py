@@ -8,7 +8,7 @@ bar charts, side-by-side videos (human | each method) and index.html into --out.
 
     python examples/ace_eval.py --runs runs/ace_spot_quick                # the main job's run
     python examples/ace_eval.py --runs table1/spot/runs --human-data ../shared/data/human/cmu --out table1/spot/eval
-    python examples/ace_eval.py --runs RUN --smoke                        # two clips, contact sheets: seconds
+    python examples/ace_eval.py --smoke                                   # trains a smoke run, then: seconds
 """
 
 from __future__ import annotations
@@ -18,8 +18,10 @@ import argparse
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--runs", nargs="+", required=True, metavar="RUN",
-                   help="ACE or NKN (cross-morphology) run folders, ACE stage folders, folders of run folders")
+    p.add_argument("--runs", nargs="+", metavar="RUN",
+                   help="ACE or NKN (cross-morphology) run folders, ACE stage folders, folders of run folders "
+                        "(default: the main job's runs/ace_spot_quick; with --smoke and no runs, a smoke run of "
+                        "Spot is trained first)")
     p.add_argument("--human-data", metavar="DIR", help="human BVH folder (default: the runs' own human data)")
     p.add_argument("--out", metavar="DIR", help="report folder (default evaluation_<creature>)")
     p.add_argument("--clips", type=int, help="evaluate the first N clips only (default: all)")
@@ -35,7 +37,19 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def run(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
     from morphkit.evaluation import evaluate_runs
+
+    if not args.runs and args.smoke:
+        from morphkit.io import read_morphology
+        from morphkit.retarget.ace.config import preset
+        from morphkit.retarget.ace.train import train_ace
+
+        args.runs = [Path("runs") / "ace_spot_smoke"]
+        train_ace(args.runs[0], read_morphology("spot"), preset("smoke"), progress=False)
+    elif not args.runs:
+        args.runs = [Path("runs") / "ace_spot_quick"]  # the main job's run (python examples/ace_train.py)
 
     options = {"clips": args.clips, "videos": args.videos,
                "video_suffix": f".{args.video_format}" if args.video_format else None}

@@ -2,8 +2,10 @@
 
 Trains ACE (Li et al. 2023) for a creature — synthesises its motion, pre-trains its motion prior,
 trains the adversarial retargeter — then retargets clips it never saw, writes them as .npz/.bvh
-and robot-command .csv, prints a Table-1-style row (DIV, FID, L_fea, UFR, with the data set's own
-row), and renders human | creature side by side. Re-running the same command resumes the run.
+and robot-command .csv through the contact-aware export (``--contacts replan``: the legs re-stepped
+along the retargeted root path), prints Table-1-style rows (DIV, FID, L_fea, UFR and the contact and
+follow figures; the data set's own row, the raw output's and the exported one's), and renders
+human | creature side by side. Re-running the same command resumes the run.
 
     python examples/ace_train.py                                   # Spot, embedded default human motion
     python examples/ace_train.py --creature crab --human-data ../shared/data/human/cmu --preset default
@@ -25,6 +27,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--out", metavar="DIR", help="output folder (default runs/ace_<creature>_<preset>)")
     p.add_argument("--clips", type=int, default=6, help="evaluation clips to retarget (default 6)")
     p.add_argument("--videos", type=int, default=2, help="side-by-side videos to render (default 2)")
+    p.add_argument("--contacts", default="replan", choices=("none", "replan"),
+                   help="contact-aware export of the clips and videos (default replan; the table shows both)")
     p.add_argument("--smoke", action="store_true", help="the smoke preset and one short video frame sheet")
     args = p.parse_args(argv)
 
@@ -34,10 +38,10 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def run(args: argparse.Namespace) -> int:
-    from morphkit.evaluation.table import dataset_row, evaluate_clips, write_table
+    from morphkit.evaluation.table import dataset_row, evaluate_clips, reference_data, write_table
     from morphkit.io import read_morphology
     from morphkit.motion import write_motion_files
-    from morphkit.retarget import load
+    from morphkit.retarget import WithContacts, load
     from morphkit.retarget.ace.config import preset
     from morphkit.retarget.ace.train import train_ace
     from morphkit.retarget.training_data import character_motions, evaluation_clips
@@ -51,16 +55,18 @@ def run(args: argparse.Namespace) -> int:
 
     model = load(out)
     clips = evaluation_clips(args.human_data, cfg.data, limit=2 if args.smoke else args.clips)
-    results = model.retarget(clips)
+    raw = model.retarget(clips)
+    shipped = WithContacts(model, args.contacts)
+    results = [shipped.export(r) for r in raw]
     (out / "clips").mkdir(parents=True, exist_ok=True)
     for r in results:
         write_motion_files(r.motion, out / "clips" / r.motion.name, (".npz", ".bvh", ".csv"))
     character = character_motions(creature, cfg.data, progress=False)
-    rows = [
-        dataset_row(character, model.pairing, seed=cfg.seed),
-        evaluate_clips(model.label, [r.source for r in results], [r.motion for r in results], character,
-                       model.pairing, seed=cfg.seed),
-    ]
+    reference = reference_data(character, model.pairing)
+    humans = [r.source for r in raw]
+    rows = [dataset_row(character, model.pairing, seed=cfg.seed, humans=humans, reference=reference)]
+    for label, shown in ((model.label, raw), (shipped.label, results))[: 1 if args.contacts == "none" else 2]:
+        rows.append(evaluate_clips(label, humans, [r.motion for r in shown], reference, model.pairing, seed=cfg.seed))
     table = write_table(rows, out / "metrics")
     print(table)
     print(f"retargeted clips: {out / 'clips'}")

@@ -26,8 +26,9 @@ SMOKE_NKN = ("epochs=1", "steps_per_epoch=2")
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--character", action="append", required=True, metavar="NAME_OR_PATH",
-                   help="spot, crab, stretch or a description file (repeatable: one folder per character)")
+    p.add_argument("--character", action="append", metavar="NAME_OR_PATH",
+                   help="spot, crab, stretch or a description file (repeatable: one folder per character; "
+                        "default spot)")
     p.add_argument("--human-data", metavar="DIR", help="human BVH folder (default: the embedded default human motion)")
     p.add_argument("--preset", default="default", help="smoke, quick, default or paper (default: default)")
     p.add_argument("--seeds", type=int, default=1, help="seeds per method (default 1); the table gives mean ± std")
@@ -62,7 +63,7 @@ def run(args: argparse.Namespace) -> int:
         cfg = replace(cfg, preset="smoke", ace_overrides=SMOKE_ACE + cfg.ace_overrides,
                       nkn_overrides=SMOKE_NKN + cfg.nkn_overrides, clips=2, videos=min(cfg.videos, 1),
                       video_suffix=".png", video_seconds=0.1, video_size=(96, 96))
-    creatures = [read_morphology(c) for c in args.character]
+    creatures = [read_morphology(c) for c in args.character or ["spot"]]
     times = []
     for creature in creatures:
         started = time.perf_counter()

@@ -16,21 +16,32 @@ each unrealistic effect (:meth:`morphkit.metrics.UnrealisticFrames.cause_ratios`
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
-from morphkit.errors import ConfigError
+from morphkit.errors import ConfigError, MorphkitError, MotionFormatError
 from morphkit.evaluation.methods import Method
-from morphkit.evaluation.table import TableRow, dataset_row, evaluate_clips
+from morphkit.evaluation.table import TableRow, dataset_row, evaluate_clips, reference_data
 from morphkit.graph import Morphology
 from morphkit.metrics import UnrealisticFrames, unrealistic_frame_ratio
 from morphkit.motion import Motion, Pairing, body_length, ee_distributions, map_end_effectors
 from morphkit.retarget.retargeter import Retargeter
 from morphkit.retarget.runs import load
-from morphkit.retarget.training_data import DataConfig, character_motions, evaluation_clips
+from morphkit.retarget.training_data import (
+    DataConfig,
+    character_motions,
+    evaluation_clips,
+    human_motions,
+)
+from morphkit.synth import apply_contacts
 
-__all__ = ["Evaluation", "MethodResult", "Reference", "evaluate_methods", "open_method", "reference_for", "retarget"]
+CONTACT_ROWS = ("ACE", "NKN")
+"""Methods whose motions are also scored through each contact-aware export (a row each)."""
+
+__all__ = ["CONTACT_ROWS", "Evaluation", "MethodResult", "Reference", "evaluate_methods", "open_method",
+           "reference_for", "retarget"]
 
 
 @dataclass(eq=False)
@@ -71,6 +82,9 @@ class Evaluation:
     dataset: TableRow
     dataset_causes: dict[str, float]
     results: list[MethodResult]
+    failed: dict[str, str] = field(default_factory=dict)
+    """Methods that could not be scored (``"ACE (seed 0)"`` → the error, which names the clip): left out
+    of the rows, listed in the report."""
 
 
 def open_method(method: Method, *, device: str = "cpu") -> Retargeter:
@@ -99,16 +113,24 @@ def reference_for(methods: Sequence[Method], *, human_data: str | os.PathLike[st
         raise ConfigError(f"{method.run}: a retargeter between human skeletons has no creature to compare on")
     source = os.fspath(human_data) if human_data is not None else model.human_data
     clips = evaluation_clips(source, model.data, limit=limit)
-    if model.pairing is not None:
-        return Reference(creature, model.data, model.pairing, source, os.fspath(method.run)), clips
     character = character_motions(creature, model.data, progress=False)
-    human = clips[0].morphology
-    c_len, h_len = body_length(creature, character), body_length(human, clips)
-    roles = ({e.name: e.role for e in creature.end_effectors}, {e.name: e.role for e in human.end_effectors})
-    mapping = map_end_effectors(ee_distributions(character, length=c_len, max_frames_per_clip=300),
-                                ee_distributions(clips, length=h_len, max_frames_per_clip=300), roles=roles)
-    return Reference(creature, model.data, Pairing.from_mapping(mapping.mapping, c_len, h_len), source,
-                     "KL mapping on the evaluation clips (no ACE run given)", character), clips
+    if model.pairing is not None and model.pairing.centred:
+        return Reference(creature, model.data, model.pairing, source, os.fspath(method.run), character), clips
+    if model.pairing is not None:
+        pairing, origin = model.pairing, os.fspath(method.run)
+    else:
+        human = clips[0].morphology
+        c_len, h_len = body_length(creature, character), body_length(human, clips)
+        roles = ({e.name: e.role for e in creature.end_effectors}, {e.name: e.role for e in human.end_effectors})
+        mapping = map_end_effectors(ee_distributions(character, length=c_len, max_frames_per_clip=300),
+                                    ee_distributions(clips, length=h_len, max_frames_per_clip=300), roles=roles)
+        pairing, origin = Pairing.from_mapping(mapping.mapping, c_len, h_len), "KL mapping on the evaluation clips"
+    # A run trained before Ψ was centred (or a method without a pairing): the centres come from the
+    # data it was trained on (the synthesis is deterministic), and the report says so.
+    trained_on = human_motions(model.human_data, model.data)
+    pairing = pairing.with_centres(character, trained_on)
+    return Reference(creature, model.data, pairing, source, f"{origin}; Ψ centres computed from its data",
+                     character), clips
 
 
 def retarget(method: Method, clips: Sequence[Motion], *, device: str = "cpu") -> list[Motion]:
@@ -123,6 +145,7 @@ def evaluate_methods(
     *,
     keep: int = 0,
     seed: int = 0,
+    contacts: Sequence[str] = ("replan",),
     device: str = "cpu",
     log: Callable[[str], None] = print,
 ) -> Evaluation:
@@ -134,6 +157,8 @@ def evaluate_methods(
         reference: :func:`reference_for` of the methods.
         keep: Keep the retargeted motions of the first ``keep`` clips (for videos).
         seed: Seed of DIV's random subsets (the same for every row).
+        contacts: Contact-aware exports (:data:`morphkit.synth.CONTACT_MODES` other than ``none``) whose
+            rows join ACE's and NKN's (named ``ACE+replan``, ...): the same motions through the export.
         device: Torch device of the retargeters.
         log: Where progress lines go.
     """
@@ -145,15 +170,32 @@ def evaluate_methods(
     frames = sum(c.frame_count for c in clips)
     log(f"evaluation: {len(clips)} clips ({frames} frames) against {sum(m.frame_count for m in ref.character)} "
         f"frames of {ref.creature.name}'s data set")
-    dataset = dataset_row(ref.character, ref.pairing, seed=seed)
+    try:
+        ref.pairing.human_psi(clips[0])
+    except ConfigError as exc:
+        raise MotionFormatError(f"clip {clips[0].name!r}: its human states do not fit the runs' Ψ pairing "
+                                f"(another human skeleton than they were trained on?): {exc}") from None
+    data = reference_data(ref.character, ref.pairing)
+    dataset = dataset_row(ref.character, ref.pairing, seed=seed, humans=clips, reference=data)
     dataset_ufr = UnrealisticFrames.concatenate([unrealistic_frame_ratio(m) for m in ref.character])
     results = []
+    failed: dict[str, str] = {}
     for i, method in enumerate(methods):
-        motions = retarget(method, clips, device=device)
-        row = evaluate_clips(method.name, list(clips), motions, ref.character, ref.pairing, seed=seed)
-        causes = UnrealisticFrames.concatenate([unrealistic_frame_ratio(m) for m in motions]).cause_ratios()
-        results.append(MethodResult(method, row, causes, motions[:keep]))
-        log(f"[{i + 1}/{len(methods)}] {method.name} (seed {method.seed}, {method.stage}): DIV {row.div:.3f}, "
-            f"FID {row.fid:.3f}, L_fea {row.feature_loss:.3f}, UFR {100 * row.ufr:.2f}%")
-    return Evaluation(ref, list(clips), dataset, dataset_ufr.cause_ratios(), results)
+        try:
+            motions = retarget(method, clips, device=device)
+        except MorphkitError as exc:  # one method failing leaves the others' rows and the report
+            failed[f"{method.name} (seed {method.seed})"] = f"{method.stage}: {exc}"
+            log(f"[{i + 1}/{len(methods)}] {method.name} (seed {method.seed}): FAILED: {exc}")
+            continue
+        variants = [(method, motions)]
+        if method.name in CONTACT_ROWS:
+            variants += [(dataclasses.replace(method, name=f"{method.name}+{mode}"),
+                          [apply_contacts(m, mode) for m in motions]) for mode in contacts if mode != "none"]
+        for shown_as, shown in variants:
+            row = evaluate_clips(shown_as.name, list(clips), shown, data, ref.pairing, seed=seed)
+            causes = UnrealisticFrames.concatenate([unrealistic_frame_ratio(m) for m in shown]).cause_ratios()
+            results.append(MethodResult(shown_as, row, causes, shown[:keep]))
+            log(f"[{i + 1}/{len(methods)}] {shown_as.name} (seed {method.seed}, {method.stage}): DIV {row.div:.3f}, "
+                f"FID {row.fid:.3f}, L_fea {row.feature_loss:.3f}, UFR {100 * row.ufr:.2f}%, follow {row.follow:.2f}")
+    return Evaluation(ref, list(clips), dataset, dataset_ufr.cause_ratios(), results, failed)
 

@@ -21,7 +21,7 @@ import json
 import math
 import os
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -29,7 +29,7 @@ import numpy as np
 from morphkit._atomic import atomic_path, atomic_write_text
 from morphkit.evaluation.evaluate import Evaluation
 from morphkit.evaluation.methods import method_order
-from morphkit.evaluation.table import TableRow
+from morphkit.evaluation.table import EXTRA_COLUMNS, PERCENT_FIGURES, TableRow
 from morphkit.evaluation.targets import TargetCheck, check_targets, format_targets
 from morphkit.retarget.tables import write_table_files
 
@@ -38,6 +38,7 @@ __all__ = [
     "METRICS",
     "VIDEO_FPS",
     "SummaryRow",
+    "format_extra",
     "format_summary",
     "mean_std",
     "plot_metrics",
@@ -76,6 +77,8 @@ class SummaryRow:
     """Frames scored per run."""
     values: dict[str, tuple[float, ...]]
     """Each metric's single-run values, by :data:`METRICS` field."""
+    extra: dict[str, tuple[float, float] | None] = field(default_factory=dict)
+    """The figures beyond the paper's (:data:`~morphkit.evaluation.table.EXTRA_COLUMNS`), ``(mean, std)``."""
 
     @property
     def runs(self) -> int:
@@ -89,6 +92,9 @@ class SummaryRow:
         for key, column, _ in METRICS:
             value = getattr(self, key)
             out[column], out[f"{column}_std"] = (None, None) if value is None else value
+        for key, column in EXTRA_COLUMNS:
+            value = self.extra.get(key)
+            out[column], out[f"{column}_std"] = (None, None) if value is None else value
         out["frames"] = self.frames
         return out
 
@@ -101,7 +107,8 @@ def summarize(dataset: TableRow, rows: Sequence[tuple[int, TableRow]]) -> list[S
         rows: ``(seed, row)`` of every run; rows of one ``name`` are one method.
     """
     out = [SummaryRow(dataset.name, (), (dataset.div, 0.0), (dataset.fid, 0.0), None, (dataset.ufr, 0.0),
-                      dataset.frames, {"div": (dataset.div,), "fid": (dataset.fid,), "ufr": (dataset.ufr,)})]
+                      dataset.frames, {"div": (dataset.div,), "fid": (dataset.fid,), "ufr": (dataset.ufr,)},
+                      _extra([dataset]))]
     for name in sorted({r.name for _, r in rows}, key=method_order):
         group = [(s, r) for s, r in rows if r.name == name]
         values = {key: tuple(float(getattr(r, key)) for _, r in group if getattr(r, key) is not None)
@@ -109,8 +116,20 @@ def summarize(dataset: TableRow, rows: Sequence[tuple[int, TableRow]]) -> list[S
         out.append(SummaryRow(
             name, tuple(s for s, _ in group), mean_std(values["div"]), mean_std(values["fid"]),
             mean_std(values["feature_loss"]) if values["feature_loss"] else None, mean_std(values["ufr"]),
-            int(group[0][1].frames), values))
+            int(group[0][1].frames), values, _extra([r for _, r in group])))
     return out
+
+
+def _extra(rows: Sequence[TableRow]) -> dict[str, tuple[float, float] | None]:
+    out: dict[str, tuple[float, float] | None] = {}
+    for key, _ in EXTRA_COLUMNS:
+        values = [float(getattr(r, key)) for r in rows if getattr(r, key) is not None]
+        out[key] = mean_std(values) if values else None
+    return out
+
+
+PERCENT_COLUMNS = PERCENT_FIGURES | {"ufr"}
+"""Figures shown as percentages."""
 
 
 def _cell(value: tuple[float, float] | None, runs: int, *, percent: bool = False, digits: int = 3) -> str:
@@ -123,7 +142,8 @@ def _cell(value: tuple[float, float] | None, runs: int, *, percent: bool = False
 
 
 def format_summary(rows: Sequence[SummaryRow]) -> str:
-    """Markdown: ``| method | runs | DIV → | FID ↓ | L_fea ↓ | UFR ↓ | frames |``, ``mean ± std`` over runs."""
+    """Markdown: ``| method | runs | DIV → | FID ↓ | L_fea ↓ | UFR ↓ | frames |``, ``mean ± std`` over runs
+    (the figures beyond the paper's: :func:`format_extra`)."""
     head = "| method | runs | " + " | ".join(f"{c} {b}" for _, c, b in METRICS) + " | frames |"
     lines = [head, "|---|---|" + "---|" * len(METRICS) + "---|"]
     for r in rows:
@@ -132,12 +152,30 @@ def format_summary(rows: Sequence[SummaryRow]) -> str:
     return "\n".join(lines)
 
 
+EXTRA_BETTER = {"fid_all": "↓", "div_all": "→", "follow": "↑", "follow_hand": "↑", "follow_forward": "↑",
+                "follow_yaw": "↑"}
+"""Which way is better for each extra figure (the rest: lower)."""
+
+
+def format_extra(rows: Sequence[SummaryRow]) -> str:
+    """Markdown: the figures beyond the paper's, one column each, ``mean ± std`` over runs."""
+    head = "| method | " + " | ".join(f"{c} {EXTRA_BETTER.get(k, '↓')}" for k, c in EXTRA_COLUMNS) + " |"
+    lines = [head, "|---|" + "---|" * len(EXTRA_COLUMNS)]
+    for r in rows:
+        cells = [_cell(r.extra.get(k), r.runs, percent=k in PERCENT_COLUMNS, digits=2 if k.endswith("_mm") else 3)
+                 for k, _ in EXTRA_COLUMNS]
+        lines.append(f"| {r.name} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 def _run_records(evaluation: Evaluation) -> list[dict[str, object]]:
     records = [{"method": "Dataset", "seed": None, "stage": "", **{c: getattr(evaluation.dataset, k)
-                for k, c, _ in METRICS}, "frames": evaluation.dataset.frames, **evaluation.dataset_causes}]
+                for k, c, _ in METRICS}, **{c: getattr(evaluation.dataset, k) for k, c in EXTRA_COLUMNS},
+                "frames": evaluation.dataset.frames, **evaluation.dataset_causes}]
     for res in evaluation.results:
         records.append({"method": res.method.name, "seed": res.method.seed, "stage": os.fspath(res.method.stage),
-                        **{c: getattr(res.row, k) for k, c, _ in METRICS}, "frames": res.row.frames, **res.causes})
+                        **{c: getattr(res.row, k) for k, c, _ in METRICS},
+                        **{c: getattr(res.row, k) for k, c in EXTRA_COLUMNS}, "frames": res.row.frames, **res.causes})
     return records
 
 
@@ -279,6 +317,10 @@ def write_index(out: str | os.PathLike[str], evaluation: Evaluation, rows: Seque
         ["method", "runs", *(f"{c} {b}" for _, c, b in METRICS), "frames"],
         [[r.name, str(r.runs) if r.seeds else "–",
           *(_cell(getattr(r, k), r.runs, percent=k == "ufr") for k, _, _ in METRICS), str(r.frames)] for r in rows])
+    extra = _html_table(
+        ["method", *(f"{c} {EXTRA_BETTER.get(k, '↓')}" for k, c in EXTRA_COLUMNS)],
+        [[r.name, *(_cell(r.extra.get(k), r.runs, percent=k in PERCENT_COLUMNS, digits=2 if k.endswith("_mm") else 3)
+                    for k, _ in EXTRA_COLUMNS)] for r in rows])
     records = _run_records(evaluation)
     causes = _html_table(
         ["method", "seed", "UFR", "self-collision", "foot penetration", "foot sliding", "stage"],
@@ -295,8 +337,18 @@ def write_index(out: str | os.PathLike[str], evaluation: Evaluation, rows: Seque
         f"(from {html.escape(ref.source)}); body lengths {ref.pairing.creature_length:.3f} m (creature), "
         f"{ref.pairing.human_length:.3f} m (human).</p>",
         "<h2>Table 1</h2>", table,
+        *(f"<p><b>FAILED</b> {html.escape(n)}: {html.escape(w)}</p>" for n, w in evaluation.failed.items()),
         "<p>DIV → : best closest to the data set's. FID, L_fea, UFR: lower is better. Mean ± sample std over "
-        "runs (seeds) of a method. Definitions: <code>morphkit.metrics</code> (docs/guides/evaluate.md).</p>",
+        "runs (seeds) of a method. DIV and FID against the content-matched reference (the creature's data "
+        "resampled to the clips' root speed and yaw rate); UFR strict: contact below 2 cm, sliding above "
+        "0.2 m/s, penetration deeper than 5 mm, self-collision deeper than 5 mm. Definitions: "
+        "<code>morphkit.metrics</code> (docs/guides/evaluate.md).</p>",
+        "<h2>Beyond the paper: contact, reference and follow figures</h2>", extra,
+        "<p>FID/DIV (all data): against the whole data set, as the paper. UFR medium: 5 cm / 0.5 m/s / 1 cm; "
+        "loose: 5 cm / 1 m/s / 2 cm. sliding/foot, penetration/foot: per foot-frame. skating: GMD's ratio. "
+        "Penetrate, Float, Skate: PhysDiff's, in mm. floating: frames in a flight longer than the data set's "
+        "longest. follow: Pearson correlation of the human's and the creature's end-effector heights, forward "
+        "velocity and yaw rate, per clip, averaged (1 follows exactly, 0 unrelated).</p>",
         '<p>Files: <a href="table.md">table.md</a>, <a href="table.csv">table.csv</a>, '
         '<a href="runs.csv">runs.csv</a>, <a href="evaluation.json">evaluation.json</a></p>',
         "<h2>The paper's claims</h2>",
@@ -334,7 +386,9 @@ def write_report(
     root = Path(out)
     root.mkdir(parents=True, exist_ok=True)
     rows = summarize(evaluation.dataset, [(r.method.seed, r.row) for r in evaluation.results])
-    markdown = write_table_files(root / "table", format_summary(rows), [r.as_dict() for r in rows])
+    failures = "".join(f"\n\nFAILED {name}: {why}" for name, why in evaluation.failed.items())
+    markdown = write_table_files(root / "table", format_summary(rows) + "\n\n" + format_extra(rows) + failures,
+                                 [r.as_dict() for r in rows])
     checks = check_targets(rows)
     atomic_write_text(root / "targets.md", format_targets(checks) + "\n")
     records = _run_records(evaluation)
@@ -347,6 +401,7 @@ def write_report(
         "clips": {c.name: c.frame_count for c in evaluation.clips},
         "table": [r.as_dict() for r in rows], "runs": records,
         "targets": [{"claim": c.claim, "met": c.met, "measured": c.detail} for c in checks],
+        "failed": dict(evaluation.failed),
     }
     atomic_write_text(root / "evaluation.json", json.dumps(summary, indent=1) + "\n")
     notes: list[str] = []

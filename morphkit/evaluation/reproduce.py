@@ -37,7 +37,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from morphkit.errors import ConfigError
+from morphkit.errors import ConfigError, RunError, SourceLocation
 from morphkit.evaluation.evaluate import evaluate_methods, reference_for
 from morphkit.evaluation.methods import find_methods
 from morphkit.evaluation.report import write_report
@@ -185,6 +185,10 @@ def evaluate_runs(
         video_size=video_size,
         log=log,
     )
+    if evaluation.failed:
+        raise RunError(f"report written, but {len(evaluation.failed)} method(s) failed: "
+                       + "; ".join(f"{k}: {v}" for k, v in evaluation.failed.items()), location=SourceLocation(
+                           os.fspath(folder / "index.html")))
     return folder
 
 

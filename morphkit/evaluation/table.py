@@ -18,16 +18,37 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from morphkit.metrics import UnrealisticFrames, diversity, feature_loss, fid, unrealistic_frame_ratio
-from morphkit.motion import Motion, Pairing
+from morphkit.metrics import (
+    UFR_SETTINGS,
+    FootContactFigures,
+    UnrealisticFrames,
+    diversity,
+    feature_loss,
+    fid,
+    floating_frames,
+    follow_score,
+    foot_contact_figures,
+    longest_flight,
+    matched_reference,
+    physdiff_figures,
+    skating_ratio,
+    unrealistic_frame_ratio,
+)
+from morphkit.motion import ROOT_FEATURE_DIM, Motion, Pairing
 from morphkit.retarget.tables import write_table_files
 
-__all__ = ["TableRow", "dataset_row", "evaluate_clips", "format_table", "write_table"]
+__all__ = ["EXTRA_COLUMNS", "PERCENT_FIGURES", "ReferenceData", "TableRow", "dataset_row", "evaluate_clips",
+           "follow_figures", "follow_series", "format_table", "reference_data", "write_table"]
 
 
 @dataclass(frozen=True)
 class TableRow:
-    """One row of a Table-1-style comparison (``None`` where a metric does not apply)."""
+    """One row of a Table-1-style comparison (``None`` where a metric does not apply or was not measured).
+
+    ``div``/``fid`` are measured against the content-matched reference (the creature's data resampled
+    to the clips' root speed and yaw rate); ``div_all``/``fid_all`` against the whole data set, as
+    the paper does. Rates are fractions in [0, 1]; PhysDiff's figures are millimetres.
+    """
 
     name: str
     div: float
@@ -35,35 +56,170 @@ class TableRow:
     feature_loss: float | None
     ufr: float
     frames: int
+    fid_all: float | None = None
+    """FID against the creature's whole data set (the paper's)."""
+    div_all: float | None = None
+    """The Dataset row: DIV of the whole data set (the paper's); method rows: their DIV (the same as ``div``)."""
+    ufr_medium: float | None = None
+    """UFR at :data:`~morphkit.metrics.UFR_MEDIUM` (5 cm contact, 0.5 m/s sliding, 1 cm penetration)."""
+    ufr_loose: float | None = None
+    """UFR at :data:`~morphkit.metrics.UFR_LOOSE` (5 cm, 1 m/s, 2 cm)."""
+    foot_sliding: float | None = None
+    """Sliding foot-frames / all foot-frames (UFR's strict sliding test, per foot)."""
+    foot_penetration: float | None = None
+    """Penetrating foot-frames / all foot-frames (strict)."""
+    skating: float | None = None
+    """GMD's skating ratio (:func:`~morphkit.metrics.skating_ratio`), frame transitions pooled."""
+    penetrate_mm: float | None = None
+    float_mm: float | None = None
+    skate_mm: float | None = None
+    """PhysDiff's Penetrate, Float and Skate [mm] (:func:`~morphkit.metrics.physdiff_figures`), frame-weighted."""
+    floating: float | None = None
+    """Frames in a flight (no foot within 2 cm of the ground) longer than the data set's longest / all frames."""
+    follow: float | None = None
+    """Mean over clips of the Pearson correlation of paired human and creature series, averaged over
+    the series: each mapped end-effector's height, the root's forward velocity and its yaw rate."""
+    follow_hand: float | None = None
+    """``follow`` of the heights of the creature's hand and tool end-effectors only."""
+    follow_forward: float | None = None
+    """``follow`` of the root's forward velocity only."""
+    follow_yaw: float | None = None
+    """``follow`` of the yaw rate only."""
 
     def as_dict(self) -> dict[str, object]:
-        return {"method": self.name, "DIV": self.div, "FID": self.fid, "L_fea": self.feature_loss,
-                "UFR": self.ufr, "frames": self.frames}
+        out: dict[str, object] = {"method": self.name, "DIV": self.div, "FID": self.fid, "L_fea": self.feature_loss,
+                                  "UFR": self.ufr, "frames": self.frames}
+        out.update({column: getattr(self, key) for key, column in EXTRA_COLUMNS})
+        return out
 
 
-def dataset_row(character: Sequence[Motion], pairing: Pairing, *, seed: int = 0) -> TableRow:
-    """The data set's own DIV and UFR (FID 0 by definition)."""
+EXTRA_COLUMNS = (
+    ("fid_all", "FID (all data)"), ("div_all", "DIV (all data)"), ("follow", "follow"),
+    ("follow_hand", "follow hand"), ("follow_forward", "follow forward"), ("follow_yaw", "follow yaw"),
+    ("ufr_medium", "UFR medium"), ("ufr_loose", "UFR loose"), ("foot_sliding", "sliding/foot"),
+    ("foot_penetration", "penetration/foot"), ("skating", "skating"), ("penetrate_mm", "Penetrate mm"),
+    ("float_mm", "Float mm"), ("skate_mm", "Skate mm"), ("floating", "floating"),
+)
+"""``(TableRow field, column name)`` of the figures beyond the paper's four."""
+
+
+@dataclass(eq=False)
+class ReferenceData:
+    """What every row of one comparison is measured against, computed once (:func:`reference_data`)."""
+
+    psi: np.ndarray
+    """Ψ of every frame of the creature's data set [N, 11 + 3k]."""
+    longest_flight: int
+    """Longest run of frames with no foot in contact in the data set (the floating limit)."""
+    roles: dict[str, str]
+    """Role name of each creature end-effector (``foot``, ``hand``, ``tool``, ``head``)."""
+
+
+def reference_data(character: Sequence[Motion], pairing: Pairing) -> ReferenceData:
+    """Ψ, longest flight and end-effector roles of the creature's data set."""
     psi = np.concatenate([pairing.creature_psi(m) for m in character], axis=0)
+    flight = max((longest_flight(m) for m in character), default=0)
+    m = character[0].morphology
+    return ReferenceData(psi, int(flight), {e.name: e.role.name.lower() for e in m.end_effectors})
+
+
+def _matched(reference: ReferenceData, psi_h: np.ndarray, seed: int) -> np.ndarray:
+    return matched_reference(reference.psi, psi_h, seed=seed)[0]
+
+
+def dataset_row(character: Sequence[Motion], pairing: Pairing, *, seed: int = 0,
+                humans: Sequence[Motion] | None = None, reference: ReferenceData | None = None) -> TableRow:
+    """The data set's own row: DIV of the content-matched reference (of ``humans``; the whole data set
+    without them), DIV of the whole data set, UFR and the contact figures (FID 0 by definition)."""
+    ref = reference if reference is not None else reference_data(character, pairing)
+    div_all = float(diversity(ref.psi, rng=seed))
+    div = div_all
+    if humans:
+        psi_h = np.concatenate([pairing.human_psi(h) for h in humans], axis=0)
+        div = float(diversity(_matched(ref, psi_h, seed), rng=seed))
+    contact = _contact_figures(character, ref)
     ufr = UnrealisticFrames.concatenate([unrealistic_frame_ratio(m) for m in character])
-    return TableRow("Dataset", float(diversity(psi, rng=seed)), 0.0, None, float(ufr.ratio), int(psi.shape[0]))
+    return TableRow("Dataset", div, 0.0, None, float(ufr.ratio), int(ref.psi.shape[0]), fid_all=0.0, div_all=div_all,
+                    **contact)
+
+
+def _contact_figures(motions: Sequence[Motion], ref: ReferenceData) -> dict[str, float]:
+    frames = np.array([m.frame_count for m in motions], dtype=float)
+    w = frames / frames.sum()
+    out: dict[str, float] = {}
+    for key, thr in (("ufr_medium", UFR_SETTINGS["medium"]), ("ufr_loose", UFR_SETTINGS["loose"])):
+        flags = [unrealistic_frame_ratio(m, thresholds=thr) for m in motions]
+        out[key] = float(UnrealisticFrames.concatenate(flags).ratio)
+    feet = FootContactFigures.concatenate([foot_contact_figures(m) for m in motions])
+    out["foot_sliding"], out["foot_penetration"] = feet.sliding_rate, feet.penetration_rate
+    transitions = np.maximum(frames - 1, 0)
+    skating = [skating_ratio(m) for m in motions]
+    out["skating"] = float(np.dot(skating, transitions) / max(transitions.sum(), 1))
+    physdiff = [physdiff_figures(m) for m in motions]
+    for key in ("penetrate_mm", "float_mm", "skate_mm"):
+        out[key] = float(np.dot([getattr(f, key) for f in physdiff], w))
+    floating = sum(int(floating_frames(m, ref.longest_flight).sum()) for m in motions)
+    out["floating"] = floating / float(frames.sum())
+    return out
+
+
+_HEIGHT, _FORWARD, _YAW = 0, 5, 10
+"""Ψ columns: root height / body length, heading-frame forward velocity [body lengths/s], yaw rate [rad/s]
+(:mod:`morphkit.motion.features`); an end-effector's block starts at ``ROOT_FEATURE_DIM + 3 i``."""
+
+
+def follow_series(psi: np.ndarray, ees: Sequence[str]) -> dict[str, np.ndarray]:
+    """The series a viewer compares, from Ψ [T, 11 + 3k]: each paired end-effector's height above the
+    ground (root height plus its heading-frame z, in body lengths; named by the creature's
+    end-effector), the root's forward velocity and its yaw rate."""
+    out = {f"{name} height": psi[:, _HEIGHT] + psi[:, ROOT_FEATURE_DIM + 3 * i + 2] for i, name in enumerate(ees)}
+    out["forward velocity"] = psi[:, _FORWARD]
+    out["yaw rate"] = psi[:, _YAW]
+    return out
+
+
+def follow_figures(humans: Sequence[Motion], retargeted: Sequence[Motion], pairing: Pairing,
+                   roles: dict[str, str]) -> dict[str, float | None]:
+    """``follow``, ``follow_hand``, ``follow_forward``, ``follow_yaw`` (see :class:`TableRow`): per clip
+    the Pearson correlations of :func:`follow_series` (:func:`~morphkit.metrics.follow_score`; a
+    constant series scores 0 against a varying one), averaged over clips with equal weight. Clips
+    are compared over their common length; clips shorter than 3 frames are left out."""
+    per: dict[str, list[float]] = {}
+    for h, r in zip(humans, retargeted, strict=True):
+        n = min(h.frame_count, r.frame_count)
+        if n < 3:
+            continue
+        hs = follow_series(pairing.human_psi(h)[:n], pairing.creature_ees)
+        rs = follow_series(pairing.creature_psi(r)[:n], pairing.creature_ees)
+        for key, value in follow_score(hs, rs).correlations.items():
+            per.setdefault(key, []).append(value)
+    if not per:
+        return {"follow": None, "follow_hand": None, "follow_forward": None, "follow_yaw": None}
+    mean = {k: float(np.mean(v)) for k, v in per.items()}
+    hands = [mean[f"{e} height"] for e in pairing.creature_ees if roles.get(e) in ("hand", "tool")]
+    return {"follow": float(np.mean(list(mean.values()))), "follow_hand": float(np.mean(hands)) if hands else None,
+            "follow_forward": mean["forward velocity"], "follow_yaw": mean["yaw rate"]}
 
 
 def evaluate_clips(
     name: str,
     humans: Sequence[Motion],
     retargeted: Sequence[Motion],
-    character: Sequence[Motion],
+    character: Sequence[Motion] | ReferenceData,
     pairing: Pairing,
     *,
     seed: int = 0,
 ) -> TableRow:
-    """DIV, FID, L_fea and UFR of ``retargeted`` clips (pairwise with the ``humans`` they came from)."""
+    """Every figure of ``retargeted`` clips (pairwise with the ``humans`` they came from), against the
+    creature's data set (its motions, or their :func:`reference_data`)."""
+    ref = character if isinstance(character, ReferenceData) else reference_data(character, pairing)
     psi_r = np.concatenate([pairing.creature_psi(m) for m in retargeted], axis=0)
-    psi_d = np.concatenate([pairing.creature_psi(m) for m in character], axis=0)
     psi_h = np.concatenate([pairing.human_psi(h) for h in humans], axis=0)
     ufr = UnrealisticFrames.concatenate([unrealistic_frame_ratio(m) for m in retargeted])
-    return TableRow(name, float(diversity(psi_r, rng=seed)), float(fid(psi_d, psi_r)),
-                    float(feature_loss(psi_h, psi_r)), float(ufr.ratio), int(psi_r.shape[0]))
+    div = float(diversity(psi_r, rng=seed))
+    return TableRow(name, div, float(fid(_matched(ref, psi_h, seed), psi_r)), float(feature_loss(psi_h, psi_r)),
+                    float(ufr.ratio), int(psi_r.shape[0]), fid_all=float(fid(ref.psi, psi_r)), div_all=div,
+                    **_contact_figures(retargeted, ref), **follow_figures(humans, retargeted, pairing, ref.roles))
 
 
 def _cell(value: float | None, digits: int = 3, percent: bool = False) -> str:
@@ -73,12 +229,24 @@ def _cell(value: float | None, digits: int = 3, percent: bool = False) -> str:
 
 
 def format_table(rows: Sequence[TableRow]) -> str:
-    """Markdown: ``| method | DIV → | FID ↓ | L_fea ↓ | UFR ↓ | frames |`` (DIV: closest to the data set's)."""
+    """Markdown: ``| method | DIV → | FID ↓ | L_fea ↓ | UFR ↓ | frames |`` (DIV: closest to the data set's),
+    then the figures beyond the paper's (:data:`EXTRA_COLUMNS`) where any row has them."""
     lines = ["| method | DIV → | FID ↓ | L_fea ↓ | UFR ↓ | frames |", "|---|---|---|---|---|---|"]
     for r in rows:
         lines.append(f"| {r.name} | {_cell(r.div)} | {_cell(r.fid)} | {_cell(r.feature_loss)} | "
                      f"{_cell(r.ufr, percent=True)} | {r.frames} |")
+    shown = [(k, c) for k, c in EXTRA_COLUMNS if any(getattr(r, k) is not None for r in rows)]
+    if shown:
+        lines += ["", "| method | " + " | ".join(c for _, c in shown) + " |", "|---|" + "---|" * len(shown)]
+        for r in rows:
+            cells = [_cell(getattr(r, k), 2 if k.endswith("_mm") else 3, percent=k in PERCENT_FIGURES)
+                     for k, _ in shown]
+            lines.append(f"| {r.name} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
+
+
+PERCENT_FIGURES = frozenset({"ufr_medium", "ufr_loose", "foot_sliding", "foot_penetration", "skating", "floating"})
+"""Extra figures that are fractions (shown as percentages)."""
 
 
 def write_table(rows: Sequence[TableRow], stem: str | os.PathLike[str]) -> str:

@@ -31,7 +31,7 @@ from morphkit.evaluation.reproduce import DONE_FILE, Stage, run_stages
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = ROOT / "examples" / "reproduce_table1.py"
-METHODS = ("ACE", "NKN", "ACEwoFea", "ACEwoAdv", "ACE+contact")
+METHODS = ("ACE", "ACE+replan", "NKN", "NKN+replan", "ACEwoFea", "ACEwoAdv", "ACE+contact")
 
 
 def test_a_finished_stage_is_not_run_again_and_a_failed_one_is(tmp_path):
@@ -261,7 +261,8 @@ def smoke(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, str
 
 
 def _table(path: Path) -> dict[str, list[str]]:
-    lines = path.read_text().splitlines()[2:]
+    """Table 1 of a ``table.md`` (the first table; the figures beyond the paper's follow a blank line)."""
+    lines = path.read_text().split("\n\n")[0].splitlines()[2:]
     return {line.split("|")[1].strip(): [c.strip() for c in line.split("|")[2:-1]] for line in lines}
 
 
@@ -349,3 +350,28 @@ def test_evaluate_refuses_bad_input_with_one_clear_error(smoke, tmp_path, monkey
     example = runpy.run_path(str(ROOT / "examples" / "ace_eval.py"), run_name="ace_eval")["main"]
     assert example(["--runs", str(tmp_path / "missing")]) == 2
     assert "no such run folder" in capsys.readouterr().err
+
+
+def test_an_evaluation_survives_one_failing_method(smoke, tmp_path, monkeypatch):
+    """A method whose retargeting fails is listed as failed; the other rows and the report are written, and
+    the call still ends in an error (exit code 2 from the CLI)."""
+    import morphkit.evaluation.evaluate as evaluate
+
+    out, env, _ = smoke
+    monkeypatch.setenv("MORPHKIT_CACHE_DIR", env["MORPHKIT_CACHE_DIR"])
+    runs = out / "testdog" / "runs"
+    real = evaluate.retarget
+
+    def failing(method, clips, **kw):
+        if method.name == "NKN":
+            raise RunError(f"clip {clips[0].name!r}: non-finite output at frame 3 of 10 (root_x)")
+        return real(method, clips, **kw)
+
+    monkeypatch.setattr(evaluate, "retarget", failing)
+    with pytest.raises(RunError, match="1 method\\(s\\) failed: NKN \\(seed 0\\)"):
+        reproduce.evaluate_runs([runs / "ace_seed0", runs / "nkn_seed0"], tmp_path / "eval", clips=1, videos=0,
+                                log=lambda s: None)
+    assert "NKN" not in _table(tmp_path / "eval" / "table.md") and "ACE" in _table(tmp_path / "eval" / "table.md")
+    assert "FAILED NKN (seed 0)" in (tmp_path / "eval" / "table.md").read_text()
+    assert "non-finite output at frame 3" in json.loads((tmp_path / "eval" / "evaluation.json").read_text())[
+        "failed"]["NKN (seed 0)"]

@@ -1,0 +1,79 @@
+"""The evaluation's figures on cases with a known answer: a clip retargeted onto itself, centred Ψ."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from morphkit.evaluation.table import dataset_row, evaluate_clips, follow_figures, follow_series, reference_data
+from morphkit.motion import ROOT_FEATURE_DIM, Pairing, features, human_state_from_motion, human_state_layout
+
+
+@pytest.fixture(scope="module")
+def clips():
+    from morphkit.synth import default_human_motion
+
+    return list(default_human_motion(frames=240, seed=3, cache_dir=None))
+
+
+def _identity(clips) -> Pairing:
+    ees = tuple(e.name for e in clips[0].morphology.end_effectors)
+    return Pairing(ees, ees, 1.7, 1.7).with_centres(clips, clips)
+
+
+def test_a_clip_retargeted_onto_itself_follows_exactly_and_has_no_feature_loss(clips):
+    pairing = _identity(clips)
+    roles = {e.name: e.role.name.lower() for e in clips[0].morphology.end_effectors}
+    follow = follow_figures(clips, clips, pairing, roles)
+    assert follow["follow"] == pytest.approx(1.0)
+    assert follow["follow_hand"] == pytest.approx(1.0) and follow["follow_forward"] == pytest.approx(1.0)
+    row = evaluate_clips("self", clips, clips, reference_data(clips, pairing), pairing)
+    assert row.feature_loss == pytest.approx(0.0, abs=1e-9)
+    assert row.follow == pytest.approx(1.0)
+    # the matched reference of a data set against itself is that data set: FID near 0 either way
+    assert row.fid < 0.5 and row.fid_all < 1e-6
+
+
+def test_a_clip_played_backwards_does_not_follow(clips):
+    pairing = _identity(clips)
+    roles = {e.name: e.role.name.lower() for e in clips[0].morphology.end_effectors}
+    backwards = [c.replace(q=c.q[::-1].copy()) for c in clips]
+    follow = follow_figures(clips, backwards, pairing, roles)
+    assert follow["follow"] < 0.5
+
+
+def test_follow_series_are_heights_above_the_ground_and_root_velocities(clips):
+    """An end-effector's series is root height + its heading-frame z (Ψ divides both by the body length)."""
+    clip = clips[0]
+    pairing = _identity(clips[:1])
+    plain = Pairing(pairing.creature_ees, pairing.human_ees, 1.0, 1.0)
+    series = follow_series(plain.human_psi(clip), plain.creature_ees)
+    world = clip.end_effector_positions()
+    for i, name in enumerate(plain.creature_ees):
+        np.testing.assert_allclose(series[f"{name} height"], world[:, i, 2], atol=1e-6)
+
+
+def test_centred_psi_does_not_see_a_constant_end_effector_offset(clips):
+    """Centring on each side's own data: shifting every end-effector by a constant leaves Ψ unchanged."""
+    clip = clips[0]
+    layout = human_state_layout(clip.morphology)
+    x = human_state_from_motion(clip)
+    ee = layout.slice("ee_positions")
+    shifted = x.copy()
+    shifted[:, ee] += np.tile([0.3, -0.1, 0.05], (ee.stop - ee.start) // 3)
+    psi = {}
+    for name, states in (("plain", x), ("shifted", shifted)):
+        raw = features(states, layout, length=1.7)
+        centre = raw[:, ROOT_FEATURE_DIM:].mean(axis=0)
+        psi[name] = features(states, layout, length=1.7, centre=centre)
+    np.testing.assert_allclose(psi["shifted"], psi["plain"], atol=1e-12)
+    # and the centred block averages to zero over the data it was centred on
+    np.testing.assert_allclose(psi["plain"][:, ROOT_FEATURE_DIM:].mean(axis=0), 0.0, atol=1e-12)
+
+
+def test_dataset_row_reports_matched_and_whole_data_diversity(clips):
+    pairing = _identity(clips)
+    row = dataset_row(clips, pairing, humans=clips[:1])
+    whole = dataset_row(clips, pairing)
+    assert row.div_all == pytest.approx(whole.div) and row.fid == 0.0
+    assert row.follow is None and row.floating == 0.0
