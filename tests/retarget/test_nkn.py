@@ -243,6 +243,43 @@ def test_cross_morphology_mode_on_a_yaml_creature(tmp_path, data_dir, monkeypatc
     assert ((out[0].q[:, 7:] >= lo[7:] - 1e-6) & (out[0].q[:, 7:] <= hi[7:] + 1e-6)).all()  # tanh keeps limits
     with pytest.raises(RunError, match="skeletons"):
         train_nkn(tmp_path / "cross", cfg, human_data=data_dir, **QUIET)
+    # morphkit retarget with the cross run: the creature's motion, readable back, in every format asked for
+    from morphkit.cli import main
+    from morphkit.motion import read_motion, write_motion
+
+    write_motion(clips[0], tmp_path / "walk.npz")
+    assert main(["retarget", "--run", str(run), "--motion", str(tmp_path / "walk.npz"), "--out",
+                 str(tmp_path / "out"), "--formats", "npz,bvh", "--contacts", "none"]) == 0
+    back = read_motion(next((tmp_path / "out").glob("*.npz")))
+    assert back.morphology.name == "testdog" and back.frame_count == 25
+    assert read_motion(next((tmp_path / "out").glob("*.bvh"))).frame_count == 25
+    # a clip whose root races off at 300 m/s: NKN's global motion is bounded, the output finite
+    fast = clips[0].q.copy()
+    fast[:, 0] += np.arange(len(fast)) * 10.0
+    wild = model.retarget([clips[0].replace(q=fast, name="wild")])[0].motion
+    assert np.isfinite(wild.q).all()
+    step = np.linalg.norm(np.diff(wild.root_pose()[:, :2], axis=0), axis=1) * 30.0
+    side = model.generator.side
+    bound = (side.x_mean[-4:-2].abs() + 6.0 * side.x_std[-4:-2]).norm().item()
+    assert step.max() <= bound + 1e-6
+
+
+def test_morphkit_retarget_onto_an_unseen_skeleton_with_an_nkn_run(trained, data_dir, tmp_path, capsys):
+    """NKN over human skeletons from the CLI: the first unseen bone-length variant unless --target says."""
+    from morphkit.cli import main
+    from morphkit.motion import read_motion
+
+    clip = sorted(data_dir.glob("*.npz"))[0]
+    assert main(["retarget", "--run", str(trained), "--motion", str(clip), "--out", str(tmp_path / "a.bvh"),
+                 "--contacts", "none"]) == 0
+    assert read_motion(tmp_path / "a.bvh").frame_count == read_motion(clip).frame_count
+    assert main(["retarget", "--run", str(trained), "--motion", str(clip), "--out", str(tmp_path / "b.npz"),
+                 "--contacts", "none", "--target", "tall"]) == 0
+    assert read_motion(tmp_path / "b.npz").morphology.name == "tall"
+    capsys.readouterr()
+    assert main(["retarget", "--run", str(trained), "--motion", str(clip), "--out", str(tmp_path / "c.npz"),
+                 "--target", "giraffe"]) == 2
+    assert "unknown target 'giraffe'" in capsys.readouterr().err
 
 
 def test_bad_input_is_one_clear_error(tmp_path, trained, data_dir):
