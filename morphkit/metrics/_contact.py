@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from morphkit.errors import ConfigError
-from morphkit.metrics._unrealistic import UnrealisticFrameThresholds, contact_over_difference
+from morphkit.metrics._unrealistic import UnrealisticFrameThresholds, contact_over_difference, feet_of
 
 if TYPE_CHECKING:
     from morphkit.motion import Motion
@@ -51,22 +51,7 @@ UFR_SETTINGS: Mapping[str, UnrealisticFrameThresholds] = MappingProxyType(
 
 def _feet(motion: Motion, feet: Sequence[str] | None, who: str) -> tuple[np.ndarray, tuple[str, ...]]:
     """Indices [F] into the motion's end-effectors of the feet, and their names."""
-    from morphkit.kernels import foot_indices
-    from morphkit.motion import compiled_model
-
-    model = compiled_model(motion.morphology)
-    names = tuple(model.ee_names)
-    if feet is None:
-        idx = foot_indices(model)
-    else:
-        unknown = [n for n in feet if n not in names]
-        if unknown:
-            raise ConfigError(
-                f"{who}: no end-effector {unknown[0]!r} on {motion.morphology.name!r} "
-                f"(end-effectors: {', '.join(names) or 'none'})"
-            )
-        idx = np.asarray([names.index(n) for n in feet], dtype=np.int32)
-    return idx, tuple(names[int(i)] for i in idx)
+    return feet_of(motion, feet, who)
 
 
 def _check_number(who: str, name: str, value: float, *, positive: bool = False) -> float:

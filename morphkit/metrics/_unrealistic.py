@@ -156,6 +156,31 @@ def _compile(morphology: Morphology) -> _Compiled:
     return _Compiled(model, model.kernel_cache().setdefault("ufr_self_collision_pairs", {}))
 
 
+def feet_of(motion: Motion, feet: Sequence[str] | None, who: str) -> tuple[np.ndarray, tuple[str, ...]]:
+    """Indices [F] into the motion's end-effectors of its feet (role ``foot``, or the names ``feet``),
+    and their names.
+
+    Raises:
+        ConfigError: a name that is no end-effector of the motion's creature (``who`` says whose call).
+    """
+    from morphkit.kernels import foot_indices
+    from morphkit.motion import compiled_model
+
+    model = compiled_model(motion.morphology)
+    names = tuple(model.ee_names)
+    if feet is None:
+        idx = foot_indices(model)
+    else:
+        unknown = [n for n in feet if n not in names]
+        if unknown:
+            raise ConfigError(
+                f"{who}: no end-effector {unknown[0]!r} on {motion.morphology.name!r} "
+                f"(end-effectors: {', '.join(names) or 'none'})"
+            )
+        idx = np.asarray([names.index(n) for n in feet], dtype=np.int32)
+    return idx, tuple(names[int(i)] for i in idx)
+
+
 def contact_over_difference(contact: np.ndarray) -> np.ndarray:
     """``contact`` [T, F], kept only where the foot is also in contact at every frame its velocity comes from.
 
@@ -219,23 +244,12 @@ def unrealistic_frame_ratio(
         eval_penetration_depth,
         eval_self_collision_distance,
         eval_sliding_speed,
-        foot_indices,
     )
 
     thr = UnrealisticFrameThresholds() if thresholds is None else thresholds
     compiled = _compile(motion.morphology)
     model = compiled.model
-    if feet is None:
-        foot_idx = foot_indices(model)
-    else:
-        names = tuple(model.ee_names)
-        unknown = [n for n in feet if n not in names]
-        if unknown:
-            raise ConfigError(
-                f"unrealistic_frame_ratio: no end-effector {unknown[0]!r} on {motion.morphology.name!r} "
-                f"(end-effectors: {', '.join(names) or 'none'})"
-            )
-        foot_idx = np.asarray([names.index(n) for n in feet], dtype=np.int32)
+    foot_idx, _ = feet_of(motion, feet, "unrealistic_frame_ratio")
     T = motion.frame_count
     penetration = np.zeros(T, dtype=bool)
     sliding = np.zeros(T, dtype=bool)
