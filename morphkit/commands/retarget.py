@@ -30,9 +30,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="ACE runs: retargeter stage folder or variant (default RUN/retarget; e.g. RUN/retarget_wofea, ace-wofea)",
     )
     p.add_argument("--formats", default="npz,csv", help="folder output: comma-separated suffixes (default npz,csv)")
-    p.add_argument("--contacts", default="replan", choices=("none", "replan"),
+    p.add_argument("--contacts", choices=("none", "replan"),
                    help="contact-aware export: replan re-steps a legged creature's legs along the retargeted root "
-                        "path (stance feet planted; body and arms kept); none writes the raw output (default replan)")
+                        "path (stance feet planted; body and arms kept); none writes the raw output (default: "
+                        "replan onto a creature, none onto a human skeleton)")
     p.add_argument("--target", metavar="SKELETON",
                    help="NKN runs over human skeletons: a training character's name, a bone-length variant "
                         "(short_legs, long_legs, long_arms_short_legs, tall) or a BVH/YAML skeleton (default: the "
@@ -46,7 +47,7 @@ def run(args: argparse.Namespace) -> int:
 
     from morphkit.errors import ConfigError
     from morphkit.motion import load_motions, write_motion_files
-    from morphkit.retarget import load
+    from morphkit.retarget import WithContacts, load
 
     out = Path(args.out)
     single = out.suffix.lower() in FORMATS
@@ -57,9 +58,12 @@ def run(args: argparse.Namespace) -> int:
     clips = load_motions(args.motion)
     if single and len(clips) != 1:
         raise ConfigError(f"--out {out} names one file but {len(clips)} clips were given: pass a folder")
-    model = load(args.run_dir, stage=args.stage, device=args.device, contacts=args.contacts, target=args.target)
+    model = load(args.run_dir, stage=args.stage, device=args.device, target=args.target)
     if model.creature is None and args.target is None:  # NKN between human skeletons: an unseen skeleton
-        model = load(args.run_dir, device=args.device, contacts=args.contacts, target=DEFAULT_NKN_TARGET)
+        model = load(args.run_dir, device=args.device, target=DEFAULT_NKN_TARGET)
+    contacts = args.contacts or ("replan" if model.creature is not None else "none")
+    if contacts != "none":
+        model = WithContacts(model, contacts)
     results = model.retarget(clips)
     if not single:
         out.mkdir(parents=True, exist_ok=True)
