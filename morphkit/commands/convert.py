@@ -2,12 +2,15 @@
 
 A motion (any ``.bvh``; an ``.npz`` with ``q``; a USD file with time samples) written to ``.bvh``,
 ``.npz`` or ``.usd``/``.usda``/``.usdc`` converts as a motion; everything else converts the
-description (a BVH file's skeleton, for instance, to ``.yaml`` or ``.urdf``).
+description (a BVH file's skeleton, for instance, to ``.yaml`` or ``.urdf``). With ``--canonical`` a
+human clip is written mapped onto the canonical human (``morphkit.motion.to_canonical``), the skeleton
+every trainer reads human motion on.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 from pathlib import Path
 
 MOTION_SUFFIXES = (".bvh", ".npz", ".usd", ".usda", ".usdc")
@@ -24,6 +27,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--description-only", action="store_true", help="convert only the skeleton of a motion file, not its frames"
     )
+    p.add_argument("--canonical", action="store_true",
+                   help="write a human clip mapped onto the canonical human (the skeleton trainers read humans on)")
+    p.add_argument("--convention", metavar="YAML",
+                   help="with --canonical: a convention table for the clip's skeleton, tried before the shipped ones")
     p.set_defaults(run=run)
 
 
@@ -40,6 +47,8 @@ def run(args: argparse.Namespace) -> int:
     src = resolve_morphology(args.input)
     if args.fps is not None and not args.fps > 0:
         raise ConfigError(f"--fps must be > 0, got {args.fps}")
+    if args.canonical or args.convention:
+        return _canonical(args, src, out_suffix)
     if not args.description_only and out_suffix in MOTION_SUFFIXES:
         # Motion io lives a layer up (morphkit.motion); imported only when a motion is converted.
         from morphkit.motion import is_motion_file, read_motion, write_motion
@@ -52,4 +61,24 @@ def run(args: argparse.Namespace) -> int:
     m = read_morphology(src)
     write_morphology(m, args.output)
     print(f"wrote {args.output} ({m.name}: {m.link_count} links, {m.joint_count} joints)")
+    return 0
+
+
+def _canonical(args: argparse.Namespace, src: Path, out_suffix: str) -> int:
+    from morphkit.errors import ConfigError
+    from morphkit.motion import is_motion_file, read_canonical_motion, read_skeleton_map, write_motion
+
+    if not args.canonical:
+        raise ConfigError("--convention needs --canonical")
+    if args.description_only or out_suffix not in MOTION_SUFFIXES:
+        raise ConfigError(f"--canonical writes a motion: OUT must end in one of {', '.join(MOTION_SUFFIXES)}")
+    if not is_motion_file(src):
+        raise ConfigError(f"{args.input}: --canonical needs a motion file (.bvh, .npz with q, USD with time samples)")
+    if os.path.exists(args.output) and os.path.samefile(src, args.output):
+        raise ConfigError(f"{args.output}: OUT is IN; the clip would be overwritten")
+    maps = [read_skeleton_map(args.convention)] if args.convention else None
+    motion = read_canonical_motion(src, maps=maps, fps=args.fps)
+    write_motion(motion, args.output)
+    print(f"wrote {args.output} ({motion.morphology.name}, the canonical human: {len(motion.q)} frames at "
+          f"{motion.fps:g} fps)")
     return 0

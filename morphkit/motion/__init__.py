@@ -1,6 +1,7 @@
-"""Motion data: the :class:`Motion` container, BVH/USD/NPZ motion files, ACE states and Ψ with the
-state codec (encode and decode; NumPy, and torch twins through the FK kernels), the KL
-end-effector mapping, and windowed datasets.
+"""Motion data: the :class:`Motion` container, BVH/USD/NPZ motion files, the canonical human every human
+clip is mapped onto (:mod:`~morphkit.motion.canonical`), ACE states and Ψ with the state codec (encode
+and decode; NumPy, and torch twins through the FK kernels), the KL end-effector mapping, and windowed
+datasets.
 
 Importing this package loads NumPy and PyYAML only; FK (Warp), USD (``pxr``) and PyTorch
 (:class:`MotionDataset`) load when first used.
@@ -15,6 +16,16 @@ from typing import Any
 
 from morphkit.errors import MotionFormatError, SourceLocation
 from morphkit.motion._fk import compiled_model as compiled_model
+from morphkit.motion.canonical import CANONICAL_HUMAN as CANONICAL_HUMAN
+from morphkit.motion.canonical import SkeletonMap as SkeletonMap
+from morphkit.motion.canonical import canonical_human as canonical_human
+from morphkit.motion.canonical import canonical_record as canonical_record
+from morphkit.motion.canonical import guess_skeleton_map as guess_skeleton_map
+from morphkit.motion.canonical import is_canonical as is_canonical
+from morphkit.motion.canonical import read_canonical_motion as read_canonical_motion
+from morphkit.motion.canonical import read_skeleton_map as read_skeleton_map
+from morphkit.motion.canonical import skeleton_maps as skeleton_maps
+from morphkit.motion.canonical import to_canonical as to_canonical
 from morphkit.motion.codec import ClampReport as ClampReport
 from morphkit.motion.codec import character_state_from_q as character_state_from_q
 from morphkit.motion.codec import decode_character_states as decode_character_states
@@ -55,6 +66,7 @@ from morphkit.motion.states import human_state_from_motion as human_state_from_m
 from morphkit.motion.states import human_state_layout as human_state_layout
 
 __all__ = [
+    "CANONICAL_HUMAN",
     "MOTION_READ_SUFFIXES",
     "MOTION_WRITE_SUFFIXES",
     "ROOT_FEATURE_DIM",
@@ -65,9 +77,12 @@ __all__ = [
     "MotionDataset",
     "NormStats",
     "Pairing",
+    "SkeletonMap",
     "StateLayout",
     "body_length",
     "bvh_to_motion",
+    "canonical_human",
+    "canonical_record",
     "character_state",
     "character_state_from_motion",
     "character_state_from_q",
@@ -80,11 +95,13 @@ __all__ = [
     "fit_gaussian",
     "ground_motion",
     "ground_path",
+    "guess_skeleton_map",
     "heading_frame",
     "human_state",
     "human_state_from_motion",
     "human_state_from_q",
     "human_state_layout",
+    "is_canonical",
     "is_motion_file",
     "kl_divergence",
     "load_motions",
@@ -92,11 +109,15 @@ __all__ = [
     "motion_features",
     "motion_to_bvh",
     "read_bvh_motion",
+    "read_canonical_motion",
     "read_motion",
     "read_npz_motion",
     "read_override",
+    "read_skeleton_map",
     "read_usd_motion",
+    "skeleton_maps",
     "standing_height",
+    "to_canonical",
     "world_end_effectors",
     "write_bvh_motion",
     "write_motion",
