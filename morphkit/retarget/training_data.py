@@ -6,6 +6,12 @@ commands over its speed range) and cached by content hash (the morphology, frame
 rate, seed, morphkit's version and the synthesis source), so a second run of the same creature skips synthesis. The
 human's is a folder of motion files (BVH or any format morphkit reads), minus the documented
 evaluation split, or the embedded default (the shipped ``human`` moved by morphkit's synthesis).
+
+Every human clip is mapped onto the canonical human (:func:`~morphkit.motion.to_canonical`: the shipped
+``human``, scaled by leg length), so the human state's dimension never depends on the data's skeleton
+and one folder may mix conventions (CMU-22, CMU Daz, Bandai Namco, Mixamo, LAFAN1). A folder may hold
+its own convention table, :data:`CONVENTION_FILE` (:func:`~morphkit.motion.read_skeleton_map`), tried
+before the shipped ones; its ``scale``/``up``/``facing`` apply to every file of the folder.
 """
 
 from __future__ import annotations
@@ -25,10 +31,11 @@ from morphkit._atomic import atomic_path
 from morphkit._version import __version__
 from morphkit.errors import ConfigError, MotionFormatError, SourceLocation
 from morphkit.graph import Morphology
-from morphkit.motion import Motion, NormStats, load_motions
+from morphkit.motion import Motion, NormStats, SkeletonMap, load_motions, read_skeleton_map, to_canonical
 from morphkit.motion.datasets import default_cache_dir
 
 __all__ = [
+    "CONVENTION_FILE",
     "DataConfig",
     "StateWindows",
     "character_motions",
@@ -37,6 +44,10 @@ __all__ = [
     "human_motions",
     "split_evaluation_clips",
 ]
+
+
+CONVENTION_FILE = "convention.yaml"
+"""A human data folder's own convention table (optional)."""
 
 
 @dataclass(frozen=True)
@@ -133,25 +144,50 @@ def character_motions(
     return motions
 
 
+def _read_human_folder(path: str | os.PathLike[str], fps: float,
+                       cache_dir: str | os.PathLike[str] | bool | None) -> tuple[list[Motion], list[SkeletonMap]]:
+    """Clips under ``path`` at ``fps``, read with the folder's convention table's options, and that table."""
+    table = Path(path) / CONVENTION_FILE
+    maps = [read_skeleton_map(table)] if table.is_file() else []
+    options = dict(maps[0].read_options) if maps else {}
+    return load_motions(path, cache_dir=cache_dir, fps=fps, **options), maps
+
+
+def _canonical(motions: Sequence[Motion], maps: Sequence[SkeletonMap]) -> list[Motion]:
+    return [to_canonical(m, maps=maps) for m in motions]
+
+
 def human_motions(
     path: str | os.PathLike[str] | None,
     data: DataConfig,
     *,
     exclude_evaluation: bool = True,
     cache_dir: str | os.PathLike[str] | bool | None = True,
+    canonical: bool = True,
 ) -> list[Motion]:
     """Human training clips: every motion file under ``path`` (evaluation split removed), resampled
-    to ``data.fps``; or, with ``path=None``, the embedded default human motion.
+    to ``data.fps`` and mapped onto the canonical human; or, with ``path=None``, the embedded default
+    human motion (the canonical human already).
+
+    Args:
+        path: A human data folder (or file), or ``None``.
+        data: Frame rate and the default's frames and seed.
+        exclude_evaluation: Leave the evaluation split out.
+        cache_dir: Where read clips are cached (:func:`~morphkit.motion.load_motions`).
+        canonical: Map onto the canonical human (``False``: the clips' own skeleton, as runs trained
+            before the canonical human were; then every clip must be of one skeleton).
 
     Raises:
-        MotionFormatError: a folder without motion files, clips of different skeletons, or only
-            evaluation clips.
+        MotionFormatError: a folder without motion files, a clip that is not a human (what is missing),
+            clips of different skeletons (``canonical=False``), or only evaluation clips.
     """
     if path is None:
         from morphkit.synth import default_human_motion
 
         return list(default_human_motion(frames=data.human_frames, seed=data.synth_seed, fps=data.fps))
-    motions = load_motions(path, cache_dir=cache_dir, fps=data.fps)
+    motions, maps = _read_human_folder(path, data.fps, cache_dir)
+    if canonical:
+        motions = _canonical(motions, maps)
     first = motions[0].morphology
     for m in motions[1:]:
         if m.morphology.link_names != first.link_names or m.morphology.end_effectors != first.end_effectors:
@@ -167,9 +203,10 @@ def human_motions(
 
 
 def evaluation_clips(path: str | os.PathLike[str] | None, data: DataConfig, *, limit: int | None = None,
-                     cache_dir: str | os.PathLike[str] | bool | None = True) -> list[Motion]:
+                     cache_dir: str | os.PathLike[str] | bool | None = True, canonical: bool = True) -> list[Motion]:
     """Clips to evaluate on, never trained on: the evaluation split's clips under ``path`` (every clip
-    when none of them is named in the split), or embedded default human clips of another seed.
+    when none of them is named in the split), mapped onto the canonical human unless ``canonical`` is
+    false (see :func:`human_motions`), or embedded default human clips of another seed.
     """
     if path is None:
         from morphkit.synth import default_human_motion
@@ -177,9 +214,12 @@ def evaluation_clips(path: str | os.PathLike[str] | None, data: DataConfig, *, l
         clips = list(default_human_motion(frames=max(data.human_frames // 4, 300), seed=data.synth_seed + 1000,
                                           fps=data.fps))
     else:
-        motions = load_motions(path, cache_dir=cache_dir, fps=data.fps)
+        motions, maps = _read_human_folder(path, data.fps, cache_dir)
         _, held = split_evaluation_clips(motions)
         clips = held or motions
+        clips = clips[:limit] if limit is not None else clips
+        if canonical:
+            clips = _canonical(clips, maps)
     return clips[:limit] if limit is not None else clips
 
 

@@ -2,7 +2,8 @@
 
 An ACE run folder::
 
-    ace.yaml               creature, human data, body lengths, Ψ centres, data configuration, mapping, shared prior
+    ace.yaml               creature, human data and the canonical human it was mapped onto, body lengths,
+                           Ψ centres, data configuration, mapping, shared prior
     creature.yaml          the character's description (so the run retargets without the original file)
     stats_character.npz    normalisation of x^r        stats_human.npz   normalisation of x^h
     mapping.json           end-effector mapping (Eq. 11) with every KL value
@@ -31,7 +32,7 @@ from morphkit._atomic import atomic_path, atomic_write_text
 from morphkit.errors import RunError, SourceLocation
 from morphkit.graph import Morphology
 from morphkit.io import read_morphology, write_morphology
-from morphkit.motion import NormStats, Pairing
+from morphkit.motion import CANONICAL_HUMAN, NormStats, Pairing, canonical_record
 from morphkit.retarget.training_data import DataConfig
 
 __all__ = ["META_FILE", "PRIOR_STAGE", "AceArtifact"]
@@ -45,6 +46,7 @@ _CHARACTER_STATS = "stats_character.npz"
 _HUMAN_STATS = "stats_human.npz"
 _MAPPING = "mapping.json"
 _START_STATES = "start_states.npz"
+_UNSET: Any = object()
 
 
 def _need(path: Path) -> Path:
@@ -88,6 +90,15 @@ class AceArtifact:
     """Another run's prior stage this run shares (``None``: its own ``prior/``)."""
     extra: dict[str, Any] = field(default_factory=dict)
     """Other keys of ``ace.yaml``, kept as they are."""
+    canonical_human: dict[str, Any] | None = _UNSET
+    """The canonical human the human clips were mapped onto (:func:`~morphkit.motion.canonical_record`:
+    ``skeleton``, ``height`` and ``leg_length`` [m]); ``None``: a run trained before the canonical human,
+    on its data's own skeleton. Left out, it is the canonical record when :attr:`human_skeleton` is the
+    canonical human (every run trained since), else ``None``."""
+
+    def __post_init__(self) -> None:
+        if self.canonical_human is _UNSET:
+            self.canonical_human = canonical_record() if self.human_skeleton == CANONICAL_HUMAN else None
 
     @property
     def fps(self) -> float:
@@ -126,6 +137,8 @@ class AceArtifact:
                                   "human": list(self.pairing.human_centre or ())}
         if self.prior_dir is not None:
             meta["prior_dir"] = self.prior_dir
+        if self.canonical_human is not None:
+            meta["canonical_human"] = dict(self.canonical_human)
         return {**self.extra, **meta}
 
     def save(self, run_dir: str | os.PathLike[str]) -> None:
@@ -169,7 +182,8 @@ class AceArtifact:
         with np.load(_need(run / _START_STATES)) as f:
             states, psi = f["states"], f["psi"]
         known = {"creature", "human_data", "human_skeleton", "creature_body_length", "human_body_length", "fps",
-                 "data", "mapping", "prior_dir", "psi_centre"}
+                 "data", "mapping", "prior_dir", "psi_centre", "canonical_human"}
+        canonical = meta.get("canonical_human")
         return AceArtifact(
             creature=read_morphology(_need(run / _CREATURE)),
             character_stats=NormStats.load(_need(run / _CHARACTER_STATS)),
@@ -183,4 +197,5 @@ class AceArtifact:
             human_skeleton=str(meta.get("human_skeleton", "")),
             prior_dir=meta.get("prior_dir"),
             extra={k: v for k, v in meta.items() if k not in known},
+            canonical_human=dict(canonical) if isinstance(canonical, dict) else None,
         )

@@ -6,6 +6,13 @@ the character state (among the run's start states) whose Ψ is nearest the human
 frame's Ψ; the generated states are decoded into a :class:`~morphkit.motion.Motion` with
 :func:`~morphkit.motion.decode_character_states`, placed where the human starts (its root's ground
 position and heading).
+
+Clips are first mapped onto the canonical human (:func:`~morphkit.motion.to_canonical`), so a run
+retargets mocap of any known convention (CMU-22, CMU Daz, Bandai Namco, Mixamo, LAFAN1) or of a human
+shape, whatever skeleton it was trained on: every clip is checked before any is retargeted, and one that
+is not a human is refused naming what it lacks. A run trained before the canonical human (no
+``canonical_human`` in ``ace.yaml``) on the shipped ``human`` is taken to be canonical (it is); one
+trained on another skeleton takes clips of that skeleton only, as it always did.
 """
 
 from __future__ import annotations
@@ -14,6 +21,7 @@ import dataclasses
 import os
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import torch
@@ -21,11 +29,15 @@ import yaml
 
 from morphkit.errors import ConfigError, MotionFormatError, RunError, SourceLocation
 from morphkit.motion import (
+    CANONICAL_HUMAN,
     Motion,
+    canonical_human,
+    canonical_record,
     character_state_layout,
     decode_character_states,
     human_state_from_motion,
     human_state_layout,
+    to_canonical,
 )
 from morphkit.retarget.ace.checkpoint import AceArtifact
 from morphkit.retarget.ace.config import AceVariant, PriorConfig, RetargetConfig
@@ -126,6 +138,19 @@ class AceRetargeter:
         self.generator = Generator(self._h_dim, self.layout.dim, pc.latent, rc)
         self.generator.load_state_dict(state)
         self.generator.to(self.device).eval()
+        self.canonical: dict[str, Any] | None = self.artifact.canonical_human
+        """The canonical human clips are mapped onto (``None``: clips must be of the run's own skeleton)."""
+        if (self.canonical is None and self.artifact.human_skeleton == CANONICAL_HUMAN
+                and self._h_dim == human_state_layout(canonical_human()).dim):
+            self.canonical = canonical_record()  # trained before the record, on the canonical human itself
+
+    def intake(self, clip: Motion) -> Motion:
+        """``clip`` as the run reads it: on the canonical human (unless the run predates it).
+
+        Raises:
+            MotionFormatError: a clip that is not a human (naming what is missing).
+        """
+        return to_canonical(clip) if self.canonical is not None else clip
 
     def feature_map(self, human_layout_of: Motion) -> FeatureMap:
         """The run's Ψ pairing, for clips of ``human_layout_of``'s skeleton."""
@@ -145,14 +170,16 @@ class AceRetargeter:
 
     @torch.no_grad()
     def retarget(self, clips: Sequence[Motion], *, batch_size: int = 64) -> list[RetargetedClip]:
-        """Retarget human clips (any length, same skeleton as the run's human data), batched.
+        """Retarget human clips (any length; any human skeleton, see the module docstring), batched.
 
         Raises:
-            MotionFormatError: a clip of another human skeleton.
+            MotionFormatError: a clip that is not a human, or (a run from before the canonical human)
+                a clip of another skeleton than the run's.
             ConfigError: no clips.
         """
         if not clips:
             raise ConfigError("no clips to retarget")
+        clips = [self.intake(c) for c in clips]  # every clip checked before any is retargeted
         out: list[RetargetedClip] = []
         for lo in range(0, len(clips), batch_size):
             out += self._batch(list(clips[lo : lo + batch_size]))
