@@ -32,8 +32,15 @@ from morphkit.retarget.nkn.checkpoint import NknArtifact
 from morphkit.retarget.nkn.config import NknConfig
 from morphkit.retarget.nkn.features import GLOBAL_DIM, global_motion, integrate_global_motion, local_positions
 from morphkit.retarget.nkn.fk import SkeletonFK
+from morphkit.retarget.nkn.mapping import find_link_map, map_motion
 from morphkit.retarget.nkn.model import GeneratorOutput
-from morphkit.retarget.nkn.skeleton import EVALUATION_VARIANTS, bone_offsets, check_same_topology, scale_limbs
+from morphkit.retarget.nkn.skeleton import (
+    EVALUATION_VARIANTS,
+    bone_offsets,
+    check_same_topology,
+    scale_limbs,
+    topology_difference,
+)
 from morphkit.retarget.nkn.train import TRAINERS, build_networks, cpu_threads
 from morphkit.retarget.retargeter import RetargetedClip, check_finite
 from morphkit.retarget.run import CHECKPOINT_FILE, CONFIG_FILE, RUN_FILE
@@ -217,6 +224,7 @@ class NknRetargeter:
         if not clips:
             raise ConfigError("no clips to retarget")
         tgt = self._target(target if target is not None else self.target)
+        clips = [self._on_template(c) for c in clips]
         clips = [c if abs(c.fps - self.fps) < 1e-6 else c.resample(self.fps) for c in clips]
         out: list[RetargetedClip] = []
         for lo in range(0, len(clips), batch_size):
@@ -230,6 +238,16 @@ class NknRetargeter:
                                       start_yaw=float(yaw_from_quat(root[3:])), name=f"{clip.name}_nkn_{tgt.name}")
                 out.append(RetargetedClip(clip, check_finite(motion, run=self.dir, clip=clip.name)))
         return out
+
+    def _on_template(self, clip: Motion) -> Motion:
+        """``clip`` on the run's topology through a shipped link map where it is of another one (e.g. a clip
+        on the canonical human, as the evaluation reads them, for a run over CMU's 22 joints)."""
+        if topology_difference(self.template, clip.morphology) is None:
+            return clip
+        link_map = find_link_map(clip.morphology, self.template)
+        if link_map is None:
+            return clip  # refused by the topology check, naming the difference
+        return map_motion(clip, self.template, link_map, skeleton_name=clip.morphology.name)
 
     def _bounded(self, v: np.ndarray) -> np.ndarray:
         """Global motion [..., 4] clipped to :data:`GLOBAL_MOTION_BOUND` standard deviations of the output
