@@ -223,19 +223,18 @@ def read_skeleton_map(path: str | os.PathLike[str]) -> SkeletonMap:
                        os.fspath(path), options)
 
 
-@functools.lru_cache(maxsize=8)
-def _maps_in(folder: str | None) -> tuple[SkeletonMap, ...]:
-    if folder is None:
-        root = resources.files("morphkit.motion").joinpath("data/conventions")
-        entries = sorted((e for e in root.iterdir() if e.name.endswith(".yaml")), key=lambda e: e.name)
-        with resources.as_file(root) as base:
-            return tuple(read_skeleton_map(Path(base) / e.name) for e in entries)
-    return tuple(read_skeleton_map(p) for p in sorted(Path(folder).glob("*.yaml")))
+@functools.lru_cache(maxsize=1)
+def _shipped_maps() -> tuple[SkeletonMap, ...]:
+    root = resources.files("morphkit.motion").joinpath("data/conventions")
+    with resources.as_file(root) as base:
+        return tuple(read_skeleton_map(p) for p in sorted(Path(base).glob("*.yaml")))
 
 
 def skeleton_maps(folder: str | os.PathLike[str] | None = None) -> list[SkeletonMap]:
-    """The convention tables in ``folder`` (default: the shipped ones), by file name."""
-    return list(_maps_in(None if folder is None else os.fspath(folder)))
+    """The convention tables in ``folder`` (default: the shipped ones, read once), by file name."""
+    if folder is None:
+        return list(_shipped_maps())
+    return [read_skeleton_map(p) for p in sorted(Path(folder).glob("*.yaml"))]
 
 
 def find_skeleton_map(source: Morphology, template: Morphology,
