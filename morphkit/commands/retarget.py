@@ -60,7 +60,7 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(f"--out {out} names one file but {len(clips)} clips were given: pass a folder")
     model = load(args.run_dir, stage=args.stage, device=args.device, target=args.target)
     if model.creature is None and args.target is None:  # NKN between human skeletons: an unseen skeleton
-        model = load(args.run_dir, device=args.device, target=DEFAULT_NKN_TARGET)
+        model.target = model.resolve_target(DEFAULT_NKN_TARGET)  # type: ignore[attr-defined]
     contacts = args.contacts or ("replan" if model.creature is not None else "none")
     if contacts != "none":
         model = WithContacts(model, contacts)
