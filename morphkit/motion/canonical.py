@@ -515,11 +515,6 @@ def is_canonical(morphology: Morphology) -> bool:
                 and np.allclose(ee, np.array([e.offset for e in c.end_effectors]), atol=1e-9))
 
 
-def _where(motion: Motion) -> SourceLocation | None:
-    src = motion.morphology.source
-    return SourceLocation(os.fspath(src)) if src else None
-
-
 def _table_for(motion: Motion, maps: Sequence[SkeletonMap] | None) -> SkeletonMap:
     canon = canonical_human()
     table = find_skeleton_map(motion.morphology, canon, [*(maps or ()), *skeleton_maps()])
@@ -544,8 +539,8 @@ def to_canonical(motion: Motion, *, maps: Sequence[SkeletonMap] | None = None, s
         A motion of :func:`canonical_human` at the clip's frame rate, grounded, with the clip's name.
 
     Raises:
-        MotionFormatError: a clip without two legs, two arms and a head by name or by shape (naming what
-            is missing).
+        MotionFormatError: a clip without two legs, two arms and a head by name or by shape (naming the
+            clip and what is missing; :func:`read_canonical_motion` adds the file).
     """
     canon = canonical_human()
     if is_canonical(motion.morphology):
@@ -591,7 +586,12 @@ def read_canonical_motion(path: str | os.PathLike[str], *, maps: Sequence[Skelet
                 options = dict(m.read_options)
                 break
     motion = read_motion(path, **options)
-    motion = to_canonical(motion, maps=maps, scale=scale)
+    try:
+        motion = to_canonical(motion, maps=maps, scale=scale)
+    except MotionFormatError as exc:
+        # Clips of one subject share one skeleton (``read_motion``), whose ``source`` is the first such
+        # file's: only the path read here names this clip's file.
+        raise MotionFormatError(exc.message, location=SourceLocation(os.fspath(path))) from None
     return motion.resample(fps) if fps is not None else motion
 
 
@@ -607,8 +607,7 @@ def _not_humanoid(motion: Motion, problems: list[str]) -> MotionFormatError:
                         f"{' (' + ', '.join(v[:4]) + ')' if v else ''}" for r, v in roles.items())
     return MotionFormatError(
         f"clip {motion.name!r} cannot be mapped onto the canonical human: no convention table matches its joint "
-        f"names and its shape is not a human's: {'; '.join(problems)} (end-effectors by name: {by_name})",
-        location=_where(motion))
+        f"names and its shape is not a human's: {'; '.join(problems)} (end-effectors by name: {by_name})")
 
 
 def _main_path(m: Morphology, start: int, kids: dict[int, list[int]], size: list[int]) -> list[int]:

@@ -340,7 +340,7 @@ def test_evaluate_refuses_bad_input_with_one_clear_error(smoke, tmp_path, monkey
         (["--runs", str(tmp_path / "missing")], "no such run folder"),
         (["--runs", str(empty)], "not an ACE or NKN run folder"),
         (["--runs", str(runs / "ace_seed0"), str(other)], "run of creature 'crab'"),
-        (["--runs", str(runs / "ace_seed0"), "--human-data", str(clips), "--videos", "0"], "human states"),
+        (["--runs", str(runs / "ace_seed0"), "--human-data", str(clips), "--videos", "0"], "no two arms"),
         (["--runs", str(runs / "ace_seed0"), "--clips", "0"], "--clips must be at least 1"),
     ]
     for args, message in cases:

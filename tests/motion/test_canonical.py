@@ -20,6 +20,7 @@ from morphkit.motion import (
     canonical_record,
     human_state_from_motion,
     human_state_layout,
+    read_canonical_motion,
     read_motion,
     read_skeleton_map,
     skeleton_maps,
@@ -108,9 +109,12 @@ def test_unknown_names_fall_back_to_the_shape_with_a_warning_listing_the_guesses
 def test_a_dog_is_refused_with_one_error_naming_what_is_missing(tmp_path, capsys):
     path = _write(tmp_path, "dog.bvh", creature_bvh(fore="ForeFoot", fore_length=40.0))
     dog = read_motion(path)
-    with pytest.raises(MotionFormatError, match="cannot be mapped onto the canonical human") as info:
+    with pytest.raises(MotionFormatError, match="clip 'dog' cannot be mapped onto the canonical human") as info:
         to_canonical(dog)
-    assert "no two arms" in str(info.value) and info.value.location.path == str(path)
+    assert "no two arms" in str(info.value)
+    with pytest.raises(MotionFormatError, match="no two arms") as info:
+        read_canonical_motion(path)
+    assert info.value.location.path == str(path)
     from morphkit.cli import main
 
     assert main(["convert", str(path), str(tmp_path / "out.bvh"), "--canonical"]) == 2
