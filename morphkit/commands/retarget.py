@@ -45,8 +45,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from morphkit.errors import ConfigError
+    from morphkit.errors import ConfigError, MotionFormatError, SourceLocation
     from morphkit.motion import load_motions, write_motion_files
+    from morphkit.motion.datasets import expand_motion_paths
     from morphkit.retarget import WithContacts, load
 
     out = Path(args.out)
@@ -55,7 +56,8 @@ def run(args: argparse.Namespace) -> int:
     for f in formats:
         if f not in FORMATS:
             raise ConfigError(f"unknown output format {f!r}; supported: {', '.join(FORMATS)}")
-    clips = load_motions(args.motion)
+    paths = expand_motion_paths(args.motion)
+    clips = load_motions(paths)
     if single and len(clips) != 1:
         raise ConfigError(f"--out {out} names one file but {len(clips)} clips were given: pass a folder")
     model = load(args.run_dir, stage=args.stage, device=args.device, target=args.target)
@@ -64,6 +66,11 @@ def run(args: argparse.Namespace) -> int:
     contacts = args.contacts or ("replan" if model.creature is not None else "none")
     if contacts != "none":
         model = WithContacts(model, contacts)
+    for path, clip in zip(paths, clips, strict=True):
+        try:  # every clip checked before any is retargeted, its error naming its file
+            model.intake(clip)
+        except MotionFormatError as exc:
+            raise MotionFormatError(exc.message, location=exc.location or SourceLocation(str(path))) from None
     results = model.retarget(clips)
     if not single:
         out.mkdir(parents=True, exist_ok=True)

@@ -71,6 +71,15 @@ class Retargeter(Protocol):
     human_data: str | None
     """The human data folder it was trained on (``None``: the embedded default human motion)."""
 
+    def intake(self, clip: Motion) -> Motion:
+        """``clip`` as the retargeter reads it (e.g. on the canonical human); :meth:`retarget` takes every
+        clip through it before retargeting any.
+
+        Raises:
+            MotionFormatError: a clip it cannot read (naming the clip and why; the caller adds the file).
+        """
+        ...
+
     def retarget(self, clips: Sequence[Motion]) -> list[RetargetedClip]:
         """Retarget human clips, batched; one result per clip, in order."""
         ...
@@ -90,6 +99,10 @@ class WithContacts:
         self.label = retargeter.label if mode == "none" else f"{retargeter.label}+{mode}"
         self.creature, self.pairing, self.fps = retargeter.creature, retargeter.pairing, retargeter.fps
         self.data, self.human_data = retargeter.data, retargeter.human_data
+
+    def intake(self, clip: Motion) -> Motion:
+        """The inner retargeter's reading of ``clip``."""
+        return self.inner.intake(clip)
 
     def retarget(self, clips: Sequence[Motion]) -> list[RetargetedClip]:
         """The inner retargeter's clips, each motion through the export."""

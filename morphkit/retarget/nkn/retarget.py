@@ -224,7 +224,7 @@ class NknRetargeter:
         if not clips:
             raise ConfigError("no clips to retarget")
         tgt = self._target(target if target is not None else self.target)
-        clips = [self._on_template(c) for c in clips]
+        clips = [self.intake(c) for c in clips]  # every clip checked before any is retargeted
         clips = [c if abs(c.fps - self.fps) < 1e-6 else c.resample(self.fps) for c in clips]
         out: list[RetargetedClip] = []
         for lo in range(0, len(clips), batch_size):
@@ -239,14 +239,18 @@ class NknRetargeter:
                 out.append(RetargetedClip(clip, check_finite(motion, run=self.dir, clip=clip.name)))
         return out
 
-    def _on_template(self, clip: Motion) -> Motion:
-        """``clip`` on the run's topology through a shipped link map where it is of another one (e.g. a clip
-        on the canonical human, as the evaluation reads them, for a run over CMU's 22 joints)."""
+    def intake(self, clip: Motion) -> Motion:
+        """``clip`` on the run's topology, through a shipped link map where it is of another one (e.g. a clip
+        on the canonical human, as the evaluation reads them, for a run over CMU's 22 joints).
+
+        Raises:
+            MotionFormatError: a clip of another topology that no shipped link map fits (naming the difference).
+        """
         if topology_difference(self.template, clip.morphology) is None:
             return clip
         link_map = find_link_map(clip.morphology, self.template)
         if link_map is None:
-            return clip  # refused by the topology check, naming the difference
+            check_same_topology(self.template, clip.morphology, what=f"clip {clip.name!r}")
         return map_motion(clip, self.template, link_map, skeleton_name=clip.morphology.name)
 
     def _bounded(self, v: np.ndarray) -> np.ndarray:
