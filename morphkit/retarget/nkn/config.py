@@ -56,6 +56,9 @@ class NknDataConfig:
     """Cross-morphology mode: synthesised frames of the target creature (its real motion for D)."""
     test_frames: int = 120
     """Frames per evaluation clip (§5: 4-second test clips at 30 fps)."""
+    held_out: tuple[str, ...] = ()
+    """Clip names (file stems) kept out of training besides the evaluation split, e.g. the CMU trials
+    whose other capture serves as a paired truth (``benchmarks/nkn_paired.py``)."""
 
 
 @dataclass(frozen=True)

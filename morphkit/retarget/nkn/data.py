@@ -127,6 +127,7 @@ def data_characters(human_data: HumanData, data: NknDataConfig, *, exclude_evalu
     for path in as_folders(human_data):
         motions = load_motions(path, cache_dir=cache_dir, fps=data.fps)
         _check_topology(motions, os.fspath(path))
+        motions = [m for m in motions if m.name not in data.held_out]
         if exclude_evaluation:
             motions, held = split_evaluation_clips(motions)
             if not motions:
