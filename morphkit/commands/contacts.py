@@ -1,4 +1,4 @@
-"""``morphkit contacts IN OUT [--mode replan]``: the contact-aware export applied to any creature motion file."""
+"""``morphkit contacts IN OUT [--mode replan|lock]``: the contact-aware export applied to any creature motion file."""
 
 from __future__ import annotations
 
@@ -8,16 +8,17 @@ import argparse
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "contacts",
-        help="re-step a legged creature's legs along a motion's own root path (stance feet planted)",
+        help="plant a legged creature's feet in a motion file: re-step its legs (replan) or lock its stance feet",
         description=(
             "Apply a contact-aware export to a creature motion (.npz or .usd[a|c], which carry their creature; "
             "any retargeter's output or a file you made): replan re-steps the legs with the synthesis' footstep "
-            "planner along the motion's root path, keeping the base and every non-leg joint."
+            "planner along the motion's root path; lock keeps the motion's own steps and holds each stance foot at its "
+            "touchdown point by IK. Both keep the root path and every non-leg joint."
         ),
     )
     p.add_argument("motion", metavar="IN", help="a creature motion file (.npz, .usda, .usdc, .usd)")
     p.add_argument("out", metavar="OUT", help="output motion file (.npz, .bvh, .usd[a|c]) or robot commands (.csv)")
-    p.add_argument("--mode", default="replan", choices=("replan", "none"), help="the export (default replan)")
+    p.add_argument("--mode", default="replan", choices=("replan", "lock", "none"), help="the export (default replan)")
     p.set_defaults(run=run)
 
 

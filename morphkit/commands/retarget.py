@@ -30,9 +30,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="ACE runs: retargeter stage folder or variant (default RUN/retarget; e.g. RUN/retarget_wofea, ace-wofea)",
     )
     p.add_argument("--formats", default="npz,csv", help="folder output: comma-separated suffixes (default npz,csv)")
-    p.add_argument("--contacts", choices=("none", "replan"),
+    p.add_argument("--contacts", choices=("none", "replan", "lock"),
                    help="contact-aware export: replan re-steps a legged creature's legs along the retargeted root "
-                        "path (stance feet planted; body and arms kept); none writes the raw output (default: "
+                        "path (stance feet planted; body and arms kept); lock keeps the retargeter's own steps and "
+                        "holds each stance foot at its touchdown point; none writes the raw output (default: "
                         "replan onto a creature, none onto a human skeleton)")
     p.add_argument("--target", metavar="SKELETON",
                    help="NKN runs over human skeletons: a training character's name, a bone-length variant "

@@ -145,7 +145,7 @@ def evaluate_methods(
     *,
     keep: int = 0,
     seed: int = 0,
-    contacts: Sequence[str] = ("replan",),
+    contacts: Sequence[str] = ("replan", "lock"),
     device: str = "cpu",
     log: Callable[[str], None] = print,
 ) -> Evaluation:

@@ -23,7 +23,7 @@ from morphkit.retarget.run import CHECKPOINT_FILE, RUN_FILE, Run
 
 __all__ = ["METHOD_ORDER", "Method", "find_methods", "method_order"]
 
-METHOD_ORDER = ("ACE", "ACE+replan", "NKN", "NKN+replan", "ACEwoFea", "ACEwoAdv", "ACE+contact")
+METHOD_ORDER = ("ACE", "ACE+replan", "ACE+lock", "NKN", "NKN+replan", "NKN+lock", "ACEwoFea", "ACEwoAdv", "ACE+contact")
 """Row order of the table (the paper's Table 1 with the contact-aware exports of ACE and NKN beside their
 raw rows, then morphkit's ACE+contact); other names follow."""
 

@@ -30,6 +30,8 @@ from morphkit.synth.analysis import BodyPlan as BodyPlan
 from morphkit.synth.analysis import Limb as Limb
 from morphkit.synth.analysis import analyse as analyse
 from morphkit.synth.arms import ArmConfig as ArmConfig
+from morphkit.synth.contacts import CONTACT_MODES as CONTACT_MODES
+from morphkit.synth.contacts import apply_contacts as apply_contacts
 from morphkit.synth.core import SynthConfig as SynthConfig
 from morphkit.synth.core import SynthResult as SynthResult
 from morphkit.synth.core import SynthRig as SynthRig
@@ -41,10 +43,10 @@ from morphkit.synth.human import HumanClip as HumanClip
 from morphkit.synth.human import default_human_clips as default_human_clips
 from morphkit.synth.human import default_human_motion as default_human_motion
 from morphkit.synth.legged import LegConfig as LegConfig
+from morphkit.synth.lock import lock_feet as lock_feet
+from morphkit.synth.lock import stance_flags as stance_flags
 from morphkit.synth.locomotion_commands import COMMAND_NAMES as COMMAND_NAMES
 from morphkit.synth.locomotion_commands import CommandConfig as CommandConfig
-from morphkit.synth.replan import CONTACT_MODES as CONTACT_MODES
-from morphkit.synth.replan import apply_contacts as apply_contacts
 from morphkit.synth.replan import replan_legs as replan_legs
 
 __all__ = [
@@ -67,8 +69,10 @@ __all__ = [
     "default_human_clips",
     "default_human_motion",
     "iter_synthesize",
+    "lock_feet",
     "prepare",
     "replan_legs",
     "source_digest",
+    "stance_flags",
     "synthesize",
 ]

@@ -23,17 +23,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from morphkit.errors import ConfigError
 from morphkit.motion.motion import Motion
 from morphkit.rotations import yaw_from_quat
 from morphkit.synth.core import SynthConfig, prepare
 from morphkit.synth.legged import LeggedController
 from morphkit.synth.wheeled import Locomotion
 
-__all__ = ["CONTACT_MODES", "apply_contacts", "replan_legs"]
-
-CONTACT_MODES = ("none", "replan")
-"""Contact-aware export modes: ``none`` (the retargeter's raw output, the paper's), ``replan`` (:func:`replan_legs`)."""
+__all__ = ["replan_legs"]
 
 
 def _smooth(x: np.ndarray, frames: int) -> np.ndarray:
@@ -108,15 +104,3 @@ def replan_legs(motion: Motion, *, config: SynthConfig | None = None, smoothing_
         out[t, leg_coords] = q_legs
     return motion.replace(q=out)
 
-
-def apply_contacts(motion: Motion, mode: str) -> Motion:
-    """The contact-aware export ``mode`` (one of :data:`CONTACT_MODES`) of a retargeted motion.
-
-    Raises:
-        ConfigError: an unknown mode.
-    """
-    if mode == "none":
-        return motion
-    if mode == "replan":
-        return replan_legs(motion)
-    raise ConfigError(f"unknown contact mode {mode!r}; expected one of: {', '.join(CONTACT_MODES)}")

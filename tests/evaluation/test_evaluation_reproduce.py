@@ -31,7 +31,7 @@ from morphkit.evaluation.reproduce import DONE_FILE, Stage, run_stages
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = ROOT / "examples" / "reproduce_table1.py"
-METHODS = ("ACE", "ACE+replan", "NKN", "NKN+replan", "ACEwoFea", "ACEwoAdv", "ACE+contact")
+METHODS = ("ACE", "ACE+replan", "ACE+lock", "NKN", "NKN+replan", "NKN+lock", "ACEwoFea", "ACEwoAdv", "ACE+contact")
 
 
 def test_a_finished_stage_is_not_run_again_and_a_failed_one_is(tmp_path):

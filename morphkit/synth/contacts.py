@@ -1,0 +1,30 @@
+"""Contact-aware exports of a retargetted motion, by name: what ``--contacts`` and Table 1's rows choose from."""
+
+from __future__ import annotations
+
+from morphkit.errors import ConfigError
+from morphkit.motion.motion import Motion
+from morphkit.synth.lock import lock_feet
+from morphkit.synth.replan import replan_legs
+
+__all__ = ["CONTACT_MODES", "apply_contacts"]
+
+CONTACT_MODES = ("none", "replan", "lock")
+"""``none``: the retargeter's raw output (the paper's); ``replan``: legs re-stepped by the synthesis' planner
+along the root path (:func:`~morphkit.synth.replan.replan_legs`); ``lock``: the retargeter's own steps
+with stance feet held at their touchdown points (:func:`~morphkit.synth.lock.lock_feet`)."""
+
+
+def apply_contacts(motion: Motion, mode: str) -> Motion:
+    """The contact-aware export ``mode`` (one of :data:`CONTACT_MODES`) of a retargeted motion.
+
+    Raises:
+        ConfigError: an unknown mode.
+    """
+    if mode == "none":
+        return motion
+    if mode == "replan":
+        return replan_legs(motion)
+    if mode == "lock":
+        return lock_feet(motion)
+    raise ConfigError(f"unknown contact mode {mode!r}; expected one of: {', '.join(CONTACT_MODES)}")
