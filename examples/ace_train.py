@@ -4,7 +4,7 @@ Trains ACE (Li et al. 2023) for a creature — synthesises its motion, pre-train
 trains the adversarial retargeter — then retargets clips it never saw, writes them as .npz/.bvh
 and robot-command .csv through the contact-aware export (``--contacts replan``: the legs re-stepped
 along the retargeted root path), prints Table-1-style rows (DIV, FID, L_fea, UFR and the contact and
-follow figures; the data set's own row, the raw output's and the exported one's), and renders
+follow figures; the data set's own row, the raw output's and both exports', replan and lock), and renders
 human | creature side by side. Re-running the same command resumes the run.
 
     python examples/ace_train.py                                   # Spot, embedded default human motion
@@ -27,8 +27,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--out", metavar="DIR", help="output folder (default runs/ace_<creature>_<preset>)")
     p.add_argument("--clips", type=int, default=6, help="evaluation clips to retarget (default 6)")
     p.add_argument("--videos", type=int, default=2, help="side-by-side videos to render (default 2)")
-    p.add_argument("--contacts", default="replan", choices=("none", "replan"),
-                   help="contact-aware export of the clips and videos (default replan; the table shows both)")
+    p.add_argument("--contacts", default="replan", choices=("none", "replan", "lock"),
+                   help="contact-aware export of the clips and videos (default replan; the table shows all three)")
     p.add_argument("--smoke", action="store_true", help="the smoke preset and one short video frame sheet")
     args = p.parse_args(argv)
 
@@ -65,8 +65,11 @@ def run(args: argparse.Namespace) -> int:
     reference = reference_data(character, model.pairing)
     humans = [r.source for r in raw]
     rows = [dataset_row(character, model.pairing, seed=cfg.seed, humans=humans, reference=reference)]
-    for label, shown in ((model.label, raw), (shipped.label, results))[: 1 if args.contacts == "none" else 2]:
-        rows.append(evaluate_clips(label, humans, [r.motion for r in shown], reference, model.pairing, seed=cfg.seed))
+    rows.append(evaluate_clips(model.label, humans, [r.motion for r in raw], reference, model.pairing, seed=cfg.seed))
+    for mode in ("replan", "lock"):  # both exports side by side, whichever the clips were written with
+        exported = results if mode == args.contacts else [WithContacts(model, mode).export(r) for r in raw]
+        rows.append(evaluate_clips(f"{model.label}+{mode}", humans, [r.motion for r in exported], reference,
+                                   model.pairing, seed=cfg.seed))
     table = write_table(rows, out / "metrics")
     print(table)
     print(f"retargeted clips: {out / 'clips'}")
