@@ -89,6 +89,7 @@ __all__ = [
     "dump_mjcf",
     "link_offsets",
     "morphology_from_mjmodel",
+    "mujoco_model",
     "qpos_from_q",
     "read_mjcf",
     "side_file",
@@ -631,13 +632,8 @@ def link_offsets(model: Any, m: Morphology) -> dict[str, np.ndarray]:
     return out
 
 
-def read_mjcf(path: str | os.PathLike[str]) -> Morphology:
-    """Read an MJCF file through MuJoCo's compiler (see the module notes).
-
-    Raises:
-        DescriptionError: MuJoCo refuses the file (naming file and line), or it holds a joint morphkit
-            cannot express.
-    """
+def mujoco_model(path: str | os.PathLike[str]) -> Any:
+    """The compiled ``mujoco.MjModel`` of an MJCF file, MuJoCo's errors as :class:`DescriptionError` at a line."""
     p = Path(path)
     if not p.is_file():
         raise DescriptionError(f"MJCF file not found: {path}", location=SourceLocation(str(path)))
@@ -647,8 +643,18 @@ def read_mjcf(path: str | os.PathLike[str]) -> Morphology:
         raise DescriptionError(
             "reading MJCF needs MuJoCo: pip install 'morphkit[mujoco]'", location=SourceLocation(str(path))
         ) from None
-    model = _compile(p)
-    side = side_file(p)
+    return _compile(p)
+
+
+def read_mjcf(path: str | os.PathLike[str]) -> Morphology:
+    """Read an MJCF file through MuJoCo's compiler (see the module notes).
+
+    Raises:
+        DescriptionError: MuJoCo refuses the file (naming file and line), or it holds a joint morphkit
+            cannot express.
+    """
+    model = mujoco_model(path)
+    side = side_file(path)
     return morphology_from_mjmodel(model, source=str(path), side=side if side.is_file() else None)
 
 

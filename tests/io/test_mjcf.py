@@ -303,3 +303,34 @@ def test_qpos_export_replays_in_the_original_model() -> None:
     qpos[:, ball : ball + 7] = model.qpos0[ball : ball + 7]  # the skipped ball stays put
     back = qpos_from_q(m, _morphkit_q(model, m, qpos), model)
     np.testing.assert_allclose(back, qpos, atol=1e-12)
+
+
+def test_cli_convert_motion_to_qpos_replays_in_mujoco(tmp_path: Path) -> None:
+    """``morphkit convert clip.npz clip.qpos.npy --mjcf model.xml``: MuJoCo puts the bodies where morphkit's FK does."""
+    from morphkit.cli import main
+    from morphkit.motion import Motion, write_motion
+
+    path = tmp_path / "every_joint.xml"
+    path.write_text(_EVERY_JOINT)
+    m = read_mjcf(path)
+    model = mujoco.MjModel.from_xml_path(str(path))
+    qpos = _random_qpos(model, np.random.default_rng(4), 12)
+    q = _morphkit_q(model, m, qpos)
+    write_motion(Motion(m, 30.0, q, name="clip"), tmp_path / "clip.npz")
+    assert main(["convert", str(tmp_path / "clip.npz"), str(tmp_path / "clip.qpos.npy"), "--mjcf", str(path)]) == 0
+    replay = np.load(tmp_path / "clip.qpos.npy")
+    assert replay.shape == (12, model.nq)
+    expected = _morphkit_positions(m, q)
+    got, cols = _mujoco_positions(model, m, replay)
+    assert float(np.abs(got - expected[:, cols]).max()) < 1e-5
+
+
+def test_cli_convert_yaml_to_mjcf_compiles(tmp_path: Path) -> None:
+    """``morphkit convert spot spot.xml`` writes MJCF that MuJoCo compiles, one body per link."""
+    from morphkit.cli import main
+
+    out = tmp_path / "spot.xml"
+    assert main(["convert", "spot", str(out)]) == 0
+    model = mujoco.MjModel.from_xml_path(str(out))
+    spot = read_morphology("spot")
+    assert model.nbody == spot.link_count + 1 and model.nq == spot.coordinate_count
