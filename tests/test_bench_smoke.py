@@ -19,9 +19,10 @@ from morphkit_testing import every_joint
 pytest.importorskip("torch")
 
 import morphkit.bench as bench
-from morphkit.bench.peers import mjcf_text, urdf_text_for_peers
+from morphkit.bench.peers import urdf_text_for_peers
 from morphkit.cli import main
 from morphkit.errors import ConfigError
+from morphkit.io.mjcf import dump_mjcf
 
 PEER_MODULES = {"pytorch_kinematics": "pytorch_kinematics", "pinocchio": "pinocchio", "mujoco": "mujoco"}
 RECORD_KEYS = {"creature", "impl", "mode", "batch", "poses_per_s"}
@@ -112,7 +113,7 @@ def test_peer_descriptions_expand_spherical_joints():
     urdf = urdf_text_for_peers(m)
     assert urdf.count("<joint ") == m.joint_count + 2 * 2  # two spherical joints → 3 revolutes each
     assert 'name="a_sph__rz"' in urdf and 'name="a_sph__rx"' in urdf
-    mjcf = mjcf_text(m)
+    mjcf = dump_mjcf(m)
     assert mjcf.count("<body ") == m.link_count and "<freejoint" in mjcf and 'type="ball"' in mjcf
 
 

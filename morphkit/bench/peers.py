@@ -12,8 +12,8 @@ across implementations: the same links, joint origins, axes and coordinate value
   ``PX/PY/PZ``, ``PrismaticUnaligned``, ``Spherical``, ``FreeFlyer``); every link is a frame.
   Its ``q`` layout equals morphkit's (free flyer ``[p, xyzw]``, spherical xyzw), so poses pass
   through unchanged. One pose per call, in a Python loop.
-- ``mujoco``: an MJCF model written here (``free``, ``hinge``, ``slide``, ``ball`` joints; one body
-  per link, tiny inertias so the compiler accepts moving bodies); quaternions reordered to wxyz.
+- ``mujoco``: the MJCF model :func:`morphkit.io.mjcf.dump_mjcf` writes (``free``, ``hinge``, ``slide``,
+  ``ball`` joints; one body per link, its joint at the body origin); quaternions reordered to wxyz.
   One pose per call (``mj_kinematics``), in a Python loop.
 
 Fixed and floating bases are supported; planar and wheeled bases, mimic joints and wheels are not
@@ -29,9 +29,10 @@ from typing import Any
 
 import numpy as np
 
-from morphkit.conventions import quat_xyzw_to_wxyz, rpy_from_quat
+from morphkit.conventions import rpy_from_quat
 from morphkit.errors import ConfigError
 from morphkit.graph import BaseType, JointType, Morphology
+from morphkit.io.mjcf import dump_mjcf
 
 __all__ = [
     "MujocoFK",
@@ -39,7 +40,6 @@ __all__ = [
     "PytorchKinematicsFK",
     "Workload",
     "check_supported",
-    "mjcf_text",
     "urdf_text_for_peers",
 ]
 
@@ -294,44 +294,6 @@ class PinocchioFK:
 # ---------------------------------------------------------------------------------------------
 # MuJoCo
 # ---------------------------------------------------------------------------------------------
-def mjcf_text(m: Morphology) -> str:
-    """MJCF of ``m``'s kinematic tree: one body per link (named like it), joints at the body origin."""
-    check_supported(m)
-    children: dict[str, list[Any]] = {link.name: [] for link in m.links}
-    for j in m.joints:
-        children[j.parent].append(j)
-    inertial = '<inertial pos="0 0 0" mass="0.1" diaginertia="0.001 0.001 0.001"/>'
-    lines = [f'<mujoco model="{m.name}">', '  <compiler angle="radian"/>', "  <worldbody>"]
-
-    def body(name: str, joint: Any, depth: int) -> None:
-        pad = "  " * depth
-        if joint is None:
-            lines.append(f'{pad}<body name="{name}">')
-            if m.base == BaseType.FLOATING:
-                lines.append(f'{pad}  <freejoint name="base"/>')
-        else:
-            quat = quat_xyzw_to_wxyz(np.asarray(joint.origin.quat))
-            lines.append(f'{pad}<body name="{name}" pos="{_fmt(joint.origin.xyz)}" quat="{_fmt(quat)}">')
-            kind = {
-                JointType.REVOLUTE: "hinge",
-                JointType.CONTINUOUS: "hinge",
-                JointType.PRISMATIC: "slide",
-                JointType.SPHERICAL: "ball",
-            }.get(joint.type)
-            if kind == "ball":
-                lines.append(f'{pad}  <joint name="{joint.name}" type="ball"/>')
-            elif kind is not None:
-                lines.append(f'{pad}  <joint name="{joint.name}" type="{kind}" axis="{_fmt(joint.axis)}"/>')
-        lines.append(f"{pad}  {inertial}")
-        for child in children[name]:
-            body(child.child, child, depth + 1)
-        lines.append(f"{pad}</body>")
-
-    body(m.root, None, 2)
-    lines += ["  </worldbody>", "</mujoco>"]
-    return "\n".join(lines) + "\n"
-
-
 class MujocoFK:
     """MuJoCo (``mj_kinematics`` per pose in a Python loop; float64).
 
@@ -350,7 +312,8 @@ class MujocoFK:
         import mujoco
 
         self.mj, self.m, self.max_poses = mujoco, m, max_poses
-        self.model = mujoco.MjModel.from_xml_string(mjcf_text(m))
+        check_supported(m)
+        self.model = mujoco.MjModel.from_xml_string(dump_mjcf(m))
         self.data = mujoco.MjData(self.model)
         self.body_ids = [mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, link.name) for link in m.links]
         # Reorder xyzw → wxyz for the free joint's and ball joints' quaternions.

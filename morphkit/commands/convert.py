@@ -4,7 +4,9 @@ A motion (any ``.bvh``; an ``.npz`` with ``q``; a USD file with time samples) wr
 ``.npz`` or ``.usd``/``.usda``/``.usdc`` converts as a motion; everything else converts the
 description (a BVH file's skeleton, for instance, to ``.yaml`` or ``.urdf``). With ``--canonical`` a
 human clip is written mapped onto the canonical human (``morphkit.motion.to_canonical``), the skeleton
-every trainer reads human motion on.
+every trainer reads human motion on. A motion written to ``.qpos.npy`` is MuJoCo's ``qpos`` [T, nq] for
+replay in the MJCF model the creature was read from (or ``--mjcf MODEL.xml``; without either, the creature's
+MJCF is written beside it as ``<name>.xml``).
 """
 
 from __future__ import annotations
@@ -19,7 +21,8 @@ MOTION_SUFFIXES = (".bvh", ".npz", ".usd", ".usda", ".usdc")
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "convert",
-        help="convert a description (.yaml/.urdf/.usd[a|c]/.bvh) or a motion (.bvh/.npz/.usd[a|c]) by extension",
+        help="convert a description (.yaml/.urdf/.usd[a|c]/.xml/.bvh) or a motion (.bvh/.npz/.usd[a|c]; "
+        "to .qpos.npy for MuJoCo) by extension",
     )
     p.add_argument("input", metavar="IN", help="description or motion file, or a shipped creature name")
     p.add_argument("output", metavar="OUT", help="output file; its extension picks the format")
@@ -31,6 +34,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="write a human clip mapped onto the canonical human (the skeleton trainers read humans on)")
     p.add_argument("--convention", metavar="YAML",
                    help="with --canonical: a convention table for the clip's skeleton, tried before the shipped ones")
+    p.add_argument("--mjcf", metavar="MODEL.xml",
+                   help="with OUT ending in .qpos.npy: the MuJoCo model to replay in "
+                   "(default: the creature's own MJCF)")
     p.set_defaults(run=run)
 
 
@@ -40,6 +46,10 @@ def run(args: argparse.Namespace) -> int:
     from morphkit.io.shipped import resolve_morphology
 
     out_suffix = Path(args.output).suffix.lower()
+    if args.output.lower().endswith(".qpos.npy"):
+        return _qpos(args)
+    if args.mjcf:
+        raise ConfigError("--mjcf needs OUT ending in .qpos.npy")
     if out_suffix not in (*WRITE_SUFFIXES, *MOTION_SUFFIXES):
         supported = ", ".join(dict.fromkeys((*WRITE_SUFFIXES, *MOTION_SUFFIXES)))
         shown = out_suffix or "(no suffix)"
@@ -81,4 +91,34 @@ def _canonical(args: argparse.Namespace, src: Path, out_suffix: str) -> int:
     write_motion(motion, args.output)
     print(f"wrote {args.output} ({motion.morphology.name}, the canonical human: {len(motion.q)} frames at "
           f"{motion.fps:g} fps)")
+    return 0
+
+
+def _qpos(args: argparse.Namespace) -> int:
+    """A motion as MuJoCo ``qpos`` [T, nq] (``.qpos.npy``) for replay in its MJCF model."""
+    import io
+
+    import numpy as np
+
+    from morphkit._atomic import atomic_write_bytes, atomic_write_text
+    from morphkit.errors import ConfigError
+    from morphkit.io.mjcf import dump_mjcf, mujoco_model, qpos_from_q
+    from morphkit.io.shipped import resolve_morphology
+    from morphkit.motion import is_motion_file, read_motion
+
+    src = resolve_morphology(args.input)
+    if not is_motion_file(src):
+        raise ConfigError(f"{args.input}: a .qpos.npy output needs a motion file (.bvh, .npz with q, USD)")
+    motion = read_motion(src) if args.fps is None else read_motion(src, fps=args.fps)
+    m = motion.morphology
+    model_path = args.mjcf or (m.source if m.source and m.source.lower().endswith(".xml") else None)
+    if model_path is None:
+        model_path = args.output[: -len(".qpos.npy")] + ".xml"
+        atomic_write_text(model_path, dump_mjcf(m, target=model_path))
+        print(f"wrote {model_path} (the MuJoCo model of {m.name})")
+    qpos = qpos_from_q(m, motion.q, mujoco_model(model_path))
+    buf = io.BytesIO()
+    np.save(buf, qpos)
+    atomic_write_bytes(args.output, buf.getvalue())
+    print(f"wrote {args.output} (MuJoCo qpos {list(qpos.shape)} for {model_path}, {motion.fps:g} fps)")
     return 0

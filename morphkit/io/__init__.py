@@ -1,7 +1,8 @@
-"""Descriptions <-> skeleton graph: read and write YAML, URDF, USD and BVH skeletons.
+"""Descriptions <-> skeleton graph: read and write YAML, URDF, USD, MJCF (MuJoCo) and BVH skeletons.
 
 :func:`read_morphology` and :func:`write_morphology` pick the format from the file suffix.
-Each format module is imported only when used, so ``pxr`` (USD) loads only for USD files.
+Each format module is imported only when used, so ``pxr`` (USD) loads only for USD files and
+``mujoco`` only for MJCF (``.xml``) files.
 """
 
 from __future__ import annotations
@@ -16,9 +17,9 @@ from morphkit.io.shipped import resolve_morphology
 
 __all__ = ["READ_SUFFIXES", "WRITE_SUFFIXES", "read_morphology", "write_morphology"]
 
-READ_SUFFIXES = (".yaml", ".yml", ".urdf", ".usd", ".usda", ".usdc", ".bvh")
+READ_SUFFIXES = (".yaml", ".yml", ".urdf", ".usd", ".usda", ".usdc", ".xml", ".bvh")
 """File suffixes :func:`read_morphology` understands."""
-WRITE_SUFFIXES = (".yaml", ".yml", ".urdf", ".usd", ".usda", ".usdc")
+WRITE_SUFFIXES = (".yaml", ".yml", ".urdf", ".usd", ".usda", ".usdc", ".xml")
 """File suffixes :func:`write_morphology` understands (BVH holds motion, so it is read-only here)."""
 
 
@@ -35,6 +36,10 @@ def _reader(suffix: str) -> Callable[[str], Morphology] | None:
         from morphkit.io.usd import read_usd
 
         return read_usd
+    if suffix == ".xml":
+        from morphkit.io.mjcf import read_mjcf
+
+        return read_mjcf
     if suffix == ".bvh":
         from morphkit.io.bvh import read_bvh_skeleton
 
@@ -55,6 +60,10 @@ def _writer(suffix: str) -> Callable[[Morphology, str], None] | None:
         from morphkit.io.usd import write_usd
 
         return write_usd
+    if suffix == ".xml":
+        from morphkit.io.mjcf import write_mjcf
+
+        return write_mjcf
     return None
 
 
@@ -62,8 +71,8 @@ def read_morphology(path: str | os.PathLike[str]) -> Morphology:
     """Read a creature description, choosing the format by suffix.
 
     Args:
-        path: A ``.yaml``/``.yml``, ``.urdf``, ``.usd``/``.usda``/``.usdc`` or ``.bvh`` file, a creature
-            folder ``x/`` holding ``x/x.<ext>``, or the name of a shipped creature (``"spot"``,
+        path: A ``.yaml``/``.yml``, ``.urdf``, ``.usd``/``.usda``/``.usdc``, ``.xml`` (MJCF) or ``.bvh`` file, a
+            creature folder ``x/`` holding ``x/x.<ext>``, or the name of a shipped creature (``"spot"``,
             ``"human"``; see :func:`~morphkit.io.shipped.shipped_names`), as the CLI accepts them.
 
     Raises:

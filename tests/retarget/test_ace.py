@@ -139,6 +139,23 @@ def test_same_code_trains_shipped_creatures(tmp_path, human_dir, cache, name):
     assert all(np.isfinite(r.motion.q).all() for r in out)
 
 
+def test_same_code_trains_dm_control_dog(tmp_path, human_dir, cache):
+    """DeepMind's dog, read from dm_control's MJCF (73 hinges, 4 paws and a head guessed from its sites), trains."""
+    pytest.importorskip("mujoco")
+    dm_control = pytest.importorskip("dm_control")
+    from morphkit.motion import load_motions
+    from morphkit.retarget.ace.retarget import AceRetargeter
+
+    with pytest.warns(UserWarning, match="skipping ball"):
+        creature = read_morphology(Path(dm_control.__file__).parent / "suite" / "dog.xml")
+    cfg = replace_config(preset("smoke"), [*TINY, "data.character_frames=600"])
+    train_ace(tmp_path / "run", creature, cfg, human_data=human_dir, progress=False, log=lambda s: None)
+    clips = load_motions(human_dir)[:1]
+    out = AceRetargeter(tmp_path / "run").retarget(clips)
+    assert out[0].motion.frame_count == clips[0].frame_count and np.isfinite(out[0].motion.q).all()
+    assert out[0].motion.morphology.coordinate_count == creature.coordinate_count == 80
+
+
 def test_cli_train_and_retarget_export_every_format(tmp_path, human_dir, dog, cache, capsys):
     from morphkit.cli import main
     from morphkit.motion import read_motion
