@@ -92,6 +92,7 @@ from morphkit.rotations import quat_between_vectors
 __all__ = [
     "BVH_CHANNEL_NAMES",
     "BVH_TO_MORPHKIT",
+    "ROLE_KEYWORDS",
     "BvhEndSite",
     "BvhFile",
     "bvh_frame_rotation",
@@ -101,6 +102,7 @@ __all__ = [
     "detect_bvh_up",
     "dump_bvh",
     "fold_static_root",
+    "keyword_role",
     "parse_bvh",
     "read_bvh",
     "read_bvh_skeleton",
@@ -866,7 +868,7 @@ def _position_columns(bvh: BvhFile, j: int) -> dict[int, int]:
 # ---------------------------------------------------------------------------------------------
 # Skeleton -> Morphology
 # ---------------------------------------------------------------------------------------------
-_STRONG = (
+ROLE_KEYWORDS = (
     (
         EndEffectorRole.HAND,
         ("hand", "wrist", "finger", "thumb", "index", "middle", "mid", "ring", "pinky", "palm", "claw"),
@@ -906,7 +908,8 @@ class _PlannedEndEffector:
     """Its point's index in :func:`bvh_joint_positions`' second axis."""
 
 
-def _keyword_role(name: str, table: tuple[tuple[EndEffectorRole, tuple[str, ...]], ...]) -> EndEffectorRole | None:
+def keyword_role(name: str, table: tuple[tuple[EndEffectorRole, tuple[str, ...]], ...]) -> EndEffectorRole | None:
+    """The role of the first row of ``table`` (e.g. :data:`ROLE_KEYWORDS`) one of whose keywords ``name`` holds."""
     low = name.lower()
     for role, words in table:
         if any(w in low for w in words):
@@ -1100,8 +1103,8 @@ def _plan_end_effectors(bvh: BvhFile, detect_front_paws: bool) -> tuple[_Planned
 def _plan(bvh: BvhFile, detect_front_paws: bool) -> list[_PlannedEndEffector]:
     J = bvh.joint_count
     parents = bvh.joint_parents
-    strong = [_keyword_role(n, _STRONG) for n in bvh.joint_names]
-    weak = [_keyword_role(n, _WEAK) for n in bvh.joint_names]
+    strong = [keyword_role(n, ROLE_KEYWORDS) for n in bvh.joint_names]
+    weak = [keyword_role(n, _WEAK) for n in bvh.joint_names]
 
     def joint_line(j: int) -> int | None:
         return bvh.joint_lines[j] if len(bvh.joint_lines) == J else None

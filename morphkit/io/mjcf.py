@@ -237,9 +237,9 @@ class _Candidate:
 
 
 def _keyword_role(name: str) -> EndEffectorRole | None:
-    from morphkit.io.bvh import _STRONG, _keyword_role
+    from morphkit.io.bvh import ROLE_KEYWORDS, keyword_role
 
-    return _keyword_role(name, _STRONG)
+    return keyword_role(name, ROLE_KEYWORDS)
 
 
 class _Builder:
@@ -563,10 +563,10 @@ def _read_side_file(path: Path) -> tuple[Any, Any] | None:
     if not path.is_file():
         return None
     from morphkit.io._source import read_text
-    from morphkit.io.yaml_format import _load, _Reader
+    from morphkit.io.yaml_format import DocumentReader, load_document
 
-    reader = _Reader(str(path))
-    doc = reader.mapping(_load(read_text(path, what="YAML"), str(path)), "MJCF side file", 1)
+    reader = DocumentReader(str(path))
+    doc = reader.mapping(load_document(read_text(path, what="YAML"), str(path)), "MJCF side file", 1)
     reader.keys(doc, "MJCF side file", ("body", "end_effectors"))
     return doc, reader
 

@@ -66,7 +66,7 @@ from morphkit.graph import (
 from morphkit.graph.types import parse_enum
 from morphkit.io._source import read_text, relative_mesh_path, resolve_mesh_path, warn_wheeled_without_wheels
 
-__all__ = ["dump_yaml", "parse_yaml", "read_yaml", "write_yaml"]
+__all__ = ["DocumentReader", "dump_yaml", "load_document", "parse_yaml", "read_yaml", "write_yaml"]
 
 _TOP_KEYS = ("name", "base", "root", "body_length", "links", "joints", "end_effectors", "wheels")
 _LINK_KEYS = ("shapes",)
@@ -182,7 +182,7 @@ def _check_depth(text: str, source: str | None) -> None:
             depth -= 1
 
 
-def _load(text: str, source: str | None) -> Any:
+def load_document(text: str, source: str | None) -> Any:
     """Parse YAML text into _Map/_Seq/scalars, turning every parser failure into a DescriptionError."""
     try:
         _check_depth(text, source)
@@ -219,7 +219,7 @@ def _show(value: Any) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
-class _Reader:
+class DocumentReader:
     """Walks the loaded document, checking every value at its own line."""
 
     def __init__(self, source: str | None) -> None:
@@ -444,7 +444,7 @@ def parse_yaml(text: str, *, source: str | None = None) -> Morphology:
         DescriptionError: malformed YAML, unknown or missing keys, bad numbers or enum values.
         GraphError: structural problems (cycle, two parents, missing link, ...), located at the element.
     """
-    return _Reader(source).read(_load(text, source))
+    return DocumentReader(source).read(load_document(text, source))
 
 
 def read_yaml(path: str | os.PathLike[str]) -> Morphology:
