@@ -147,6 +147,36 @@ def test_new_creature_guide_runs_as_written(tmp_path: Path, tmp_path_factory: py
     assert (tmp_path / "runs" / "critter" / "retarget" / "checkpoint.pt").is_file()
 
 
+MJCF_GUIDE = ROOT / "docs" / "guides" / "import-mjcf.md"
+# The MJCF guide's changes: fewer frames, and no training (dm_control's dog trains in tests/retarget/test_ace.py).
+MJCF_SUBSTITUTIONS = {"--frames 3000": "--frames 200",
+                      "morphkit train ace $DOG --preset quick --out runs/dm_dog": "true"}
+
+
+def test_mjcf_guide_runs_as_written(tmp_path: Path):
+    """The MuJoCo guide's commands on dm_control's dog, read from the page: the model is read, synthesised,
+    exported as qpos MuJoCo replays, written as YAML and back as MJCF that MuJoCo compiles to the same bodies."""
+    mujoco = pytest.importorskip("mujoco")
+    pytest.importorskip("dm_control")
+    import numpy as np
+
+    (script,) = _fenced(MJCF_GUIDE.read_text(), "bash")
+    for old, new in MJCF_SUBSTITUTIONS.items():
+        assert old in script, f"the guide no longer says {old!r}: update MJCF_SUBSTITUTIONS"
+        script = script.replace(old, new)
+    env = {**os.environ, "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}"}
+    proc = subprocess.run(["bash", "-euo", "pipefail", "-c", script], cwd=tmp_path, env=env, capture_output=True,
+                          text=True, timeout=600, check=False)
+    assert proc.returncode == 0, f"{proc.stdout[-2000:]}\n{proc.stderr[-3000:]}"
+    qpos = np.load(tmp_path / "dog_synth.qpos.npy")
+    import dm_control
+
+    original = mujoco.MjModel.from_xml_path(str(Path(dm_control.__file__).parent / "suite" / "dog.xml"))
+    assert qpos.shape == (200, original.nq) and np.isfinite(qpos).all()
+    written = mujoco.MjModel.from_xml_path(str(tmp_path / "dog.xml"))
+    assert written.nbody >= 60  # the dog's bodies, with the links of joints off their body's origin
+
+
 def test_gallery_script_smoke(tmp_path: Path):
     """docs/gallery/make_gallery.py (the only source of the gallery's pictures) still runs: one turntable sheet."""
     if importlib.util.find_spec("pyrender") is None:
