@@ -49,8 +49,11 @@ class ArmConfig:
     """Links per pose in the pose graph (before validation)."""
     validation_steps: int = 8
     """Points checked along each link."""
-    joint_range: float = 0.7
-    """Fraction of each arm joint's span (about rest, within limits) that poses are drawn from."""
+    joint_range: float = 1.0
+    """Fraction of each arm joint's span (about rest, within limits) that poses are drawn from: the whole
+    of it, so that the data set covers every arm joint's travel (Stretch's lift reached 0.69 of it at 0.7)."""
+    limit_share: float = 0.25
+    """Share of pose draws in which one limited arm joint is put within the outer 5 % of its travel."""
     spherical_angle: float = 0.8
     """Largest rotation of an arm ball joint from rest [rad]."""
     continuous_angle: float = 2.0
@@ -71,6 +74,9 @@ class ArmConfig:
     """Upper-body links and arm tips stay this high above the ground at stance [m]."""
     collision_margin: float = 0.01
     """Pool poses keep this clearance [m] between shapes (links between them only need no contact)."""
+    leg_clearance: float = 0.15
+    """Upper-body poses and the moves between them keep this fraction of the mean leg reach between
+    upper-body and leg shapes (poses are checked with the legs at stance, and legs swing while walking)."""
     collision_rest_margin: float = 0.005
     """Shape pairs closer than this at rest [m] touch by design and are not checked."""
 
@@ -199,6 +205,12 @@ def calibrate_arms(m: Morphology, plan: BodyPlan, solver: LimbSolver, q_stance: 
         upper_links |= limb_links(m, (m.joints[ji].name,))
     uidx = np.array(sorted(model.link_index(n) for n in upper_links), dtype=np.int64)
     pairs = self_collision_pairs(model, rest_margin=cfg.collision_rest_margin).touching(uidx)
+    leg_links: set[str] = set()
+    for leg in plan.legs:
+        leg_links |= limb_links(m, leg.joints)
+    lidx = np.array(sorted(model.link_index(n) for n in leg_links - upper_links), dtype=np.int64)
+    leg_pair = np.isin(pairs.link_a, lidx) ^ np.isin(pairs.link_b, lidx)
+    leg_clear = cfg.leg_clearance * float(np.mean([leg.reach for leg in plan.legs])) if plan.legs else 0.0
     ee = solver.arm_ee
     root = q_stance[:3].copy() if m.base_coordinate_count >= 3 else np.zeros(3)
     if m.base_coordinate_count == 3:  # planar / wheeled: (x, y, yaw)
@@ -211,7 +223,7 @@ def calibrate_arms(m: Morphology, plan: BodyPlan, solver: LimbSolver, q_stance: 
         ok = np.ones(len(qs), dtype=bool)
         if pairs.pair_count:
             # pairs that are close at rest by design only need to keep half their rest clearance
-            need = np.minimum(margin, 0.5 * pairs.rest_distance)
+            need = np.minimum(np.where(leg_pair, max(margin, leg_clear), margin), 0.5 * pairs.rest_distance)
             ok &= (eval_self_collision_distance(model, pairs, Xw).numpy() > need).all(axis=1)
         if uidx.size:
             ok &= (X[:, uidx, 2] > floor[0]).all(axis=1)
@@ -235,6 +247,10 @@ def calibrate_arms(m: Morphology, plan: BodyPlan, solver: LimbSolver, q_stance: 
     floor[0] = min(cfg.ground_clearance, lowest - 0.01)
     # draw until the pool is full (poses that collide are dropped), at most four rounds
     kept_q = [q_stance[None]]
+    lower, upper = m.coordinate_limits
+    ends = [int(m.joint_q_start[ji]) for ji in flat_arm if ji not in held
+            and m.joints[ji].type in (JointType.REVOLUTE, JointType.PRISMATIC)
+            and np.isfinite(lower[m.joint_q_start[ji]]) and np.isfinite(upper[m.joint_q_start[ji]])]
     for _ in range(4):
         need = cfg.pool_size - sum(len(k) for k in kept_q) + 1
         if need <= 0:
@@ -243,6 +259,15 @@ def calibrate_arms(m: Morphology, plan: BodyPlan, solver: LimbSolver, q_stance: 
         for ji in flat_arm:
             if ji not in held:
                 _sample(rng, m, q, ji, cfg.joint_range, cfg.spherical_angle, cfg.continuous_angle)
+        if ends:
+            # a joint near its limit is often feasible only with the rest of the arm in a narrow region
+            # that uniform draws rarely hit: some draws put one joint within the outer 5 % of its travel
+            rows = np.nonzero(rng.random(cfg.pool_size) < cfg.limit_share)[0]
+            cols = np.asarray(ends)[rng.integers(len(ends), size=rows.size)]
+            edge = 0.05 * rng.random(rows.size)
+            top = rng.random(rows.size) < 0.5
+            q[rows, cols] = np.where(top, upper[cols] - edge * (upper[cols] - lower[cols]),
+                                     lower[cols] + edge * (upper[cols] - lower[cols]))
         for ji in others:
             k = 1.0 / 3.0 if ji in carrying else 1.0
             _sample(rng, m, q, ji, cfg.other_range * k, cfg.other_angle * k, np.pi * k)

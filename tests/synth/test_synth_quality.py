@@ -177,3 +177,23 @@ def test_gaits_follow_the_leg_count(synthesized, name):
                 "human": {"walk", "run"}}[name]
     assert used <= expected
     assert len(used) >= 2
+
+
+def test_stretch_arm_joints_cover_their_travel():
+    """Every limited 1-DoF joint of Stretch's arm, the lift included, is driven over ≥ 95 % of the travel
+    its limits allow (the lift used to stop at 0.69 of it, so a human's hands overhead had nothing to map to)."""
+    from morphkit.io import read_morphology
+    from morphkit.synth import synthesize
+
+    m = read_morphology("stretch")
+    res = synthesize(m, frames=3000, seed=0, progress=False)
+    q = np.concatenate([mo.q for mo in res])
+    checked = []
+    for arm in res.rig.plan.arms:
+        for n in arm.joints:
+            j = m.joint(n)
+            if j.type.name in ("PRISMATIC", "REVOLUTE") and j.mimic is None:
+                s = m.joint_q_start[m.joint_index(n)]
+                assert np.ptp(q[:, s]) >= 0.95 * (j.limit.upper - j.limit.lower), n
+                checked.append(n)
+    assert "joint_lift" in checked
