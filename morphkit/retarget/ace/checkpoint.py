@@ -129,7 +129,10 @@ class AceArtifact:
             "human_body_length": self.pairing.human_length,
             "fps": float(self.data.fps),
             "data": {"character_frames": self.data.character_frames, "synth_seed": self.data.synth_seed,
-                     "human_frames": self.data.human_frames},
+                     "human_frames": self.data.human_frames,
+                     # the synthesis options, so the evaluation rebuilds the data set trained on
+                     "stand_probability": self.data.stand_probability,
+                     "full_arm_travel": self.data.full_arm_travel},
             "mapping": self.pairing.mapping,
         }
         if self.pairing.centred:
@@ -170,7 +173,9 @@ class AceArtifact:
             d = meta.get("data") or {}
             data = DataConfig(character_frames=int(d.get("character_frames", DataConfig.character_frames)),
                               fps=float(meta["fps"]), synth_seed=int(d.get("synth_seed", 0)),
-                              human_frames=int(d.get("human_frames", DataConfig.human_frames)))
+                              human_frames=int(d.get("human_frames", DataConfig.human_frames)),
+                              stand_probability=d.get("stand_probability"),
+                              full_arm_travel=bool(d.get("full_arm_travel", False)))
             mapping = json.loads(_need(run / _MAPPING).read_text())
             pairing = Pairing.from_mapping(mapping["mapping"], float(meta["creature_body_length"]),
                                            float(meta["human_body_length"]))
