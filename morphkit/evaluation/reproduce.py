@@ -217,8 +217,8 @@ def plan_stages(
     )  # beside the ACE lane's bar, a second would overwrite it
 
     def data() -> None:
-        motions = character_motions(creature, base.data, progress=cfg.progress)
-        log(f"{creature.name}: {len(motions)} clips, {sum(m.frame_count for m in motions)} frames (cached)")
+        motions = character_motions(creature, base.data, progress=cfg.progress, log=log)
+        log(f"{creature.name}: {len(motions)} clips, {sum(m.frame_count for m in motions)} frames")
 
     def prior() -> None:
         prepared = prepare(prior_run, creature, base, human_data=human_data, **quiet)

@@ -11,9 +11,6 @@ import warp as _wp
 if _os.environ.get("MORPHKIT_QUIET_WARP"):
     # Set by the CLI, which owns stdout: Warp's banner and module-load lines would break --json output.
     _wp.config.log_level = _wp.LOG_WARNING
-    from morphkit.kernels.launch import init_warp_quietly as _init_quietly
-
-    _init_quietly()
 
 from morphkit.kernels.contact import SelfCollisionPairs as SelfCollisionPairs
 from morphkit.kernels.contact import eval_contact_flags as eval_contact_flags
@@ -42,7 +39,12 @@ from morphkit.kernels.ik import ik_dof_mask as ik_dof_mask
 from morphkit.kernels.ik import ik_solve as ik_solve
 from morphkit.kernels.ik import ik_step as ik_step
 from morphkit.kernels.launch import cpu_thread_count as cpu_thread_count
+from morphkit.kernels.launch import init_warp_quietly as _init_quietly
 from morphkit.kernels.launch import set_cpu_thread_count as set_cpu_thread_count
+
+# Warp's note that no CUDA driver was found reads like an error on a CPU machine, where morphkit runs
+# as meant: Warp is initialised here without it, for Python users too (its own banner stays theirs).
+_init_quietly()
 
 __all__ = [
     "IKResult",

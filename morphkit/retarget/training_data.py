@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import hashlib
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
@@ -114,6 +114,7 @@ def character_motions(
     *,
     cache_dir: str | os.PathLike[str] | None = None,
     progress: bool = True,
+    log: Callable[[str], None] | None = None,
 ) -> list[Motion]:
     """The character's synthesised data set (``data.character_frames`` frames), cached.
 
@@ -123,6 +124,7 @@ def character_motions(
         cache_dir: Cache folder (default ``$MORPHKIT_CACHE_DIR/motions``, see
             :func:`~morphkit.motion.datasets.default_cache_dir`).
         progress: Show the synthesis progress bar.
+        log: Told whether the data came from the cache or were synthesised (one line).
     """
     from morphkit.synth import source_digest, synthesize
 
@@ -137,10 +139,15 @@ def character_motions(
             with np.load(path, allow_pickle=False) as f:
                 q, lengths, names = f["q"], f["lengths"], [str(n) for n in f["names"]]
             starts = np.concatenate([[0], np.cumsum(lengths)])
+            if log is not None:
+                log(f"character data: {int(lengths.sum())} frames of {morphology.name} from the cache ({path})")
             return [Motion(morphology, data.fps, q[a:b], n) for a, b, n in zip(starts[:-1], starts[1:], names,
                                                                               strict=True)]
         except (OSError, KeyError, ValueError):
             pass  # a damaged cache entry is rebuilt
+    if log is not None:
+        log(f"character data: synthesising {data.character_frames} frames of {morphology.name} "
+            f"(kept in {cache} for the next run)")
     result = synthesize(morphology, frames=data.character_frames, fps=data.fps, seed=data.synth_seed,
                         config=_synth_config(data), progress=progress)
     motions = list(result.motions)

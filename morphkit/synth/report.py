@@ -324,6 +324,10 @@ def format_report(r: dict[str, Any]) -> str:
     def fmt(v: Any) -> str:
         return "n/a" if v is None else (f"{v:.4g}" if isinstance(v, float) else str(v))
 
+    def pct(v: Any) -> str:
+        # a fraction printed as 1 or 0 reads like a count of frames
+        return "n/a" if v is None else f"{100 * float(v):.3g} %"
+
     lines = [
         f"frames                 {r['frames']}"
         + (f"  ({fmt(r['frames_per_s'])} frames/s)" if r.get("frames_per_s") else ""),
@@ -332,13 +336,13 @@ def format_report(r: dict[str, Any]) -> str:
         f"penetration            {fmt(r['penetration_mm'])} mm max over every shape"
         + (f" ({r['deepest_link']})" if r.get("deepest_link") else "")
         + f"; feet {fmt(r.get('foot_penetration_mm'))} mm max, mean {fmt(r.get('penetration_mean_mm'))}",
-        f"self-collision         {fmt(r['self_collision_frac'])} of frames",
-        f"limit violations       {fmt(r['limit_violation_frac'])} of frames",
+        f"self-collision         {pct(r['self_collision_frac'])} of frames",
+        f"limit violations       {pct(r['limit_violation_frac'])} of frames",
         f"tracking error         {fmt(r['tracking_error'])} (relative, settled commands;"
         f" yaw {fmt(r.get('yaw_rate_error'))})",
     ]
     if r.get("swing_clearance_frac") is not None:
-        lines.append(f"swing clearance        {fmt(r['swing_clearance_frac'])} of airborne frames above 1 cm")
+        lines.append(f"swing clearance        {pct(r['swing_clearance_frac'])} of airborne frames above 1 cm")
     if r.get("legs"):
         lines.append(f"steps                  {fmt(r['step_length_m'])} m long, {fmt(r['step_height_m'])} m high"
                      " (mean)")
@@ -346,7 +350,7 @@ def format_report(r: dict[str, Any]) -> str:
             lines.append(f"  {name:<20} {fmt(leg['step_length_m'])} m long, {fmt(leg['step_height_m'])} m high, "
                          f"sliding {fmt(leg['sliding_cm_s'])} cm/s, {leg['swings']} swings")
     if r.get("command_clamped_frac") is not None:
-        lines.append(f"commands clamped       {fmt(r['command_clamped_frac'])} of frames (to the creature's top speed)")
+        lines.append(f"commands clamped       {pct(r['command_clamped_frac'])} of frames (to the creature's top speed)")
     if r.get("gait_frac"):
         lines.append("gaits                  " + ", ".join(f"{k} {v:.0%}" for k, v in r["gait_frac"].items()))
     if r.get("calibration"):

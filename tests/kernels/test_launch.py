@@ -63,3 +63,16 @@ def test_cpu_chunks_cover_the_batch_once_and_one_thread_pool_is_shared():
 @pytest.mark.skipif(not wp.is_cuda_available(), reason="needs a CUDA device")
 def test_cuda_launches_in_one_chunk():
     assert launch_chunks(1_000_000, wp.get_device("cuda")) == [(0, 1_000_000)]
+
+
+def test_python_api_does_not_print_warps_no_cuda_driver_note():
+    """Importing the kernels from Python (not the CLI) keeps Warp's 'no CUDA driver' note off stderr:
+    on a CPU machine it reads like an error. Where a driver exists Warp never prints it."""
+    import os
+    import subprocess
+    import sys
+
+    env = {k: v for k, v in os.environ.items() if k != "MORPHKIT_QUIET_WARP"}
+    out = subprocess.run([sys.executable, "-c", "import morphkit.kernels, warp; warp.init()"], env=env,
+                         capture_output=True, text=True, timeout=300, check=True)
+    assert "Could not find or load the NVIDIA CUDA driver" not in out.stderr + out.stdout

@@ -9,6 +9,7 @@ import signal
 import subprocess
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -337,20 +338,26 @@ def test_residual_prior_foot_term_and_exported_discriminator_train_and_log(tmp_p
 
 
 def test_character_data_cache_is_keyed_by_the_synthesis_source(tmp_path, dog, monkeypatch):
-    """A second call is served from the cache; a change to the synthesis code (its source digest) is not."""
+    """A second call is served from the cache (and says so, where the first said it synthesised); a change
+    to the synthesis code (its source digest) or to the synthesis options is not."""
     import morphkit.synth
     from morphkit.retarget.training_data import DataConfig, character_motions
 
     data = DataConfig(character_frames=60)
     m = read_morphology(dog)
-    first = character_motions(m, data, cache_dir=tmp_path, progress=False)
+    said: list[str] = []
+    first = character_motions(m, data, cache_dir=tmp_path, progress=False, log=said.append)
     assert len(list(tmp_path.glob("synth_*.npz"))) == 1
-    again = character_motions(m, data, cache_dir=tmp_path, progress=False)
+    again = character_motions(m, data, cache_dir=tmp_path, progress=False, log=said.append)
+    assert "synthesising 60 frames" in said[0] and "from the cache" not in said[0]
+    assert "from the cache" in said[1] and "synthesising" not in said[1]
     np.testing.assert_array_equal(np.concatenate([x.q for x in again]), np.concatenate([x.q for x in first]))
     assert len(list(tmp_path.glob("synth_*.npz"))) == 1
     monkeypatch.setattr(morphkit.synth, "source_digest", lambda: "another synthesis")
     character_motions(m, data, cache_dir=tmp_path, progress=False)
     assert len(list(tmp_path.glob("synth_*.npz"))) == 2
+    character_motions(m, replace(data, full_arm_travel=True), cache_dir=tmp_path, progress=False)
+    assert len(list(tmp_path.glob("synth_*.npz"))) == 3
 
 
 def test_generator_latent_stays_inside_its_bound_for_any_output():

@@ -170,3 +170,15 @@ def test_streamed_synthesis_keeps_memory_flat(blob, tmp_path):
     whole = synthesize(m, frames=960, config=cfg, progress=False)
     for i in (0, 15):
         assert np.array_equal(read_motion(tmp_path / "b" / f"blob_synth_0_{i:04d}.npz").q, whole[i].q)
+
+
+def test_report_prints_fractions_as_percentages_not_counts():
+    """A fraction of 1 used to print as '1 of airborne frames', which reads like a count."""
+    from morphkit.synth.report import format_report
+
+    text = format_report({"frames": 300, "foot_sliding_cm_s": 0.5, "penetration_mm": 1.0, "self_collision_frac": 0.0025,
+                          "limit_violation_frac": 0.0, "tracking_error": 0.1, "swing_clearance_frac": 1.0,
+                          "command_clamped_frac": 0.125})
+    assert "100 % of airborne frames" in text
+    assert "0.25 % of frames" in text and "12.5 % of frames (to the creature's top speed)" in text
+    assert "0 % of frames" in text  # limit violations

@@ -106,8 +106,7 @@ def prepare(
     if existing is not None and existing != creature.name:
         raise RunError(f"run folder is of creature {existing!r}, not {creature.name!r}",
                        location=SourceLocation(str(run / META_FILE)))
-    log(f"character data: synthesising {cfg.data.character_frames} frames of {creature.name} (cached)")
-    character = character_motions(creature, cfg.data, cache_dir=cache_dir, progress=progress)
+    character = character_motions(creature, cfg.data, cache_dir=cache_dir, progress=progress, log=log)
     human = human_motions(human_data, cfg.data)
     human_m = human[0].morphology
     if not human_m.end_effectors:

@@ -171,7 +171,7 @@ def training_characters(human_data: HumanData | None, data: NknDataConfig, *,
     """Every training character: the data's (or the embedded default's), then the target-only variants."""
     if human_data is None:
         log(f"skeleton data: embedded default human ({data.human_frames} frames) and {data.synth_variants} "
-            "synthesised bone-length variants (cached)")
+            "synthesised bone-length variants")
         chars = embedded_characters(data, progress=progress)
     else:
         chars = data_characters(human_data, data)

@@ -135,10 +135,10 @@ def prepare(
         f"{source.x.shape[0]} frames), {len(characters) - len(with_clips)} target-only variants")
     setup = NknSetup(mode, template, characters, source, feats, offs)
     if creature is not None:
-        log(f"creature data: synthesising {cfg.data.character_frames} frames of {creature.name} (cached)")
         synth = DataConfig(character_frames=cfg.data.character_frames, fps=cfg.data.fps,
                            synth_seed=cfg.data.synth_seed)
-        target = Character(creature, character_motions(creature, synth, cache_dir=cache_dir, progress=progress),
+        target = Character(creature, character_motions(creature, synth, cache_dir=cache_dir, progress=progress,
+                                                       log=log),
                            "creature")
         setup.creature = target
         setup.target = ClipBank([target], creature, cfg.clip_frames, fk_backend=cfg.fk_backend)
