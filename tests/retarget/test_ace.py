@@ -389,3 +389,32 @@ def test_generator_latent_stays_inside_its_bound_for_any_output():
     unbounded = Generator(5, 7, 4, replace(cfg, latent_bound=0.0))
     unbounded.load_state_dict(gen.state_dict())
     torch.testing.assert_close(unbounded(x_h, x_prev), small)
+
+
+def test_discriminator_sees_a_planted_foot_slide_of_7mm(dog):
+    """D's foot view of constructed transitions: a creature standing still shows steps of 0 and its feet's
+    heights as tanh(z / 5 cm); the same stance carried 7 mm forward per frame shows every foot's step as
+    tanh(0.7) along the heading and 0 across, whichever way the creature faces."""
+    from morphkit.motion import Motion, character_state_from_motion, character_state_layout
+    from morphkit.retarget.ace.model import FOOT_HEIGHT_SCALE, FOOT_STEP_SCALE, foot_view
+    from morphkit.retarget.ace.train import foot_indices
+    from morphkit.rotations import quat_from_yaw
+
+    m = read_morphology(dog)
+    feet = foot_indices(m)
+    lay = character_state_layout(m)
+    q = np.repeat(m.rest_q()[None], 4, axis=0)
+    q[:, 3:7] = quat_from_yaw(np.array(0.8))  # facing 0.8 rad off the world's x axis
+    still = Motion(m, 30.0, q.copy())
+    z = still.end_effector_positions()[0, feet, 2]
+    moving = q.copy()
+    moving[:, 0] += 0.007 * np.cos(0.8) * np.arange(4)
+    moving[:, 1] += 0.007 * np.sin(0.8) * np.arange(4)
+    for motion, step in ((still, 0.0), (Motion(m, 30.0, moving), 0.007)):
+        x = torch.as_tensor(character_state_from_motion(motion))
+        view = foot_view(lay, feet, x[:-1], x[1:]).numpy()
+        steps = view[:, : 2 * len(feet)].reshape(len(x) - 1, len(feet), 2)
+        np.testing.assert_allclose(steps[..., 0], np.tanh(step / FOOT_STEP_SCALE), atol=1e-6)
+        np.testing.assert_allclose(steps[..., 1], 0.0, atol=1e-6)
+        np.testing.assert_allclose(view[:, 2 * len(feet):], np.tanh(z / FOOT_HEIGHT_SCALE)[None].repeat(len(x) - 1, 0),
+                                   atol=1e-6)

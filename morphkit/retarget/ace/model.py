@@ -19,12 +19,13 @@ from torch import nn
 
 import morphkit.torch as mt
 from morphkit.graph import BaseType, Morphology
-from morphkit.motion import NormStats, Pairing, StateLayout, compiled_model, features
+from morphkit.motion import NormStats, Pairing, StateLayout, compiled_model, features, world_end_effectors
 from morphkit.retarget.ace.config import PriorConfig, RetargetConfig
 from morphkit.retarget.ace.networks import MotionEncoder, MotionPrior, MotionVAE
 from morphkit.retarget.networks import MLP
 
-__all__ = ["Discriminator", "FeatureMap", "Generator", "build_vae"]
+__all__ = ["FOOT_HEIGHT_SCALE", "FOOT_STEP_SCALE", "Discriminator", "FeatureMap", "Generator", "build_vae",
+           "foot_view"]
 
 
 def build_vae(state_dim: int, cfg: PriorConfig) -> MotionVAE:
@@ -64,16 +65,37 @@ class Generator(nn.Module):
         return self.z_mean + self.bound * self.z_std * torch.tanh(g / self.bound)
 
 
-class Discriminator(nn.Module):
-    """D(x^r_{t-1}, x^r_t) → logit of "a transition of the character's data" (σ(logit) ∈ [0, 1])."""
+FOOT_STEP_SCALE = 0.01
+"""[m]: a foot's ground step enters D as tanh(step / this) (ours: a 7 mm slide reads 0.6, a swing ≈ 1)."""
+FOOT_HEIGHT_SCALE = 0.05
+"""[m]: a foot's height enters D as tanh(height / this) (ours: GMD's 5 cm contact height)."""
 
-    def __init__(self, character_dim: int, cfg: RetargetConfig) -> None:
+
+class Discriminator(nn.Module):
+    """D(x^r_{t-1}, x^r_t) → logit of "a transition of the character's data" (σ(logit) ∈ [0, 1]).
+
+    With ``foot_count`` F > 0 its input also holds :func:`foot_view` of the transition (3F numbers).
+    """
+
+    def __init__(self, character_dim: int, cfg: RetargetConfig, foot_count: int = 0) -> None:
         super().__init__()
-        self.mlp = MLP(2 * character_dim, cfg.discriminator_hidden, 1, activation="silu")
+        self.mlp = MLP(2 * character_dim + 3 * foot_count, cfg.discriminator_hidden, 1, activation="silu")
 
     def forward(self, transition: torch.Tensor) -> torch.Tensor:
-        """``transition`` [..., 2 Sr] (``[x_{t-1}, x_t]``) → logits [...]."""
+        """``transition`` [..., 2 Sr (+ 3F)] (``[x_{t-1}, x_t(, feet)]``) → logits [...]."""
         return self.mlp(transition)[..., 0]
+
+
+def foot_view(layout: StateLayout, feet: list[int], prev: torch.Tensor, cur: torch.Tensor) -> torch.Tensor:
+    """What D sees of the feet over transitions ``prev`` → ``cur`` (denormalised states [..., Sr] whose ee
+    block is what D is shown): per foot ``tanh(step_xy / FOOT_STEP_SCALE)`` and ``tanh(z / FOOT_HEIGHT_SCALE)``
+    in the transition's ground frame [..., 3F] (steps first, then heights)."""
+    x = torch.stack([prev, cur], dim=-2)
+    ee = x[..., layout.slice("ee_positions")].unflatten(-1, (-1, 3))
+    p = world_end_effectors(x, layout, ee)[..., feet, :]
+    step = p[..., 1, :, :2] - p[..., 0, :, :2]
+    return torch.cat([torch.tanh(step / FOOT_STEP_SCALE).flatten(-2), torch.tanh(p[..., 1, :, 2] / FOOT_HEIGHT_SCALE)],
+                     dim=-1)
 
 
 @dataclass(eq=False)

@@ -39,7 +39,7 @@ from morphkit.motion import (
 )
 from morphkit.retarget.ace.checkpoint import META_FILE, PRIOR_STAGE, AceArtifact
 from morphkit.retarget.ace.config import AceConfig, AceVariant, PriorConfig, RetargetConfig
-from morphkit.retarget.ace.model import Discriminator, FeatureMap, Generator, build_vae
+from morphkit.retarget.ace.model import Discriminator, FeatureMap, Generator, build_vae, foot_view
 from morphkit.retarget.ace.networks import MotionVAE, kl_divergence
 from morphkit.retarget.distributed import average_gradients, broadcast_parameters, init_distributed
 from morphkit.retarget.run import Run
@@ -361,7 +361,9 @@ def train_retargeter(
         prior = frozen_prior(vae.to(dev))
         gen = Generator(sh, sr, vae.prior.latent_features, rc).to(dev)
         gen.set_latent_range(*latent_range(vae, reals))
-        disc = Discriminator(sr, rc).to(dev)
+        feet = foot_indices(data.creature) if rc.discriminator_feet else []
+        disc = Discriminator(sr, rc, len(feet)).to(dev)
+        stats, lay = fmap.creature_stats, fmap.creature_layout
         # Not DDP: its hooks miss the gradient penalty's double backward; gradients are averaged by hand.
         for module in (gen, disc):
             broadcast_parameters(module, run.context)
@@ -377,16 +379,23 @@ def train_retargeter(
                 prev, fake = rollout(g_model, prior, x_h, x0, tbptt=rc.tbptt)
                 fixed, gap = fmap.creature_with_fk(fake)  # what is exported: ee from FK of the joints
                 if rc.discriminate_exported:
-                    shown = fmap.creature_stats.normalize(fixed)
+                    shown = stats.normalize(fixed)
                     prev = torch.cat([x0[:, None], shown[:, :-1]], dim=1)
                 else:
                     shown = fake
                 fake_t = torch.cat([prev, shown], dim=-1).flatten(0, 1)  # [B·T, 2 Sr]
+                if feet:
+                    shown_d = fixed if rc.discriminate_exported else stats.denormalize(fake)
+                    prev_d = torch.cat([stats.denormalize(x0)[:, None], shown_d[:, :-1]], dim=1)
+                    fake_t = torch.cat([fake_t, foot_view(lay, feet, prev_d, shown_d).flatten(0, 1)], dim=-1)
                 row: dict[str, Any] = {}
                 if use_adversarial:
                     for _ in range(rc.discriminator_steps):
-                        real = reals.windows(torch.randint(len(reals), (fake_t.shape[0],), generator=run.generator),
-                                             dev).flatten(1)
+                        pair = reals.windows(torch.randint(len(reals), (fake_t.shape[0],), generator=run.generator),
+                                             dev)
+                        real = pair.flatten(1)
+                        if feet:
+                            real = torch.cat([real, foot_view(lay, feet, *stats.denormalize(pair).unbind(-2))], dim=-1)
                         d_real, gp = gradient_penalty(d_model, real)
                         d_fake = d_model(fake_t.detach())
                         loss_d = F.softplus(-d_real).mean() + F.softplus(d_fake).mean() + 0.5 * rc.w_gp * gp
