@@ -29,6 +29,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--videos", type=int, default=2, help="side-by-side videos to render (default 2)")
     p.add_argument("--contacts", default="replan", choices=("none", "replan", "lock"),
                    help="contact-aware export of the clips and videos (default replan; the table shows all three)")
+    p.add_argument("--set", metavar="KEY=VALUE", action="append", default=[],
+                   help="override a config field, as morphkit train --set (e.g. --set seed=1; repeatable)")
     p.add_argument("--smoke", action="store_true", help="the smoke preset and one short video frame sheet")
     args = p.parse_args(argv)
 
@@ -44,11 +46,12 @@ def run(args: argparse.Namespace) -> int:
     from morphkit.retarget import WithContacts, load
     from morphkit.retarget.ace.config import preset
     from morphkit.retarget.ace.train import train_ace
+    from morphkit.retarget.config import replace_config
     from morphkit.retarget.training_data import character_motions, evaluation_clips
 
     started = time.perf_counter()
     name = "smoke" if args.smoke else args.preset
-    cfg = preset(name)
+    cfg = replace_config(preset(name), args.set) if args.set else preset(name)
     creature = read_morphology(args.creature)
     out = Path(args.out) if args.out else Path("runs") / f"ace_{creature.name}_{name}"
     train_ace(out, creature, cfg, human_data=args.human_data)
