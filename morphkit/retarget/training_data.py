@@ -69,8 +69,8 @@ class DataConfig:
     commands only, while held-out humans mostly stand, bend and reach."""
     full_arm_travel: bool = False
     """Synthesise the character's arms over each joint's whole travel (:meth:`morphkit.synth.ArmConfig.full_travel`:
-    Stretch's lift to its top); off: the synthesis' default arm poses, within 70 % of each joint's span
-    about rest. Ours; measured at ``quick`` on Spot it made the retargeted arm worse (see the docs)."""
+    a wheeled robot's lift to its top); off: the synthesis' default arm poses, within 70 % of each joint's span
+    about rest. Ours; measured at ``quick`` on the shipped quadruped it made the retargeted arm worse (see the docs)."""
 
 
 

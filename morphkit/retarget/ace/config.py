@@ -91,13 +91,13 @@ class RetargetConfig:
     sees carry the end-effectors of morphkit's FK of their joints instead of π's own ee slots, and G's
     adversarial gradient flows through that FK."""
     discriminator_feet: bool = False
-    """Beyond the paper, off: D also sees each foot's ground step and height over the transition,
-    ``tanh(step / 1 cm)`` (x, y) and ``tanh(height / 5 cm)`` per foot, in the transition's ground frame, from
-    the states' end-effectors placed on their root path (False: the paper's D input). Measured with the
-    main job (``quick``, Spot, seeds 0 and 1): D's logit moves 0.022 for a planted foot's 7 mm slide
-    against 0.010 without it (``benchmarks/ace_discriminator_feet.py``), FID 4.61 → 4.25 and 1.75 → 1.43,
-    but G answers by lifting the feet off the ground: Float 0.01 → 14.3 mm and 1.5 → 8.4 mm, skating ratio
-    4.4 → 90.9 % and 4.2 → 33.9 %, hand-height follow 0.35 → 0.28 and 0.32 → 0.22. So it stays off."""
+    """Beyond the paper, off: D also sees each foot's ground step and height over the transition, ``tanh(step / 1 cm)``
+    (x, y) and ``tanh(height / 5 cm)`` per foot, in the transition's ground frame, from the states' end-effectors
+    placed on their root path (False: the paper's D input). Measured with the main job (``quick``, the shipped
+    quadruped with an arm, seeds 0 and 1): D's logit moves 0.022 for a planted foot's 7 mm slide against 0.010
+    without it (``benchmarks/ace_discriminator_feet.py``), FID 4.61 → 4.25 and 1.75 → 1.43, but G answers by lifting
+    the feet off the ground: Float 0.01 → 14.3 mm and 1.5 → 8.4 mm, skating ratio 4.4 → 90.9 % and 4.2 → 33.9 %,
+    hand-height follow 0.35 → 0.28 and 0.32 → 0.22. So it stays off."""
     w_contact: float = 0.0
     """Beyond the paper: foot sliding + ground penetration of the FK'd motion (0: off, as ACE)."""
     latent_bound: float = 3.0
