@@ -41,6 +41,7 @@ from morphkit.kernels.launch import launch, resolve_device
 from morphkit.model.kinematic_model import KinematicModel
 
 __all__ = [
+    "RecordedSelfCollision",
     "SelfCollisionPairs",
     "eval_contact_flags",
     "eval_foot_heights",
@@ -491,7 +492,17 @@ class SelfCollisionPairs:
         ``skipped`` is copied unchanged: it counts what :func:`self_collision_pairs` filtered, not this selection.
         """
         idx = np.array(sorted(int(i) for i in links), dtype=np.int64)
-        keep = np.isin(self.link_a, idx) | np.isin(self.link_b, idx)
+        return self.select(np.isin(self.link_a, idx) | np.isin(self.link_b, idx))
+
+    def apart_from(self, links: Iterable[int]) -> SelfCollisionPairs:
+        """The pairs with no shape on any of ``links`` (link indices), in the same order (``skipped`` as
+        :meth:`touching`)."""
+        idx = np.array(sorted(int(i) for i in links), dtype=np.int64)
+        return self.select(~(np.isin(self.link_a, idx) | np.isin(self.link_b, idx)))
+
+    def select(self, keep: np.ndarray) -> SelfCollisionPairs:
+        """The pairs where ``keep`` [P] is true, in the same order (``skipped`` as :meth:`touching`)."""
+        keep = np.asarray(keep, dtype=bool)
         return SelfCollisionPairs(
             shape_a=self.shape_a[keep], shape_b=self.shape_b[keep], link_a=self.link_a[keep],
             link_b=self.link_b[keep], rest_distance=self.rest_distance[keep],
@@ -650,6 +661,36 @@ def eval_self_collision_distance(model: KinematicModel, pairs: SelfCollisionPair
         Signed distances [m], shape [..., P] (see :mod:`morphkit.kernels.geometry` for which pairs are exact).
     """
     return _self_collision(model, pairs, link_X, 0, out, device)
+
+
+class RecordedSelfCollision:
+    """:func:`eval_self_collision_distance` on the CPU in float64 for a fixed batch of ``batch`` poses, its launch
+    recorded once (``record_cmd``): for many small calls, such as a per-frame check, whose cost would otherwise be
+    argument packing rather than the kernel.
+
+    Call it with link transforms [batch, L, 7] (NumPy, ``T_world_link``); it returns the signed distances
+    [batch, P] [m] in a buffer the next call overwrites.
+    """
+
+    def __init__(self, model: KinematicModel, pairs: SelfCollisionPairs, batch: int) -> None:
+        L, P = model.link_count, pairs.pair_count
+        self._X = wp.zeros((batch, L), dtype=wp.transformd, device="cpu")
+        self._out = wp.zeros((batch, max(P, 1)), dtype=wp.float64, device="cpu")
+        self._X_np = self._X.numpy().reshape(batch, L, 7)
+        self._out_np = self._out.numpy()[:, :P]
+        a = model.arrays("cpu", wp.float64)
+        pa, pb = pairs.arrays("cpu")
+        self._keep = (a, pa, pb)
+        self._cmd = wp.launch(self_collision_kernel, dim=(batch, P), device="cpu", record_cmd=True,
+                              inputs=[self._X, a.shape_link, a.shape_type, a.shape_X_link, a.shape_params, pa, pb,
+                                      0, 0],
+                              outputs=[self._out]) if P else None
+
+    def __call__(self, link_X: np.ndarray) -> np.ndarray:
+        if self._cmd is not None:
+            self._X_np[:] = link_X
+            self._cmd.launch()
+        return self._out_np
 
 
 def eval_self_collision_penetration(model: KinematicModel, pairs: SelfCollisionPairs, link_X: Any, *,

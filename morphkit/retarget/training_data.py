@@ -68,9 +68,11 @@ class DataConfig:
     (:attr:`morphkit.synth.CommandConfig.stand_probability`, 0.1). Ours: the paper draws random
     commands only, while held-out humans mostly stand, bend and reach."""
     full_arm_travel: bool = False
-    """Synthesise the character's arms over each joint's whole travel (:meth:`morphkit.synth.ArmConfig.full_travel`:
-    a wheeled robot's lift to its top); off: the synthesis' default arm poses, within 70 % of each joint's span
-    about rest. Ours; measured at ``quick`` on the shipped quadruped it made the retargeted arm worse (see the docs)."""
+    """Synthesise the character's arms over each joint's whole travel (the synthesis' default,
+    :class:`morphkit.synth.ArmConfig`: a wheeled robot's lift to its top); off:
+    :meth:`~morphkit.synth.ArmConfig.partial_travel`, within 70 % of each arm joint's span about rest (heads, necks
+    and tails over their whole travel either way). Ours; measured at ``quick`` on the shipped quadruped the
+    whole travel made the retargeted arm worse (see the docs)."""
 
 
 
@@ -105,7 +107,7 @@ def _synth_config(data: DataConfig) -> Any:
         return None
     commands = CommandConfig() if data.stand_probability is None else CommandConfig(
         stand_probability=data.stand_probability)
-    return SynthConfig(commands=commands, arms=ArmConfig.full_travel() if data.full_arm_travel else ArmConfig())
+    return SynthConfig(commands=commands, arms=ArmConfig() if data.full_arm_travel else ArmConfig.partial_travel())
 
 
 def character_motions(

@@ -345,6 +345,22 @@ class LimbSolver:
         B = q.shape[0]
         if iterations <= 0 or B == 0 or len(ee) == 0:
             return q, np.zeros((B, len(ee), 3))
+        if max_error is None:
+            # recorded launches on buffers kept per (end-effectors, mask, padded batch): the per-frame lift
+            # calls this with small, changing batches, where building arrays and launches each call cost
+            # several times the kernels (same kernels and arguments as ik_step, so the same numbers)
+            size = 1 << int(np.ceil(np.log2(max(B, 8))))
+            ee = np.asarray(ee, dtype=np.int64)
+            ws = self._workspace(f"step:{ee.tobytes().hex()}:{np.packbits(mask).tobytes().hex()}", ee, mask, size)
+            ws.q_np[0][:B] = q
+            ws.q_np[0][B:] = q[0]
+            ws.targets_np[:B] = targets
+            ws.targets_np[B:] = targets[0]
+            src = 0
+            pool = cpu_pool()
+            for _ in range(iterations):
+                src = ws.run(src, pool)
+            return ws.q_np[src][:B].copy(), ws.residual_np[:B].copy()
         key = (B, q.shape[1])
         bufs = self._bufs.get(key)
         if bufs is None:
@@ -355,9 +371,8 @@ class LimbSolver:
         res = None
         for i in range(iterations):
             out = bufs[i % 2]
-            cur, res = ik_step(self.model, cur, tgt, ee=ee, dof_mask=mask, damping=self.damping,
-                               max_step=self.max_step, max_error=self.max_error if max_error is None else max_error,
-                               out=out)
+            cur, res = ik_step(self.model, cur, tgt, ee=ee, dof_mask=mask, damping=self.damping, max_step=self.max_step,
+                               max_error=max_error, out=out)
         return cur.numpy().copy(), res.numpy()
 
     def link_transforms(self, q: np.ndarray) -> np.ndarray:

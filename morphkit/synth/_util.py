@@ -8,6 +8,7 @@ import numpy as np
 from morphkit.rotations import quat_conjugate, quat_multiply
 
 __all__ = [
+    "coordinate_ascent",
     "nlerp",
     "quat_delta_extrapolate",
     "rotate2",
@@ -47,3 +48,31 @@ def quat_delta_extrapolate(q_prev: np.ndarray, q_prev2: np.ndarray) -> np.ndarra
     d = quat_multiply(quat_conjugate(q_prev2), q_prev)
     q = quat_multiply(q_prev, d)
     return q / np.linalg.norm(q, axis=-1, keepdims=True)
+
+
+def coordinate_ascent(q: np.ndarray, coords: np.ndarray, lower: np.ndarray, upper: np.ndarray, objective,
+                      *, passes: int = 3, samples: int = 9) -> tuple[np.ndarray, np.ndarray]:
+    """Poses ``q`` [B, C] with coordinates ``coords`` [K] moved, one after another, to where ``objective`` is highest.
+
+    Each pass tries every coordinate at ``samples`` values from ``lower`` to ``upper`` [K] (all poses at once)
+    and keeps a value only where it raises the objective. Meant for joints pinned at their limits, where
+    gradient steps stall; ``objective`` maps poses [N, C] to [N] (``-inf`` for a pose that is not allowed).
+
+    Returns:
+        The poses and their objective [B].
+    """
+    q = np.array(q, dtype=float)
+    B = len(q)
+    best = objective(q)
+    for _ in range(passes if len(coords) else 0):
+        for c, lo, hi in zip(coords, lower, upper, strict=True):
+            values = np.linspace(lo, hi, samples)
+            trial = np.repeat(q[None], samples, axis=0)  # [S, B, C]
+            trial[:, :, c] = values[:, None]
+            f = objective(trial.reshape(samples * B, -1)).reshape(samples, B)
+            pick = np.argmax(f, axis=0)
+            top = f[pick, np.arange(B)]
+            better = top > best
+            q[better, c] = values[pick[better]]
+            best[better] = top[better]
+    return q, best

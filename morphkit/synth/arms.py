@@ -28,11 +28,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from morphkit.conventions import quat_multiply, quat_rotate
-from morphkit.graph import JointType, Morphology
+from morphkit.graph import EndEffectorRole, JointType, Morphology
 from morphkit.kernels import eval_fk
 from morphkit.kernels.contact import eval_self_collision_distance, self_collision_pairs
 from morphkit.synth._ik import LimbSolver
-from morphkit.synth._util import nlerp, smoothstep
+from morphkit.synth._util import coordinate_ascent, nlerp, smoothstep
 from morphkit.synth.analysis import BodyPlan
 from morphkit.synth.legged import limb_links
 
@@ -49,17 +49,18 @@ class ArmConfig:
     """Links per pose in the pose graph (before validation)."""
     validation_steps: int = 8
     """Points checked along each link."""
-    joint_range: float = 0.7
-    """Fraction of each arm joint's span (about rest, within limits) that poses are drawn from
-    (:meth:`full_travel` draws from the whole of it)."""
-    limit_share: float = 0.0
-    """Share of pose draws in which one limited arm joint is put within the outer 5 % of its travel."""
+    joint_range: float = 1.0
+    """Fraction of each arm joint's span (about rest, within limits) that poses are drawn from."""
+    limit_share: float = 0.25
+    """Share of pose draws in which one limited arm or other joint is put within the outer 5 % of its travel
+    (a joint near its limit is often feasible only with the rest of its chain in a narrow region that
+    uniform draws rarely hit)."""
     spherical_angle: float = 0.8
     """Largest rotation of an arm ball joint from rest [rad]."""
     continuous_angle: float = 2.0
     """Largest rotation of an arm continuous joint from rest [rad]."""
-    other_range: float = 0.3
-    """Fraction of an other joint's span its poses are drawn from."""
+    other_range: float = 1.0
+    """Fraction of an other joint's span its poses are drawn from (a third of it for joints carrying a leg)."""
     other_angle: float = 0.25
     """Largest rotation of an other ball joint from rest [rad]."""
     move_seconds: tuple[float, float] = (0.6, 2.0)
@@ -74,23 +75,33 @@ class ArmConfig:
     """Upper-body links and arm tips stay this high above the ground at stance [m]."""
     collision_margin: float = 0.01
     """Pool poses keep this clearance [m] between shapes (links between them only need no contact)."""
-    leg_clearance: float = 0.0
+    leg_clearance: float = 0.15
     """Upper-body poses and the moves between them keep this fraction of the mean leg reach between
     upper-body and leg shapes (poses are checked with the legs at stance, and legs swing while walking)."""
+    reach_extremes: bool = True
+    """Pool the poses that put each non-leg chain's end-effector (arm tip, head, tail, tool) at its lowest and
+    its highest (within its joints' limits, every upper-body point above the ground, the feet planted): a
+    head that can reach the ground does. Arms only where ``joint_range`` is 1."""
+    walk_from_any_pose: bool = True
+    """Each rollout's walk on the pose graph starts at a random pose (False: at the stance), so that poses many
+    moves away from the stance — a joint's limits, a chain's lowest and highest reach — are visited too."""
+    branch_check: float = 0.1
+    """An arm coordinate further than this [rad or m] from the pooled posture after a frame's IK has that frame
+    checked for self-collision; a colliding arm takes the posture (IK can flip to a branch the pose graph's
+    validated moves never saw)."""
     collision_rest_margin: float = 0.005
     """Shape pairs closer than this at rest [m] touch by design and are not checked."""
 
     @classmethod
-    def full_travel(cls) -> ArmConfig:
-        """Arm poses over each arm joint's whole travel: drawn from the full span, a quarter of the draws
-        with one joint within the outer 5 % of its travel, 15 % of the leg reach kept from the legs.
+    def partial_travel(cls) -> ArmConfig:
+        """Arm poses within 70 % of each arm joint's span about rest, no draws at the limits, no extreme
+        reach poses for arms (other joints: as by default).
 
-        Over 20,000 frames every arm joint of Spot, the crab and Stretch then covers ≥ 95 % of its travel
-        (Stretch's lift 99.5 % against 69 % by default). Not the default: at ACE's ``quick`` preset on
-        Spot (main job, one seed) the retargeted arm went to the extremes the data now hold, pointing
-        up while the human's hands hang (hand-height follow 0.35 → 0.10, ACE+lock UFR 3.9 → 26.8 %).
+        What ACE's character data use unless ``data.full_arm_travel`` (measured at ACE's ``quick`` preset on
+        Spot, main job, one seed: with the whole travel the retargeted arm went to the extremes the data
+        hold, pointing up while the human's hands hang; hand-height follow 0.35 → 0.10).
         """
-        return cls(joint_range=1.0, limit_share=0.25, leg_clearance=0.15)
+        return cls(joint_range=0.7, limit_share=0.0, leg_clearance=0.0)
 
 
 @dataclass(frozen=True, eq=False)
@@ -257,10 +268,24 @@ def calibrate_arms(m: Morphology, plan: BodyPlan, solver: LimbSolver, q_stance: 
     if A:
         lowest = min(lowest, float(tips0[0, :, 2].min() + root[2]))
     floor[0] = min(cfg.ground_clearance, lowest - 0.01)
-    # draw until the pool is full (poses that collide are dropped), at most four rounds
+    # each non-leg chain's end-effector at its lowest and highest, as pool poses beside the stance
     kept_q = [q_stance[None]]
     lower, upper = m.coordinate_limits
-    ends = [int(m.joint_q_start[ji]) for ji in flat_arm if ji not in held
+    free = {ji for ji in others if ji not in carrying}
+    if cfg.joint_range >= 1.0:
+        free |= {ji for ji in flat_arm if ji not in held}
+    def lowest_point(qs: np.ndarray) -> np.ndarray:
+        X = eval_fk(model, qs, device="cpu").numpy()
+        _, tips = check(qs, -np.inf)
+        low = X[:, uidx, 2].min(axis=1) if uidx.size else np.full(len(qs), np.inf)
+        return np.minimum(low, tips[:, :, 2].min(axis=1) + root[2]) if A else low
+
+    extremes = (_reach_extremes(m, model, q_stance, free, lambda qs: check(qs, cfg.collision_margin)[0],
+                                lowest_point, 0.5 * cfg.ground_clearance)
+                if cfg.reach_extremes else np.zeros((0, len(q_stance))))
+    kept_q.append(extremes)
+    # draw until the pool is full (poses that collide are dropped), at most four rounds
+    ends = [int(m.joint_q_start[ji]) for ji in flat_arm + others if ji not in held and ji not in carrying
             and m.joints[ji].type in (JointType.REVOLUTE, JointType.PRISMATIC)
             and np.isfinite(lower[m.joint_q_start[ji]]) and np.isfinite(upper[m.joint_q_start[ji]])]
     for _ in range(4):
@@ -271,8 +296,11 @@ def calibrate_arms(m: Morphology, plan: BodyPlan, solver: LimbSolver, q_stance: 
         for ji in flat_arm:
             if ji not in held:
                 _sample(rng, m, q, ji, cfg.joint_range, cfg.spherical_angle, cfg.continuous_angle)
+        for ji in others:
+            k = 1.0 / 3.0 if ji in carrying else 1.0
+            _sample(rng, m, q, ji, cfg.other_range * k, cfg.other_angle * k, np.pi * k)
         if ends and cfg.limit_share > 0:
-            # a joint near its limit is often feasible only with the rest of the arm in a narrow region
+            # a joint near its limit is often feasible only with the rest of its chain in a narrow region
             # that uniform draws rarely hit: some draws put one joint within the outer 5 % of its travel
             rows = np.nonzero(rng.random(cfg.pool_size) < cfg.limit_share)[0]
             cols = np.asarray(ends)[rng.integers(len(ends), size=rows.size)]
@@ -280,9 +308,6 @@ def calibrate_arms(m: Morphology, plan: BodyPlan, solver: LimbSolver, q_stance: 
             top = rng.random(rows.size) < 0.5
             q[rows, cols] = np.where(top, upper[cols] - edge * (upper[cols] - lower[cols]),
                                      lower[cols] + edge * (upper[cols] - lower[cols]))
-        for ji in others:
-            k = 1.0 / 3.0 if ji in carrying else 1.0
-            _sample(rng, m, q, ji, cfg.other_range * k, cfg.other_angle * k, np.pi * k)
         ok, _ = check(q, cfg.collision_margin)
         kept_q.append(q[ok][:need])
     q = np.concatenate(kept_q)
@@ -308,7 +333,9 @@ def calibrate_arms(m: Morphology, plan: BodyPlan, solver: LimbSolver, q_stance: 
         # mean length at 30 fps) the pull compounds to gain_eff
         frames_per_step = 30.0 * 0.5 * (cfg.move_seconds[0] + cfg.move_seconds[1]) / cfg.validation_steps
         gain_eff = 1.0 - (1.0 - cfg.posture_gain) ** max(frames_per_step, 1.0)
-        for k in range(1, cfg.validation_steps + 1):
+        # the move's checks, then as many again holding at its end: IK that converges on the held tip
+        # can settle on another branch than the pooled pose (a planar arm's elbow at its limit flips)
+        for k in range(1, 2 * cfg.validation_steps + 1):
             a = np.full(len(src), smoothstep(k / cfg.validation_steps))
             blend = _blend(pool_q[src], pool_q[dst], a, quats)
             nxt = cur.copy()
@@ -334,6 +361,70 @@ def calibrate_arms(m: Morphology, plan: BodyPlan, solver: LimbSolver, q_stance: 
         stats={"poses": int(P), "moves": int(valid.sum()),
                "moves_tried": len(src)},
     )
+
+
+def _reach_extremes(m: Morphology, model, q_stance: np.ndarray, free: set[int], allowed, lowest_point,
+                    ee_floor: float) -> np.ndarray:
+    """Pool poses [N, C] at the edges of what ``free`` joints can do, each found from the stance by
+    :func:`~morphkit.synth._util.coordinate_ascent` over the 1-DoF joints of ``free`` on one chain, among poses
+    that ``allowed`` ([B, C] -> [B] bool) accepts:
+
+    - per end-effector those joints move (not a foot): its lowest pose (keeping it ``ee_floor`` [m] above the
+      ground) and its highest;
+    - per joint of ``free``: the joint at each of its limits, the rest of its chain (the longest through it to
+      such an end-effector, if any) where ``lowest_point`` ([B, C] -> [B], the upper body's lowest height [m])
+      is highest.
+
+    Poses no different from the stance, or that no joint values make allowed, are dropped.
+    """
+    lower, upper = m.coordinate_limits
+    limited = [ji for ji in sorted(free) if m.joints[ji].type in (JointType.REVOLUTE, JointType.PRISMATIC)
+               and np.isfinite(lower[m.joint_q_start[ji]]) and np.isfinite(upper[m.joint_q_start[ji]])]
+    out = []
+
+    def search(q0: np.ndarray, cols: np.ndarray, objective) -> None:
+        q, f = coordinate_ascent(q0[None], cols, lower[cols], upper[cols], objective)
+        if np.isfinite(f[0]) and np.abs(q[0] - q_stance).max() > 1e-6:
+            out.append(q[0])
+
+    chains: dict[int, np.ndarray] = {}
+    for e in m.end_effectors:
+        if e.role == EndEffectorRole.FOOT:
+            continue
+        on_chain = {m.joint_index(n) for n in m.chain(e.link)}
+        cols = np.array([int(m.joint_q_start[ji]) for ji in limited if ji in on_chain], dtype=np.int64)
+        if cols.size == 0:
+            continue
+        for ji in limited:
+            if ji in on_chain:
+                prev = chains.get(ji)
+                chains[ji] = cols if prev is None or len(cols) > len(prev) else prev
+        k = model.ee_index(e.name)
+        link, offset = int(model.ee_link[k]), np.asarray(model.ee_offset[k], dtype=float)
+
+        def height(qs: np.ndarray, link: int = link, offset: np.ndarray = offset) -> np.ndarray:
+            T = eval_fk(model, qs, device="cpu").numpy()[:, link]
+            return T[:, 2] + quat_rotate(T[:, 3:], np.broadcast_to(offset, T[:, :3].shape))[:, 2]
+
+        for sign in (-1.0, 1.0):
+            def reach(qs: np.ndarray, sign: float = sign, height=height) -> np.ndarray:
+                z = height(qs)
+                return np.where(allowed(qs) & (z >= ee_floor), sign * z, -np.inf)
+
+            search(q_stance, cols, reach)
+
+    def clear(qs: np.ndarray) -> np.ndarray:
+        return np.where(allowed(qs), lowest_point(qs), -np.inf)
+
+    for ji in limited:  # a joint no end-effector hangs from (a finger, a camera tilt): alone
+        chains.setdefault(ji, np.array([int(m.joint_q_start[ji])], dtype=np.int64))
+    for ji, cols in chains.items():
+        c = int(m.joint_q_start[ji])
+        for value in (lower[c], upper[c]):
+            q0 = q_stance.copy()
+            q0[c] = value
+            search(q0, cols[cols != c], clear)
+    return np.array(out) if out else np.zeros((0, len(q_stance)))
 
 
 def _blend(a: np.ndarray, b: np.ndarray, w: np.ndarray, quats: Sequence[int]) -> np.ndarray:
@@ -384,6 +475,8 @@ def draw_upper_body(rngs: Sequence[np.random.Generator], pool: PosePool, frames:
         hd = rng.uniform(*cfg.hold_seconds, S)
         steps = rng.random(S)
         walk = np.zeros(S + 1, dtype=np.int64)
+        if cfg.walk_from_any_pose:
+            walk[0] = rng.integers(len(pool.q))
         for s in range(S):
             nb = pool.neighbours[walk[s]]
             nb = nb[nb >= 0]

@@ -23,6 +23,7 @@ import numpy as np
 
 from morphkit.errors import ConfigError
 from morphkit.graph import JointType, Morphology
+from morphkit.kernels.contact import RecordedSelfCollision, self_collision_pairs
 from morphkit.motion.motion import Motion
 from morphkit.rotations import quat_from_rpy, quat_from_yaw, quat_rotate
 from morphkit.synth._ik import LimbSolver
@@ -40,7 +41,14 @@ from morphkit.synth.actions import (
 )
 from morphkit.synth.analysis import BodyPlan, analyse
 from morphkit.synth.arms import ArmConfig, PosePool, calibrate_arms, draw_upper_body, other_joints
-from morphkit.synth.ground import GroundGuard, GroundPoint, GroundStats, lift_mask, upper_body_points
+from morphkit.synth.ground import (
+    GroundGuard,
+    GroundPoint,
+    GroundStats,
+    lift_coordinates,
+    lift_mask,
+    upper_body_points,
+)
 from morphkit.synth.legged import (
     LegConfig,
     LeggedController,
@@ -142,6 +150,7 @@ class SynthRig:
             lr = self.legs
             out.update({
                 "stance_height_m": round(lr.stance_height, 4),
+                "stance_of_rest_height": round(lr.stance_height / max(self.plan.body_height, 1e-9), 3),
                 "step_semi_axes_m": np.round(lr.semi_axes.mean(axis=0), 4).tolist(),
                 "swing_height_m": round(lr.swing_height, 4),
                 "cadence_hz": round(lr.cadence_hz, 4),
@@ -149,6 +158,8 @@ class SynthRig:
                 "max_forward_speed_m_s": round(float(self.max_speed(np.array([1.0, 0.0]))), 3),
                 "max_lateral_speed_m_s": round(float(self.max_speed(np.array([0.0, 1.0]))), 3),
             })
+            if "stance_note" in lr.stats:
+                out["stance_note"] = lr.stats["stance_note"]
             if lr.fixed_axes is not None:  # a direction no leg can step is not commanded at all
                 for key, rng in (("max_forward_speed_m_s", self.limits.forward),
                                  ("max_lateral_speed_m_s", self.limits.lateral)):
@@ -194,11 +205,16 @@ def prepare(m: Morphology, *, fps: float = 30.0, config: SynthConfig | None = No
     points = upper_body_points(m, upper)
     points += [GroundPoint(e.link, e.offset, 0.0) for e in (m.end_effector(a.end_effector) for a in plan.arms)]
     solver = LimbSolver(m, plan, points=[(p.link, p.offset) for p in points])
+    ground = None
+    if points and config.keep_above_ground:
+        mask = lift_mask(m, lifting, len(solver.all_mask))
+        ground = GroundGuard(solver.model, solver.point_ee, np.array([p.radius for p in points]), mask, solver.step,
+                             solver.link_transforms, coordinates=lift_coordinates(m, lifting))
     cc = config.commands
     legs = None
     if loco == Locomotion.LEGGED:
         legs = calibrate_legs(m, plan, solver, config.legs, fps=fps, height_fraction=cc.height, pitch=cc.pitch,
-                              roll=cc.roll)
+                              roll=cc.roll, ground=ground)
         q_stance = legs.q_nominal.copy()
         scale = plan.leg_reach / cc.reference_leg_reach if cc.scale_by_size else 1.0
     else:
@@ -250,11 +266,6 @@ def prepare(m: Morphology, *, fps: float = 30.0, config: SynthConfig | None = No
         yaw_acceleration=cc.yaw_acceleration,
         clamp=clamp,
     )
-    ground = None
-    if points and config.keep_above_ground:
-        mask = lift_mask(m, lifting, len(solver.all_mask))
-        ground = GroundGuard(solver.model, solver.point_ee, np.array([p.radius for p in points]), mask, solver.step,
-                             solver.link_transforms)
     rig = SynthRig(m, plan, loco, solver, legs, arms, q_stance, limits, float(scale), fps, config, actions, ground)
     _rig_cache.append((m, fps, config, rig))
     del _rig_cache[:-4]
@@ -294,7 +305,8 @@ class SynthResult(Sequence[Motion]):
     def warnings(self) -> list[str]:
         """One line per limb that cannot be moved well: the calibration's and the ground lift's."""
         legs = list(self.rig.legs.warnings) if self.rig.legs is not None else []
-        return legs + self.ground.warnings()
+        named = {w.split(":")[0] for w in legs}  # a link the calibration already named is not named twice
+        return legs + [w for w in self.ground.warnings() if w.split(":")[0] not in named]
 
     def __len__(self) -> int:
         return len(self.motions)
@@ -470,9 +482,27 @@ def _run_batch(rig: SynthRig, seeds: Sequence[np.random.SeedSequence], lengths: 
     contact = np.zeros((R, frames, NL), dtype=bool)
     gait = np.full((R, frames), -1, dtype=np.int8)
     q_prev = np.repeat(rig.q_stance[None], R, axis=0)
+    if not pool.empty:
+        q_prev[:, pool.coords] = pool.q[ub.i0[:, 0]]  # the upper body starts where its walk does
     q_prev2 = q_prev.copy()
     glide_z = rig.q_stance[2] if rig.locomotion == Locomotion.GLIDE else 0.0
     gain = cfg.arms.posture_gain
+    arm_pairs = None
+    arm_checks: dict[int, RecordedSelfCollision] = {}
+    if n_arm and free_arms.size:
+        arm_links: set[str] = set()
+        for a in free_arms:
+            arm_links |= limb_links(m, rig.plan.arms[a].joints)
+        arm_pairs = self_collision_pairs(solver.model, rest_margin=cfg.arms.collision_rest_margin).touching(
+            [solver.model.link_index(n) for n in arm_links])
+        # against the body and the other arms: the legs are kept clear by the pose pool's leg clearance, and
+        # skipping their pairs makes the check several times cheaper
+        leg_links: set[str] = set()
+        for leg in rig.plan.legs:
+            leg_links |= limb_links(m, leg.joints)
+        arm_pairs = arm_pairs.apart_from(solver.model.link_index(n) for n in leg_links - arm_links)
+        if not arm_pairs.pair_count:
+            arm_pairs = None
     ground_stats = GroundStats()
     for t in range(frames):
         c = cmds.command[:, t]
@@ -532,7 +562,7 @@ def _run_batch(rig: SynthRig, seeds: Sequence[np.random.SeedSequence], lengths: 
                 assert stance is not None
                 # swinging feet and arms need no sub-millimetre accuracy: iterate for stance feet
                 weight[:, :NL] = np.where(stance[:, t], 1.0, 0.02)
-                weight[:, NL:] = 0.02
+                weight[:, NL:] = 0.0
             else:
                 weight[:] = 0.02
             q = solver.solve(q, tg, key=ik_key, ee=ik_ee, mask=ik_mask,
@@ -540,6 +570,22 @@ def _run_batch(rig: SynthRig, seeds: Sequence[np.random.SeedSequence], lengths: 
                              tolerance=cfg.ik_tolerance, weight=weight)
             if foot_yaw is not None:
                 q = solver.level_ankles(q, foot_yaw[:, t])
+            if arm_pairs is not None:
+                # IK that strays far from the pooled posture may have flipped to another branch of the arm
+                # (an elbow at its limit) that the validated moves never saw: such an arm, if it collides,
+                # takes the posture, whose branch the next frames' IK then keeps
+                far = np.flatnonzero(np.abs(q[:, pool.arm_coords] - ref).max(axis=1) > cfg.arms.branch_check)
+                if far.size:
+                    # padded to a power of two so the recorded launches are reused
+                    size = min(R, 1 << int(np.ceil(np.log2(max(far.size, 8)))))
+                    size = max(size, far.size)
+                    check = arm_checks.get(size)
+                    if check is None:
+                        check = arm_checks[size] = RecordedSelfCollision(solver.model, arm_pairs, size)
+                    rows = np.concatenate([far, np.full(size - far.size, far[0])])
+                    d = check(solver.link_transforms(q[rows]))[:far.size]
+                    hit = far[(d < 0.0).any(axis=1)]
+                    q[np.ix_(hit, pool.arm_coords)] = ref[hit]
         if rig.ground is not None:
             q = rig.ground.lift(q, ground_stats)
         out_q[:, t] = q

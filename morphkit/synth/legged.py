@@ -60,6 +60,7 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass, field
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -72,6 +73,7 @@ from morphkit.synth._ik import LimbSolver
 from morphkit.synth._util import rotate2, smoothstep
 from morphkit.synth.analysis import BodyPlan
 from morphkit.synth.gait import GaitBand, GaitClock, gait_bands
+from morphkit.synth.ground import GroundGuard
 
 __all__ = ["LegConfig", "LegRig", "LeggedController", "calibrate_legs", "ground_mobility", "is_upright_biped",
            "keep_hinge_knees_bent", "keep_knees_bent", "upright_root_height"]
@@ -84,8 +86,17 @@ class LegConfig:
     """Stance, stepping and calibration parameters (see the module docstring)."""
 
     stance_extension: float | None = None
-    """Largest hip-to-foot distance at stance as a fraction of reach (None: 0.8, bipeds 0.88). Upright
-    bipeds (see ``upright``) calibrate their step region at this height and stand taller."""
+    """Hip-to-foot distance at stance as a fraction of reach. None: as at rest (the described stance) where the
+    legs can still step from there (``stance_step_test``), else the first of ``stance_extension_steps`` below it
+    that can, else 0.8 (bipeds 0.88). Upright bipeds (see ``upright``) calibrate their step region at this
+    height and stand taller."""
+    stance_extension_max: float = 0.92
+    """Straighter legs than this stand at it (a straight chain is singular: DLS cannot bend it)."""
+    stance_extension_steps: tuple[float, ...] = (0.88, 0.84)
+    """Extensions tried, in order, where the rest pose's cannot step."""
+    stance_step_test: tuple[float, float] = (0.15, 0.08)
+    """A stance can step when its step region's semi-axes (fore-aft, sideways; fractions of the leg's reach)
+    come out at least this long."""
     upright: bool | None = None
     """Stand tall and let the root ride over straight stance legs (see "Upright bipeds" in the module
     docstring); None decides from the graph (:func:`is_upright_biped`)."""
@@ -448,7 +459,8 @@ def keep_hinge_knees_bent(q: np.ndarray, knees: tuple[tuple[int, float, float], 
 
 
 def calibrate_legs(m: Morphology, plan: BodyPlan, solver: LimbSolver, cfg: LegConfig, *, fps: float,
-                   height_fraction: tuple[float, float], pitch: float, roll: float) -> LegRig:
+                   height_fraction: tuple[float, float], pitch: float, roll: float,
+                   ground: GroundGuard | None = None) -> LegRig:
     """Stance height, nominal posture, step ellipses and swing height of a legged creature.
 
     Args:
@@ -460,6 +472,8 @@ def calibrate_legs(m: Morphology, plan: BodyPlan, solver: LimbSolver, cfg: LegCo
         height_fraction: Body height offsets commands will ask for, as fractions of the stance height.
         pitch: Body pitch commands will ask for ±[rad].
         roll: Body roll commands will ask for ±[rad].
+        ground: The upper body's ground guard: the body's dip, pitch and roll are bounded so that its joints
+            can keep every upper-body link above the ground (:func:`_bound_body`).
     """
     cal = _Calibrator(m, plan, solver, cfg)
     NL = cal.NL
@@ -492,18 +506,18 @@ def calibrate_legs(m: Morphology, plan: BodyPlan, solver: LimbSolver, cfg: LegCo
     X = eval_fk(model, q_far, device="cpu").numpy()[0]
     eff = np.array([np.linalg.norm(_ee_point(model, X, int(solver.leg_ee[li])) - np.asarray(leg.mount_rest))
                     for li, leg in enumerate(plan.legs)])
-    h = h_rest
-    for li, leg in enumerate(plan.legs):
-        mount = np.asarray(leg.mount_rest)
-        target = feet_rest[li] - ank[li]  # ik point relative to the root at rest
-        dxy = np.hypot(*(target[:2] - mount[:2]))
-        lim = ext * eff[li]
-        if dxy < lim:
-            vertical = np.sqrt(lim**2 - dxy**2)
-            # at stance height hh the ik point is at z = -hh - ank_z (root frame): mount_z + hh + ank_z = vertical
-            hh = vertical - mount[2] - ank[li, 2]
-            h = min(h, hh)
-    h = max(h, 0.3 * h_rest)
+    def height_at(e: float) -> float:
+        """Root height at which no leg is stretched beyond ``e`` of its effective reach (at most the rest's)."""
+        hh = h_rest
+        for li, leg in enumerate(plan.legs):
+            mount = np.asarray(leg.mount_rest)
+            target = feet_rest[li] - ank[li]  # ik point relative to the root at rest
+            dxy = np.hypot(*(target[:2] - mount[:2]))
+            lim = e * eff[li]
+            if dxy < lim:
+                # at stance height hh the ik point is at z = -hh - ank_z (root frame): mount_z + hh + ank_z = vertical
+                hh = min(hh, np.sqrt(lim**2 - dxy**2) - mount[2] - ank[li, 2])
+        return max(hh, 0.3 * h_rest)
 
     def nominal(hh: float) -> tuple[np.ndarray, np.ndarray]:
         q = q0.copy()[None]
@@ -512,133 +526,193 @@ def calibrate_legs(m: Morphology, plan: BodyPlan, solver: LimbSolver, cfg: LegCo
         qs, err = cal.solve(q, feet, 150)
         return qs[0], err[0]
 
-    q_nom, err = nominal(h)
-    tries = 0
-    while err.max() > 5e-4 and tries < 4:
-        tries += 1
-        h = h + 0.5 * (h_rest - h)
-        q_nom, err = nominal(h)
-    if err.max() > 5e-4:  # keep the rest pose: feet on the ground by construction
-        h = h_rest
-        q_nom = cal.root_q(q_rest[None], np.array([h]), np.zeros(1), np.zeros(1))[0]
-    h_stand, q_stand = h, q_nom
-    lengths = mounts = None
-    if upright:
-        # stand tall: the step region is still calibrated at the lower height h (the root dips to
-        # where every stance foot is reachable, see upright_root_height), the stance is upright
-        ik_rest = feet_rest - ank
-        lengths = _leg_lengths(m, solver, plan, ik_rest)
-        mounts = np.array([leg.mount_rest for leg in plan.legs])
-        hh = h_rest
-        for li in range(NL):
-            dxy = np.hypot(*(ik_rest[li, :2] - mounts[li, :2]))
-            lim = cfg.upright_extension * lengths[li]
-            if dxy < lim:
-                hh = min(hh, float(np.sqrt(lim**2 - dxy**2) - mounts[li, 2] - ank[li, 2]))
-        if hh > h:
-            q_up, err_up = nominal(hh)
-            if err_up.max() <= 5e-4:
-                h_stand, q_stand = hh, q_up
+    def settle(hh: float) -> tuple[float, np.ndarray, np.ndarray]:
+        """``hh`` raised toward the rest height until IK puts every foot at its nominal point."""
+        q_n, e_n = nominal(hh)
+        tries = 0
+        while e_n.max() > 5e-4 and tries < 4:
+            tries += 1
+            hh = hh + 0.5 * (h_rest - hh)
+            q_n, e_n = nominal(hh)
+        return hh, q_n, e_n
+
+    def stance_at(ext: float) -> SimpleNamespace:
+        """Stance, body-pose bounds and step region with the legs at ``ext`` of their reach."""
+        upright = upright0
+        pitch, roll = pitch0, roll0
+        h, q_nom, err = settle(height_at(ext))
+        if err.max() > 5e-4:  # keep the rest pose: feet on the ground by construction
+            h = h_rest
+            q_nom = cal.root_q(q_rest[None], np.array([h]), np.zeros(1), np.zeros(1))[0]
+        h_stand, q_stand = h, q_nom
+        lengths = mounts = None
+        if upright:
+            # stand tall: the step region is still calibrated at the lower height h (the root dips to
+            # where every stance foot is reachable, see upright_root_height), the stance is upright
+            ik_rest = feet_rest - ank
+            lengths = _leg_lengths(m, solver, plan, ik_rest)
+            mounts = np.array([leg.mount_rest for leg in plan.legs])
+            hh = h_rest
+            for li in range(NL):
+                dxy = np.hypot(*(ik_rest[li, :2] - mounts[li, :2]))
+                lim = cfg.upright_extension * lengths[li]
+                if dxy < lim:
+                    hh = min(hh, float(np.sqrt(lim**2 - dxy**2) - mounts[li, 2] - ank[li, 2]))
+            if hh > h:
+                q_up, err_up = nominal(hh)
+                if err_up.max() <= 5e-4:
+                    h_stand, q_stand = hh, q_up
+                else:
+                    upright = False
             else:
                 upright = False
-        else:
-            upright = False
 
-    # legs whose joints cannot move the foot along the ground in some direction (all pitch: no
-    # sideways step) calibrate and step only in the directions they can; the body keeps level
-    # across the direction they cannot (roll needs sideways reach, pitch fore-aft reach)
-    fixed = ~ground_mobility(solver, q_nom)
-    free = (~fixed).astype(float)
-    if fixed[:, 0].any():
-        pitch = 0.0
-    if fixed[:, 1].any():
-        roll = 0.0
+        # legs whose joints cannot move the foot along the ground in some direction (all pitch: no
+        # sideways step) calibrate and step only in the directions they can; the body keeps level
+        # across the direction they cannot (roll needs sideways reach, pitch fore-aft reach)
+        fixed = ~ground_mobility(solver, q_nom)
+        free = (~fixed).astype(float)
+        if fixed[:, 0].any():
+            pitch = 0.0
+        if fixed[:, 1].any():
+            roll = 0.0
 
-    hr = (height_fraction[0] * h_stand, height_fraction[1] * h_stand)
-    corners = np.array([*itertools.product(hr, (-pitch, pitch), (-roll, roll)), (0.0, 0.0, 0.0)])
-    rng = np.random.default_rng(12345)
-    rand_body = np.stack([
-        rng.uniform(hr[0], hr[1], cfg.calibration_random_poses),
-        rng.uniform(-pitch, pitch, cfg.calibration_random_poses),
-        rng.uniform(-roll, roll, cfg.calibration_random_poses),
-    ], axis=1)
-    rand_r = np.sqrt(rng.random((cfg.calibration_random_poses, NL)))
-    rand_t = rng.uniform(0, 2 * np.pi, (cfg.calibration_random_poses, NL))
-    angles = np.linspace(0, 2 * np.pi, 8, endpoint=False)
-    reach = cal.reach
+        hr = (height_fraction[0] * h_stand, height_fraction[1] * h_stand)
+        bound_warnings: list[str] = []
+        bound_stats: dict = {}
+        if ground is not None:
+            low, hr, pitch, roll, bound_stats, bound_warnings = _bound_body(cal, ground, q_stand, h, h_stand, hr, pitch,
+                                                                           roll)
+            if low > h + 1e-6:  # an upright biped's root dips to h: calibrate its steps where the links stay up
+                q_up, err_up = nominal(low)
+                if err_up.max() <= 5e-4:
+                    h, q_nom = low, q_up
+                    if not upright:
+                        h_stand, q_stand = h, q_nom
+        corners = np.array([*itertools.product(hr, (-pitch, pitch), (-roll, roll)), (0.0, 0.0, 0.0)])
+        rng = np.random.default_rng(12345)
+        rand_body = np.stack([
+            rng.uniform(hr[0], hr[1], cfg.calibration_random_poses),
+            rng.uniform(-pitch, pitch, cfg.calibration_random_poses),
+            rng.uniform(-roll, roll, cfg.calibration_random_poses),
+        ], axis=1)
+        rand_r = np.sqrt(rng.random((cfg.calibration_random_poses, NL)))
+        rand_t = rng.uniform(0, 2 * np.pi, (cfg.calibration_random_poses, NL))
+        angles = np.linspace(0, 2 * np.pi, 8, endpoint=False)
+        reach = cal.reach
 
-    # neighbouring legs (each leg's two nearest by nominal foot distance): tested at opposite extremes
-    dist = np.linalg.norm(nominal_xy[:, None] - nominal_xy[None], axis=-1) + np.eye(NL) * 1e9
-    pairs = sorted({tuple(sorted((i, int(j)))) for i in range(NL) for j in np.argsort(dist[i])[:min(2, NL - 1)]})
-    pair_angles = np.array([0.0, 0.5 * np.pi, np.pi, 1.5 * np.pi])
-    lift_test = 0.5 * cfg.swing_height * reach
+        # neighbouring legs (each leg's two nearest by nominal foot distance): tested at opposite extremes
+        dist = np.linalg.norm(nominal_xy[:, None] - nominal_xy[None], axis=-1) + np.eye(NL) * 1e9
+        pairs = sorted({tuple(sorted((i, int(j)))) for i in range(NL) for j in np.argsort(dist[i])[:min(2, NL - 1)]})
+        pair_angles = np.array([0.0, 0.5 * np.pi, np.pi, 1.5 * np.pi])
+        lift_test = 0.5 * cfg.swing_height * reach
 
-    def poses(a: float, b: float, lift: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, int]:
-        """Body poses [B, 3], foot offsets [B, NL, 2] and lifts [B, NL]; counts of boundary and pair poses."""
-        ax = np.stack([a * reach, b * reach], axis=1) * free  # [NL, 2]
-        # boundary poses: every corner x every angle, all legs at the same angle
-        body = [np.repeat(corners, len(angles), axis=0)]
-        th = np.tile(angles, len(corners))[:, None].repeat(NL, axis=1)
-        off = [np.stack([np.cos(th) * ax[:, 0], np.sin(th) * ax[:, 1]], axis=-1)]
-        up = [np.full((len(body[0]), NL), lift)]
-        nb = len(body[0])
-        # neighbouring pairs at opposite extremes, one of them lifted or not, body level or low and pitched
-        npair = 0
-        for i, j in pairs:
-            for t in pair_angles:
-                for lifted in (0.0, 1.0):
-                    for bp in ((0.0, 0.0, 0.0), (hr[0], pitch, 0.0)):
-                        o = np.zeros((NL, 2))
-                        o[i] = (np.cos(t) * ax[i, 0], np.sin(t) * ax[i, 1])
-                        o[j] = (-np.cos(t) * ax[j, 0], -np.sin(t) * ax[j, 1])
-                        u = np.full(NL, lift)
-                        u[i] = max(lift, lifted * lift_test[i])
-                        body.append(np.array([bp]))
-                        off.append(o[None])
-                        up.append(u[None])
-                        npair += 1
-        body.append(rand_body)
-        off.append(np.stack([rand_r * np.cos(rand_t) * ax[:, 0], rand_r * np.sin(rand_t) * ax[:, 1]], axis=-1))
-        up.append(np.full((len(rand_body), NL), lift))
-        return np.concatenate(body), np.concatenate(off), np.concatenate(up), nb, npair
+        def poses(a: float, b: float, lift: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, int]:
+            """Body poses [B, 3], foot offsets [B, NL, 2] and lifts [B, NL]; counts of boundary and pair poses."""
+            ax = np.stack([a * reach, b * reach], axis=1) * free  # [NL, 2]
+            # boundary poses: every corner x every angle, all legs at the same angle
+            body = [np.repeat(corners, len(angles), axis=0)]
+            th = np.tile(angles, len(corners))[:, None].repeat(NL, axis=1)
+            off = [np.stack([np.cos(th) * ax[:, 0], np.sin(th) * ax[:, 1]], axis=-1)]
+            up = [np.full((len(body[0]), NL), lift)]
+            nb = len(body[0])
+            # neighbouring pairs at opposite extremes, one of them lifted or not, body level or low and pitched
+            npair = 0
+            for i, j in pairs:
+                for t in pair_angles:
+                    for lifted in (0.0, 1.0):
+                        for bp in ((0.0, 0.0, 0.0), (hr[0], pitch, 0.0)):
+                            o = np.zeros((NL, 2))
+                            o[i] = (np.cos(t) * ax[i, 0], np.sin(t) * ax[i, 1])
+                            o[j] = (-np.cos(t) * ax[j, 0], -np.sin(t) * ax[j, 1])
+                            u = np.full(NL, lift)
+                            u[i] = max(lift, lifted * lift_test[i])
+                            body.append(np.array([bp]))
+                            off.append(o[None])
+                            up.append(u[None])
+                            npair += 1
+            body.append(rand_body)
+            off.append(np.stack([rand_r * np.cos(rand_t) * ax[:, 0], rand_r * np.sin(rand_t) * ax[:, 1]], axis=-1))
+            up.append(np.full((len(rand_body), NL), lift))
+            return np.concatenate(body), np.concatenate(off), np.concatenate(up), nb, npair
 
-    def feasible(a: float, b: float, lift: float = 0.0) -> bool:
-        body, off, up, nb, npair = poses(a, b, lift)
-        B = len(body)
-        feet = np.concatenate([nominal_xy[None] + off, up[..., None]], axis=-1)
-        q = cal.root_q(np.repeat(q_nom[None], B, axis=0), h + body[:, 0], body[:, 1], body[:, 2])
-        q, err = cal.solve(q, feet, cfg.calibration_iterations)
-        if err.max() > cfg.reach_tolerance:
-            return False
-        hit = cal.collisions(q)
-        return not hit[:nb + npair].any() and hit[nb + npair:].mean() <= 0.01
+        def feasible(a: float, b: float, lift: float = 0.0) -> bool:
+            body, off, up, nb, npair = poses(a, b, lift)
+            B = len(body)
+            feet = np.concatenate([nominal_xy[None] + off, up[..., None]], axis=-1)
+            q = cal.root_q(np.repeat(q_nom[None], B, axis=0), h + body[:, 0], body[:, 1], body[:, 2])
+            q, err = cal.solve(q, feet, cfg.calibration_iterations)
+            if err.max() > cfg.reach_tolerance:
+                return False
+            hit = cal.collisions(q)
+            return not hit[:nb + npair].any() and hit[nb + npair:].mean() <= 0.01
 
-    def bisect(test, lo: float, hi: float, steps: int = 6) -> float:
-        if test(hi):
-            return hi
-        for _ in range(steps):
-            mid = 0.5 * (lo + hi)
-            if test(mid):
-                lo = mid
-            else:
-                hi = mid
-        return lo
+        def bisect(test, lo: float, hi: float, steps: int = 6) -> float:
+            if test(hi):
+                return hi
+            for _ in range(steps):
+                mid = 0.5 * (lo + hi)
+                if test(mid):
+                    lo = mid
+                else:
+                    hi = mid
+            return lo
 
-    small = 0.02
-    if not feasible(small, small):
-        # the commanded body poses are out of reach: shrink them until the stance works
-        for _ in range(4):
-            hr = (0.5 * hr[0], 0.5 * hr[1])
-            pitch *= 0.5
-            roll *= 0.5
-            corners = np.array([*itertools.product(hr, (-pitch, pitch), (-roll, roll)), (0.0, 0.0, 0.0)])
-            rand_body *= 0.5
-            if feasible(small, small):
+        small = 0.02
+        if not feasible(small, small):
+            # the commanded body poses are out of reach: shrink them until the stance works
+            for _ in range(4):
+                hr = (0.5 * hr[0], 0.5 * hr[1])
+                pitch *= 0.5
+                roll *= 0.5
+                corners = np.array([*itertools.product(hr, (-pitch, pitch), (-roll, roll)), (0.0, 0.0, 0.0)])
+                rand_body *= 0.5
+                if feasible(small, small):
+                    break
+        a = bisect(lambda x: feasible(x, small), small, 0.6)
+        b = bisect(lambda y: feasible(a, y), small, 0.6)
+        a *= 0.95
+        b *= 0.95
+        return SimpleNamespace(h=h, h_stand=h_stand, q_nom=q_nom, q_stand=q_stand, err=err, upright=upright,
+                               lengths=lengths, mounts=mounts, fixed=fixed, hr=hr, pitch=pitch, roll=roll,
+                               bound_stats=bound_stats, bound_warnings=bound_warnings, feasible=feasible, a=a, b=b)
+
+    # the described stance: legs as extended as at rest, or as near it as leaves them room to step
+    upright0, pitch0, roll0 = upright, pitch, roll
+    rest_ext = float(max(np.linalg.norm(feet_rest[li] - ank[li] - np.asarray(leg.mount_rest)) / eff[li]
+                         for li, leg in enumerate(plan.legs)))
+    stance_note = stance_warning = None
+    st = None
+    if cfg.stance_extension is None and not upright and rest_ext > ext + 1e-3:
+        tried = [e for e in (min(rest_ext, cfg.stance_extension_max), *cfg.stance_extension_steps)
+                 if ext < e <= rest_ext]
+        for e in tried:
+            cand = stance_at(e)
+            if cand.err.max() <= 5e-4 and all(cand.fixed[:, k].all() or ab >= cfg.stance_step_test[k]
+                                              for k, ab in enumerate((cand.a, cand.b))):
+                st = cand
                 break
-    a = bisect(lambda x: feasible(x, small), small, 0.6)
-    b = bisect(lambda y: feasible(a, y), small, 0.6)
-    a *= 0.95
-    b *= 0.95
+        chosen = tried[tried.index(e)] if st is not None else ext
+        reasons = []
+        if rest_ext > cfg.stance_extension_max:
+            reasons.append(f"straighter than {cfg.stance_extension_max:g} the legs are singular")
+        failed = [x for x in tried if x > chosen]
+        if failed:
+            reasons.append(f"at {min(failed):.2f} and above they step less than {100 * cfg.stance_step_test[0]:g} % "
+                           "of their reach fore-aft")
+        if chosen < rest_ext - 0.01:
+            stance_note = (f"legs stand at {chosen:.2f} of their reach, the rest pose's at {rest_ext:.2f}: "
+                           + "; ".join(reasons))
+        if st is None:
+            stance_warning = (f"legs: stand lower than described ({stance_note}): bend the legs in the rest "
+                              "pose, or widen their joints' limits")
+        ext = chosen
+    if st is None:
+        st = stance_at(ext)
+    h, h_stand, q_stand, err, upright = st.h, st.h_stand, st.q_stand, st.err, st.upright
+    lengths, mounts, fixed, hr, pitch, roll = st.lengths, st.mounts, st.fixed, st.hr, st.pitch, st.roll
+    bound_stats, bound_warnings, feasible, a, b = st.bound_stats, st.bound_warnings, st.feasible, st.a, st.b
+    reach = cal.reach
     H = cfg.swing_height * float(reach.mean())
     for _ in range(8):
         if feasible(0.3 * a, 0.3 * b, lift=H):
@@ -648,8 +722,11 @@ def calibrate_legs(m: Morphology, plan: BodyPlan, solver: LimbSolver, cfg: LegCo
     semi_axes = np.stack([a * reach, b * reach], axis=1)
     semi_axes = np.where(fixed, cfg.fixed_axis_semi_axis * reach[:, None], semi_axes)
     stats = {"ellipse_factors": (float(a), float(b)), "nominal_residual_m": float(err.max()),
-             "effective_reach_m": eff.round(4).tolist()}
-    warnings = []
+             "effective_reach_m": eff.round(4).tolist(), "stance_extension": round(float(ext), 4),
+             "rest_extension": round(rest_ext, 4), **bound_stats}
+    if stance_note:
+        stats["stance_note"] = stance_note
+    warnings = list(bound_warnings) + ([stance_warning] if stance_warning else [])
     for li, leg in enumerate(plan.legs):
         if fixed[li].all():
             warnings.append(f"leg {leg.end_effector}: its joints cannot move the foot along the ground at all: "
@@ -695,6 +772,57 @@ def calibrate_legs(m: Morphology, plan: BodyPlan, solver: LimbSolver, cfg: LegCo
         warnings=tuple(warnings),
     )
     return rig
+
+
+def _bound_body(cal: _Calibrator, ground: GroundGuard, q: np.ndarray, h: float, h_stand: float,
+                hr: tuple[float, float], pitch: float, roll: float
+                ) -> tuple[float, tuple[float, float], float, float, dict, list[str]]:
+    """The body's lowest root height, height offsets, pitch and roll bounded so that the upper body's joints can
+    keep every link above the ground (:meth:`GroundGuard.root_floor` at the tilt corners).
+
+    The root goes as low as ``h + hr[0]`` (an upright biped's, whose offsets are 0, dips to ``h`` over long
+    steps). Pitch and roll are scaled down (bisection) until the links' floor at full tilt is at most the
+    stance height ``h_stand``; then the dip is cut to that floor — for an upright biped by calibrating its
+    steps at the floor instead of ``h``. Where even the level stance puts a link below the ground, one
+    warning names it and the body is kept level without dipping.
+
+    Returns:
+        The lowest calibration height, ``hr``, ``pitch``, ``roll``, figures for the rig's stats (only when
+        something was bounded) and the warnings.
+    """
+    margin = ground.margin
+
+    def floor(s: float) -> tuple[float, str]:
+        tilt = np.array([(0.0, 0.0), *itertools.product((-s * pitch, s * pitch), (-s * roll, s * roll))])
+        qs = cal.root_q(np.repeat(q[None], len(tilt), axis=0), np.zeros(len(tilt)), tilt[:, 0], tilt[:, 1])
+        z, names = ground.root_floor(qs)
+        k = int(np.argmax(z))
+        return float(z[k]) + margin, names[k]
+
+    need, link = floor(1.0)
+    if need <= h + hr[0]:
+        return h, hr, pitch, roll, {}, []
+    level, level_link = floor(0.0)
+    if level > h_stand:
+        warning = (f"link {level_link}: its joints cannot keep it above the ground even with the body level at its "
+                   f"stance height ({100 * (level - h_stand):.2g} cm short): widen their limits or raise the link "
+                   "in the description")
+        return h_stand, (0.0, max(hr[1], 0.0)), 0.0, 0.0, {"ground_bound": {"link": level_link}}, [warning]
+    s = 1.0
+    if need > h_stand:
+        lo, hi = 0.0, 1.0
+        for _ in range(8):
+            mid = 0.5 * (lo + hi)
+            if floor(mid)[0] <= h_stand:
+                lo = mid
+            else:
+                hi = mid
+        s = lo
+        need, link = floor(s)
+    low = max(h + hr[0], need)
+    hr = (low - h, max(hr[1], low - h)) if low <= h else (0.0, max(hr[1], 0.0))
+    stats = {"ground_bound": {"link": link, "tilt_scale": round(s, 3), "lowest_root_m": round(low, 4)}}
+    return max(h, low), hr, s * pitch, s * roll, stats, []
 
 
 def keep_knees_bent(q: np.ndarray, knees: list[tuple[int, int, float]], margin: float) -> np.ndarray:

@@ -297,13 +297,17 @@ def quality_report(result: Any, *, height_threshold: float = 0.02, collision_tol
             legs[leg.end_effector] = entry
             if entry["sliding_cm_s"] > WARN_SLIDING_CM_S:
                 warnings.append(f"leg {leg.end_effector}: its stance foot slides {entry['sliding_cm_s']:.2g} cm/s "
-                                f"on average")
+                                "on average: IK cannot hold it where it stands at the body's dips and tilts (a joint "
+                                "at its limit, or the foot out of reach): widen the leg's joint limits or lengthen "
+                                "its segments in the description")
             if entry["swings"] and entry["step_length_m"] < WARN_STEP_FRACTION * leg.reach:
                 warnings.append(f"leg {leg.end_effector}: steps {100 * entry['step_length_m']:.2g} cm on average, "
-                                f"under a tenth of its {100 * leg.reach:.3g} cm reach")
+                                f"under a tenth of its {100 * leg.reach:.3g} cm reach: widen its hip's limits, or "
+                                "space the legs further apart if they would collide")
             if entry["swings"] and entry["step_height_m"] < WARN_STEP_HEIGHT_M:
                 warnings.append(f"leg {leg.end_effector}: lifts its foot {100 * entry['step_height_m']:.2g} cm "
-                                f"on average")
+                                "on average: a higher foot is out of reach (bend the knee in the rest pose, or widen "
+                                "its limits)")
         out["legs"] = legs
     if hasattr(result, "gait") and getattr(result, "gait_names", ()):
         g = np.concatenate(result.gait)

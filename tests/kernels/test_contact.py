@@ -349,3 +349,19 @@ def test_shipped_creatures_self_collision(name):
     d32 = ck.eval_self_collision_distance(model, pairs, eval_fk(model, q.astype(np.float32), device="cpu")).numpy()
     assert np.isfinite(d64).all()
     np.testing.assert_allclose(d32, d64, atol=5e-5)
+
+
+def test_recorded_self_collision_matches_the_launch_and_pair_selections_partition():
+    """:class:`RecordedSelfCollision` gives :func:`eval_self_collision_distance`'s numbers bit for bit on new
+    poses each call; ``touching`` and ``apart_from`` the same links split the pairs between them."""
+    model = compile_model(shipped_morphology("spot"))
+    pairs = ck.self_collision_pairs(model)
+    arm = [i for i, n in enumerate(model.link_names) if n.startswith("arm")]
+    near, far = pairs.touching(arm), pairs.apart_from(arm)
+    assert near.pair_count and far.pair_count and near.pair_count + far.pair_count == pairs.pair_count
+    assert set(near.names).isdisjoint(far.names)
+    check = ck.RecordedSelfCollision(model, near, 16)
+    for seed in (2, 3):
+        X = eval_fk(model, random_q(model, 16, seed=seed), device="cpu")
+        np.testing.assert_array_equal(check(X.numpy().reshape(16, model.link_count, 7)),
+                                      ck.eval_self_collision_distance(model, near, X).numpy())

@@ -147,12 +147,120 @@ def tailed_yaml() -> str:
     return _yaml("roo", links, joints, ees)
 
 
-_YAML = {"tripod": tripod_yaml, "spider": spider_yaml, "strider": strider_yaml, "roo": tailed_yaml}
+def grazer_yaml(*, low_tail: bool = False, bent_legs: bool = False, stuck_tail: bool = False) -> str:
+    """A long-necked grazer, written as a new user would: four legs (hip roll, hip and knee pitch; straight at
+    rest unless ``bent_legs``: thigh 0.5 rad forward, shin 0.5 rad back), a three-joint neck and a nodding head
+    (the muzzle can reach the ground), a two-segment tail. ``low_tail``: instead a three-segment tail whose tip
+    hangs about 6 cm above the ground at the stance, whose joints lift it 0.03 rad at most; ``stuck_tail``:
+    that tail 1.2 m long, below the ground whatever its joints do."""
+    lines = ["  body: {shapes: [{type: box, size: [1.2, 0.4, 0.35]}]}"]
+    joints: list[str] = []
+    ees: list[str] = []
+    lean = 0.5 if bent_legs else 0.0
+    for n, x, y in (("fl", 0.5, 0.15), ("fr", 0.5, -0.15), ("hl", -0.4, 0.15), ("hr", -0.4, -0.15)):
+        lines += [f"  {n}_hip: {{}}",
+                  f"  {n}_thigh: {{shapes: [{{type: capsule, radius: 0.05, length: 0.45, "
+                  "origin: {xyz: [0, 0, -0.25]}}]}",
+                  f"  {n}_shin: {{shapes: [{{type: capsule, radius: 0.035, length: 0.4, "
+                  "origin: {xyz: [0, 0, -0.22]}}]}"]
+        if bent_legs:
+            knee = "{lower: -1.2, upper: 1.0}"
+        else:
+            knee = "{lower: -2.2, upper: 0.0}" if n[0] == "f" else "{lower: 0.0, upper: 2.2}"
+        joints += [
+            f"  {n}_abd: {{type: revolute, parent: body, child: {n}_hip, axis: [1, 0, 0], origin: {{xyz: [{x}, {y}, "
+            "-0.1]}, limit: {lower: -0.4, upper: 0.4}}",
+            f"  {n}_pitch: {{type: revolute, parent: {n}_hip, child: {n}_thigh, axis: [0, 1, 0], origin: {{rpy: [0, "
+            f"{-lean}, 0]}}, limit: {{lower: -1.2, upper: 1.2}}}}",
+            f"  {n}_knee: {{type: revolute, parent: {n}_thigh, child: {n}_shin, axis: [0, 1, 0], origin: {{xyz: [0, 0, "
+            f"-0.5], rpy: [0, {2 * lean}, 0]}}, limit: {knee}}}",
+        ]
+        ees.append(f"  {n}_hoof: {{link: {n}_shin, offset: [0, 0, -0.5], role: foot}}")
+    for i in (1, 2, 3):
+        lines.append(f"  neck{i}: {{shapes: [{{type: capsule, radius: 0.06, length: 0.3, "
+                     "origin: {xyz: [0.17, 0, 0], rpy: [0, 1.5708, 0]}}]}")
+    lines.append("  head: {shapes: [{type: box, size: [0.35, 0.15, 0.15], origin: {xyz: [0.17, 0, 0]}}]}")
+    joints += [
+        "  neck1: {type: revolute, parent: body, child: neck1, axis: [0, 1, 0], origin: {xyz: [0.6, 0, 0.1], "
+        "rpy: [0, -0.7, 0]}, limit: {lower: -0.6, upper: 1.4}}",
+        "  neck2: {type: revolute, parent: neck1, child: neck2, axis: [0, 1, 0], origin: {xyz: [0.34, 0, 0]}, "
+        "limit: {lower: -0.5, upper: 0.9}}",
+        "  neck3: {type: revolute, parent: neck2, child: neck3, axis: [0, 1, 0], origin: {xyz: [0.34, 0, 0]}, "
+        "limit: {lower: -0.5, upper: 0.9}}",
+        "  nod: {type: revolute, parent: neck3, child: head, axis: [0, 1, 0], origin: {xyz: [0.34, 0, 0], "
+        "rpy: [0, 0.7, 0]}, limit: {lower: -0.8, upper: 1.2}}",
+    ]
+    ees.append("  muzzle: {link: head, offset: [0.35, 0, 0], role: head}")
+    if low_tail or stuck_tail:
+        seg = 0.56 if stuck_tail else 0.36
+        for i in (1, 2, 3):
+            lines.append(f"  tail{i}: {{shapes: [{{type: capsule, radius: 0.03, length: {seg - 0.04}, "
+                         f"origin: {{xyz: [{-seg / 2}, 0, 0], rpy: [0, 1.5708, 0]}}}}]}}")
+        joints.append("  tail1: {type: revolute, parent: body, child: tail1, axis: [0, 1, 0], origin: {xyz: [-0.6, 0, "
+                      "0.1], rpy: [0, -1.1, 0]}, limit: {lower: -0.5, upper: 0.03}}")
+        joints += [f"  tail{i}: {{type: revolute, parent: tail{i - 1}, child: tail{i}, axis: [0, 1, 0], "
+                   f"origin: {{xyz: [{-seg}, 0, 0]}}, limit: {{lower: -0.5, upper: 0.03}}}}" for i in (2, 3)]
+        ees.append(f"  tail_tip: {{link: tail3, offset: [{-seg}, 0, 0], role: tool}}")
+    else:
+        for i in (1, 2):
+            lines.append(f"  tail{i}: {{shapes: [{{type: capsule, radius: 0.03, length: 0.25, "
+                         "origin: {xyz: [-0.14, 0, 0], rpy: [0, 1.5708, 0]}}]}")
+        joints += ["  tail1: {type: revolute, parent: body, child: tail1, axis: [0, 1, 0], origin: {xyz: [-0.6, 0, "
+                   "0.1], rpy: [0, -0.6, 0]}, limit: {lower: -0.7, upper: 0.7}}",
+                   "  tail2: {type: revolute, parent: tail1, child: tail2, axis: [0, 1, 0], origin: {xyz: [-0.28, 0, "
+                   "0]}, limit: {lower: -0.8, upper: 0.8}}"]
+        ees.append("  tail_tip: {link: tail2, offset: [-0.28, 0, 0], role: tool}")
+    return _yaml("grazer", lines, joints, ees)
+
+
+def hopper_yaml() -> str:
+    """A planar-legged hopper (hip, knee, ankle all pitching) whose three-segment tail hangs to about 5 cm above
+    the ground at rest, its joints able to lift it by 0.02-0.03 rad at most (the issue's case)."""
+    links = ["  body: {shapes: [{type: box, size: [0.4, 0.3, 0.2]}]}"]
+    joints: list[str] = []
+    ees: list[str] = []
+    for side, y in (("l", 0.12), ("r", -0.12)):
+        links += [f"  {side}_thigh: {{shapes: [{{type: capsule, radius: 0.04, length: 0.3, "
+                  "origin: {xyz: [0, 0, -0.2]}}]}",
+                  f"  {side}_shin: {{shapes: [{{type: capsule, radius: 0.035, length: 0.3, "
+                  "origin: {xyz: [0, 0, -0.2]}}]}",
+                  f"  {side}_foot: {{shapes: [{{type: box, size: [0.16, 0.07, 0.03], "
+                  "origin: {xyz: [0.03, 0, -0.015]}}]}"]
+        joints += [
+            f"  {side}_hip: {{type: revolute, parent: body, child: {side}_thigh, axis: [0, 1, 0], "
+            f"origin: {{xyz: [0, {y}, -0.1]}}, limit: {{lower: -1.2, upper: 1.2}}}}",
+            f"  {side}_knee: {{type: revolute, parent: {side}_thigh, child: {side}_shin, axis: [0, 1, 0], "
+            "origin: {xyz: [0, 0, -0.4]}, limit: {lower: 0.0, upper: 2.3}}",
+            f"  {side}_ankle: {{type: revolute, parent: {side}_shin, child: {side}_foot, axis: [0, 1, 0], "
+            "origin: {xyz: [0, 0, -0.4]}, limit: {lower: -0.9, upper: 0.9}}",
+        ]
+        ees.append(f"  {side}_sole: {{link: {side}_foot, offset: [0, 0, -0.03], role: foot}}")
+    for i, r in ((1, 0.04), (2, 0.03), (3, 0.025)):
+        links.append(f"  tail{i}: {{shapes: [{{type: capsule, radius: {r}, length: 0.26, "
+                     "origin: {xyz: [-0.15, 0, 0], rpy: [0, 1.5708, 0]}}]}")
+    joints += [
+        "  tail1: {type: revolute, parent: body, child: tail1, axis: [0, 1, 0], origin: {xyz: [-0.2, 0, -0.05], "
+        "rpy: [0, -0.95, 0]}, limit: {lower: -0.4, upper: 0.03}}",
+        "  tail2: {type: revolute, parent: tail1, child: tail2, axis: [0, 1, 0], origin: {xyz: [-0.3, 0, 0]}, "
+        "limit: {lower: -0.4, upper: 0.02}}",
+        "  tail3: {type: revolute, parent: tail2, child: tail3, axis: [0, 1, 0], origin: {xyz: [-0.3, 0, 0]}, "
+        "limit: {lower: -0.4, upper: 0.02}}",
+    ]
+    ees += ["  tail_tip: {link: tail3, offset: [-0.3, 0, 0], role: tool}",
+            "  head: {link: body, offset: [0.2, 0, 0.1], role: head}"]
+    return _yaml("hopper", links, joints, ees)
+
+
+_YAML = {"tripod": tripod_yaml, "hopper": hopper_yaml, "spider": spider_yaml, "strider": strider_yaml,
+         "roo": tailed_yaml,
+         "grazer": grazer_yaml, "grazer_bent": lambda: grazer_yaml(bent_legs=True),
+         "grazer_low_tail": lambda: grazer_yaml(low_tail=True),
+         "grazer_stuck_tail": lambda: grazer_yaml(stuck_tail=True)}
 
 
 def read_creature(name: str, tmp_dir: Path) -> Morphology:
     """A shipped creature by name, or one of the YAML-only creatures here (``tripod``, ``spider``,
-    ``strider``, ``roo``) written to ``tmp_dir`` and read back."""
+    ``strider``, ``roo``, ``hopper``, ``grazer`` and its variants) written to ``tmp_dir`` and read back."""
     from morphkit.io import read_morphology
     from morphkit.io.shipped import resolve_morphology
 
