@@ -5,12 +5,14 @@ legs — arms, plus *other* joints: heads, necks, spines, tails, grippers — ar
 each 1-DoF joint uniform within ``joint_range`` of its span about rest (within limits, so prismatic
 lifts and telescopes extend too; other joints within ``other_range``, a third of that for joints
 carrying a leg, none below a foot), ball joints turned up to ``spherical_angle`` (``other_angle``)
-about a random axis. Poses where any of these links hits the body, the legs at stance or the
-ground are dropped; the stance pose is always pose 0. Each pose is linked to its nearest
-neighbours (joint space), and a link is kept only if *moving along it the way rollouts do* — arm
-tips on straight lines in the root frame, solved by IK, other joints blended in joint space —
-collides with nothing and stays above the ground. Rollouts walk this graph at random, so reaching
-motions are collision-checked before they are ever generated.
+about a random axis; in ``limit_share`` of the draws one limited joint sits within the outer 5 % of its
+travel. Beside the stance (pose 0) the pool holds, per non-leg chain, the poses that put its end-effector
+at its lowest and its highest, and each joint at its limits (``reach_extremes``). Poses where any of
+these links hits the body, the legs at stance or the ground are dropped. Each pose is linked to its
+nearest neighbours (joint space), and a link is kept only if *moving along it the way rollouts do* —
+arm tips on straight lines in the root frame, solved by IK, other joints blended in joint space —
+collides with nothing and stays above the ground. Rollouts walk this graph at random from a random
+pose, so reaching motions are collision-checked before they are ever generated.
 
 **Motion** (per rollout, drawn up front): the upper body moves from pose to pose of the walk
 along a smoothstep (move, then hold), arm tips on straight lines in the root frame; in some
@@ -371,9 +373,9 @@ def _reach_extremes(m: Morphology, model, q_stance: np.ndarray, free: set[int], 
 
     - per end-effector those joints move (not a foot): its lowest pose (keeping it ``ee_floor`` [m] above the
       ground) and its highest;
-    - per joint of ``free``: the joint at each of its limits, the rest of its chain (the longest through it to
-      such an end-effector, if any) where ``lowest_point`` ([B, C] -> [B], the upper body's lowest height [m])
-      is highest.
+    - per joint of ``free``: the joint at each of its limits (or 2 or 4 % of its way short of it, where nothing
+      at the limit is allowed), the rest of its chain (the longest through it to such an end-effector, if any)
+      where ``lowest_point`` ([B, C] -> [B], the upper body's lowest height [m]) is highest.
 
     Poses no different from the stance, or that no joint values make allowed, are dropped.
     """
@@ -382,10 +384,12 @@ def _reach_extremes(m: Morphology, model, q_stance: np.ndarray, free: set[int], 
                and np.isfinite(lower[m.joint_q_start[ji]]) and np.isfinite(upper[m.joint_q_start[ji]])]
     out = []
 
-    def search(q0: np.ndarray, cols: np.ndarray, objective) -> None:
+    def search(q0: np.ndarray, cols: np.ndarray, objective) -> bool:
         q, f = coordinate_ascent(q0[None], cols, lower[cols], upper[cols], objective)
         if np.isfinite(f[0]) and np.abs(q[0] - q_stance).max() > 1e-6:
             out.append(q[0])
+            return True
+        return False
 
     chains: dict[int, np.ndarray] = {}
     for e in m.end_effectors:
@@ -420,10 +424,12 @@ def _reach_extremes(m: Morphology, model, q_stance: np.ndarray, free: set[int], 
         chains.setdefault(ji, np.array([int(m.joint_q_start[ji])], dtype=np.int64))
     for ji, cols in chains.items():
         c = int(m.joint_q_start[ji])
-        for value in (lower[c], upper[c]):
-            q0 = q_stance.copy()
-            q0[c] = value
-            search(q0, cols[cols != c], clear)
+        for limit in (lower[c], upper[c]):
+            for f in (1.0, 0.98, 0.96):  # where the limit itself collides whatever the chain does: just short of it
+                q0 = q_stance.copy()
+                q0[c] = q_stance[c] + f * (limit - q_stance[c])
+                if search(q0, cols[cols != c], clear):
+                    break
     return np.array(out) if out else np.zeros((0, len(q_stance)))
 
 

@@ -4,8 +4,12 @@
 
 1. *Stance height*: feet stay where they are at rest in x and y (root frame); the body is lowered
    (never raised) until no leg is stretched beyond ``stance_extension`` of its reach, so knees keep
-   room to bend both ways. Legs that are straight at rest are pre-bent first (knee forward for
-   upright legs), because a straight chain is singular and DLS cannot bend it.
+   room to bend both ways: by default the rest pose's own extension (the described stance, at most
+   ``stance_extension_max``) where the step region found in 3. stays at least ``stance_step_test`` of
+   the reach, else the first of ``stance_extension_steps`` that does, else 0.8. Legs that are straight
+   at rest are pre-bent first (knee forward for upright legs), because a straight chain is singular and
+   DLS cannot bend it. The body's dip, pitch and roll are then bounded so that the upper body's joints
+   can keep every link above the ground (:meth:`~morphkit.synth.ground.GroundGuard.root_floor`).
 2. *Nominal posture*: DLS IK (:mod:`morphkit.synth._ik`) puts the feet there.
 3. *Step region*: each foot may move within an axis-aligned ellipse about its nominal point, of
    semi-axes $(a\\rho_l, b\\rho_l)$ fore-aft and sideways ($\\rho_l$ the leg's reach). $a$ then $b$
