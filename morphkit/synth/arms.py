@@ -276,6 +276,7 @@ def calibrate_arms(m: Morphology, plan: BodyPlan, solver: LimbSolver, q_stance: 
     free = {ji for ji in others if ji not in carrying}
     if cfg.joint_range >= 1.0:
         free |= {ji for ji in flat_arm if ji not in held}
+
     def lowest_point(qs: np.ndarray) -> np.ndarray:
         X = eval_fk(model, qs, device="cpu").numpy()
         _, tips = check(qs, -np.inf)
@@ -335,9 +336,7 @@ def calibrate_arms(m: Morphology, plan: BodyPlan, solver: LimbSolver, q_stance: 
         # mean length at 30 fps) the pull compounds to gain_eff
         frames_per_step = 30.0 * 0.5 * (cfg.move_seconds[0] + cfg.move_seconds[1]) / cfg.validation_steps
         gain_eff = 1.0 - (1.0 - cfg.posture_gain) ** max(frames_per_step, 1.0)
-        # the move's checks, then as many again holding at its end: IK that converges on the held tip
-        # can settle on another branch than the pooled pose (a planar arm's elbow at its limit flips)
-        for k in range(1, 2 * cfg.validation_steps + 1):
+        for k in range(1, cfg.validation_steps + 1):
             a = np.full(len(src), smoothstep(k / cfg.validation_steps))
             blend = _blend(pool_q[src], pool_q[dst], a, quats)
             nxt = cur.copy()
