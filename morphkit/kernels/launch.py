@@ -59,6 +59,16 @@ class _CpuThreads:
 _cpu = _CpuThreads()
 
 
+def _forget_pool_in_child() -> None:
+    # a forked process has none of its parent's threads: a pool it inherited would queue work that never runs
+    # (a lane of reproduce_table1 forked after the synthesis used the pool hung), and the lock may be held
+    _cpu.lock = threading.Lock()
+    _cpu.pool = None
+
+
+os.register_at_fork(after_in_child=_forget_pool_in_child)
+
+
 def init_warp_quietly() -> None:
     """Initialise Warp without its note that no CUDA driver was found (CPU-only machines run fine).
 

@@ -76,3 +76,26 @@ def test_python_api_does_not_print_warps_no_cuda_driver_note():
     out = subprocess.run([sys.executable, "-c", "import morphkit.kernels, warp; warp.init()"], env=env,
                          capture_output=True, text=True, timeout=300, check=True)
     assert "Could not find or load the NVIDIA CUDA driver" not in out.stderr + out.stdout
+
+
+def test_a_forked_process_gets_a_working_pool():
+    """The pool's threads do not survive a fork: a child given its parent's pool would wait forever on work
+    nobody runs (reproduce_table1's lanes fork after the synthesis has used it)."""
+    import multiprocessing
+
+    before = cpu_thread_count()
+    set_cpu_thread_count(2)
+    try:
+        assert cpu_pool().submit(lambda: 1).result(timeout=10) == 1  # the parent's threads exist now
+
+        def child() -> None:
+            raise SystemExit(0 if cpu_pool().submit(lambda: 2).result(timeout=20) == 2 else 1)
+
+        proc = multiprocessing.get_context("fork").Process(target=child)
+        proc.start()
+        proc.join(timeout=60)
+        if proc.is_alive():
+            proc.kill()
+        assert proc.exitcode == 0
+    finally:
+        set_cpu_thread_count(before)
