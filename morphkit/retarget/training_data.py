@@ -95,16 +95,13 @@ def _morphology_key(morphology: Morphology) -> str:
 
 
 def _synth_key(data: DataConfig) -> str:
-    # the default leaves the key (and so every existing cache entry) as it was
     key = "" if data.stand_probability is None else f"|stand={data.stand_probability!r}"
-    return key + ("|arms=full" if data.full_arm_travel else "")
+    return key + ("|arms=full" if data.full_arm_travel else "|arms=partial")
 
 
 def _synth_config(data: DataConfig) -> Any:
     from morphkit.synth import ArmConfig, CommandConfig, SynthConfig
 
-    if data.stand_probability is None and not data.full_arm_travel:
-        return None
     commands = CommandConfig() if data.stand_probability is None else CommandConfig(
         stand_probability=data.stand_probability)
     return SynthConfig(commands=commands, arms=ArmConfig() if data.full_arm_travel else ArmConfig.partial_travel())

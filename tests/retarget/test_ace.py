@@ -418,3 +418,24 @@ def test_discriminator_sees_a_planted_foot_slide_of_7mm(dog):
         np.testing.assert_allclose(steps[..., 1], 0.0, atol=1e-6)
         np.testing.assert_allclose(view[:, 2 * len(feet):], np.tanh(z / FOOT_HEIGHT_SCALE)[None].repeat(len(x) - 1, 0),
                                    atol=1e-6)
+
+
+def test_character_data_keep_arms_within_partial_travel_unless_asked(tmp_path):
+    """ACE's default character data draw arm poses within 70 % of each joint's span about rest
+    (``ArmConfig.partial_travel``), not the synthesis' own whole-travel default; ``data.full_arm_travel`` gives
+    the whole travel — the two data sets differ, and the default's arm spans no joint wider."""
+    from morphkit.retarget.training_data import DataConfig, character_motions
+
+    m = read_morphology("spot")
+    data = DataConfig(character_frames=600)
+    arm = [m.joint_q_start[m.joint_index(n)] for n in ("arm_sh0", "arm_sh1", "arm_el0", "arm_el1", "arm_wr0")]
+    part = np.concatenate([x.q for x in character_motions(m, data, cache_dir=tmp_path, progress=False)])
+    full = np.concatenate([x.q for x in character_motions(m, replace(data, full_arm_travel=True), cache_dir=tmp_path,
+                                                          progress=False)])
+    assert not np.array_equal(part, full)
+    lower, upper = m.coordinate_limits
+    rest = m.rest_q()
+    inner_lo, inner_hi = rest[arm] - 0.7 * (rest[arm] - lower[arm]), rest[arm] + 0.7 * (upper[arm] - rest[arm])
+    slack = 0.1 * (upper[arm] - lower[arm])  # IK follows the tips on straight lines between pooled poses
+    assert (part[:, arm] >= inner_lo - slack).all() and (part[:, arm] <= inner_hi + slack).all()
+    assert np.ptp(full[:, arm], axis=0).sum() > np.ptp(part[:, arm], axis=0).sum()
