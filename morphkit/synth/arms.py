@@ -99,9 +99,7 @@ class ArmConfig:
         """Arm poses within 70 % of each arm joint's span about rest, no draws at the limits, no extreme
         reach poses for arms (other joints: as by default).
 
-        What ACE's character data use unless ``data.full_arm_travel`` (measured at ACE's ``quick`` preset on
-        Spot, main job, one seed: with the whole travel the retargeted arm went to the extremes the data
-        hold, pointing up while the human's hands hang; hand-height follow 0.35 → 0.10).
+        What ACE's character data use with ``data.full_arm_travel`` off, and the embedded human's arms.
         """
         return cls(joint_range=0.7, limit_share=0.0, leg_clearance=0.0)
 

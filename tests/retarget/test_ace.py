@@ -356,7 +356,7 @@ def test_character_data_cache_is_keyed_by_the_synthesis_source(tmp_path, dog, mo
     monkeypatch.setattr(morphkit.synth, "source_digest", lambda: "another synthesis")
     character_motions(m, data, cache_dir=tmp_path, progress=False)
     assert len(list(tmp_path.glob("synth_*.npz"))) == 2
-    character_motions(m, replace(data, full_arm_travel=True), cache_dir=tmp_path, progress=False)
+    character_motions(m, replace(data, full_arm_travel=False), cache_dir=tmp_path, progress=False)
     assert len(list(tmp_path.glob("synth_*.npz"))) == 3
 
 
@@ -420,18 +420,18 @@ def test_discriminator_sees_a_planted_foot_slide_of_7mm(dog):
                                    atol=1e-6)
 
 
-def test_character_data_keep_arms_within_partial_travel_unless_asked(tmp_path):
-    """ACE's default character data draw arm poses within 70 % of each joint's span about rest
-    (``ArmConfig.partial_travel``), not the synthesis' own whole-travel default; ``data.full_arm_travel`` gives
-    the whole travel — the two data sets differ, and the default's arm spans no joint wider."""
+def test_character_data_keep_arms_within_partial_travel_when_asked(tmp_path):
+    """With ``data.full_arm_travel`` off, ACE's character data draw arm poses within 70 % of each joint's span
+    about rest (``ArmConfig.partial_travel``); by default they take the whole travel — the two data sets
+    differ, and the partial one spans the arm's joints less widely."""
     from morphkit.retarget.training_data import DataConfig, character_motions
 
     m = read_morphology("spot")
     data = DataConfig(character_frames=600)
     arm = [m.joint_q_start[m.joint_index(n)] for n in ("arm_sh0", "arm_sh1", "arm_el0", "arm_el1", "arm_wr0")]
-    part = np.concatenate([x.q for x in character_motions(m, data, cache_dir=tmp_path, progress=False)])
-    full = np.concatenate([x.q for x in character_motions(m, replace(data, full_arm_travel=True), cache_dir=tmp_path,
-                                                          progress=False)])
+    full = np.concatenate([x.q for x in character_motions(m, data, cache_dir=tmp_path, progress=False)])
+    part = np.concatenate([x.q for x in character_motions(m, replace(data, full_arm_travel=False),
+                                                          cache_dir=tmp_path, progress=False)])
     assert not np.array_equal(part, full)
     lower, upper = m.coordinate_limits
     rest = m.rest_q()
