@@ -110,7 +110,7 @@ def test_the_hopper_tail_is_lifted_where_dls_would_swing_it_down(creatures):
 
 
 def test_a_link_no_body_pose_keeps_above_the_ground_is_named_once(creatures):
-    m, res = creatures("grazer_stuck_tail", 600)
+    _, res = creatures("grazer_stuck_tail", 600)
     named = [w for w in res.warnings if "tail3" in w]
     assert len(named) == 1 and named[0].startswith("link tail3:")
     assert res.rig.legs.pitch == 0.0 and res.rig.legs.roll == 0.0  # kept level: the least harm
@@ -147,6 +147,6 @@ def test_the_grazer_stands_as_described_reaches_the_ground_and_covers_its_travel
 
 
 def test_a_stance_below_the_rest_pose_is_explained(creatures):
-    m, res = creatures("grazer", 600)
+    _, res = creatures("grazer", 600)
     note = res.rig.summary()["stance_note"]
     assert "0.92" in note and "singular" in note
