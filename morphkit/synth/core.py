@@ -23,7 +23,7 @@ import numpy as np
 
 from morphkit.errors import ConfigError
 from morphkit.graph import JointType, Morphology
-from morphkit.kernels.contact import RecordedSelfCollision, self_collision_pairs
+from morphkit.kernels.contact import RecordedSelfCollision, SelfCollisionPairs, self_collision_pairs
 from morphkit.motion.motion import Motion
 from morphkit.rotations import quat_from_rpy, quat_from_yaw, quat_rotate
 from morphkit.synth._ik import LimbSolver
@@ -134,6 +134,9 @@ class SynthRig:
     """Key poses of the arms that do upper-body actions and swing (None: no arm does)."""
     ground: GroundGuard | None = None
     """Lifts the upper body's shapes and arm tips above the ground (None: no upper body)."""
+    arm_pairs: SelfCollisionPairs | None = None
+    """Shape pairs of the arms IK moves against the rest of the body but the legs, for the per-frame check of
+    an arm that strayed to another branch (None: no such pair)."""
 
     def summary(self) -> dict[str, Any]:
         """Calibration figures for reports (JSON-friendly)."""
@@ -266,10 +269,33 @@ def prepare(m: Morphology, *, fps: float = 30.0, config: SynthConfig | None = No
         yaw_acceleration=cc.yaw_acceleration,
         clamp=clamp,
     )
-    rig = SynthRig(m, plan, loco, solver, legs, arms, q_stance, limits, float(scale), fps, config, actions, ground)
+    held = actions.arms if actions is not None else ()
+    arm_pairs = _arm_body_pairs(m, plan, solver, [a for a in range(len(plan.arms)) if a not in held],
+                                config.arms.collision_rest_margin)
+    rig = SynthRig(m, plan, loco, solver, legs, arms, q_stance, limits, float(scale), fps, config, actions, ground,
+                   arm_pairs)
     _rig_cache.append((m, fps, config, rig))
     del _rig_cache[:-4]
     return rig
+
+
+def _arm_body_pairs(m: Morphology, plan: BodyPlan, solver: LimbSolver, arms: list[int],
+                    rest_margin: float) -> SelfCollisionPairs | None:
+    """Shape pairs of ``arms`` (indices into ``plan.arms``) against the body and the other arms, not the legs:
+    the pose pool keeps arms clear of the legs, and skipping those pairs makes the per-frame check several
+    times cheaper."""
+    arm_links: set[str] = set()
+    for a in arms:
+        arm_links |= limb_links(m, plan.arms[a].joints)
+    if not arm_links:
+        return None
+    leg_links: set[str] = set()
+    for leg in plan.legs:
+        leg_links |= limb_links(m, leg.joints)
+    model = solver.model
+    pairs = self_collision_pairs(model, rest_margin=rest_margin).touching(model.link_index(n) for n in arm_links)
+    pairs = pairs.apart_from(model.link_index(n) for n in leg_links - arm_links)
+    return pairs if pairs.pair_count else None
 
 
 @dataclass
@@ -487,22 +513,8 @@ def _run_batch(rig: SynthRig, seeds: Sequence[np.random.SeedSequence], lengths: 
     q_prev2 = q_prev.copy()
     glide_z = rig.q_stance[2] if rig.locomotion == Locomotion.GLIDE else 0.0
     gain = cfg.arms.posture_gain
-    arm_pairs = None
+    arm_pairs = rig.arm_pairs if n_arm else None
     arm_checks: dict[int, RecordedSelfCollision] = {}
-    if n_arm and free_arms.size:
-        arm_links: set[str] = set()
-        for a in free_arms:
-            arm_links |= limb_links(m, rig.plan.arms[a].joints)
-        arm_pairs = self_collision_pairs(solver.model, rest_margin=cfg.arms.collision_rest_margin).touching(
-            [solver.model.link_index(n) for n in arm_links])
-        # against the body and the other arms: the legs are kept clear by the pose pool's leg clearance, and
-        # skipping their pairs makes the check several times cheaper
-        leg_links: set[str] = set()
-        for leg in rig.plan.legs:
-            leg_links |= limb_links(m, leg.joints)
-        arm_pairs = arm_pairs.apart_from(solver.model.link_index(n) for n in leg_links - arm_links)
-        if not arm_pairs.pair_count:
-            arm_pairs = None
     ground_stats = GroundStats()
     for t in range(frames):
         c = cmds.command[:, t]

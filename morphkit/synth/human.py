@@ -87,8 +87,8 @@ def default_human_config() -> SynthConfig:
         commands=CommandConfig(forward_speed=(-0.3, 1.3), lateral_speed=(-0.1, 0.1), yaw_rate=(-0.8, 0.8),
                                stand_probability=0.2, lateral_probability=0.15, turn_probability=0.6,
                                segment_seconds=(2.0, 5.0), pose_probability=0.3),
-        arms=replace(ArmConfig.partial_travel(), other_angle=0.1, other_range=0.2, limit_share=0.0,
-                     reach_extremes=False, walk_from_any_pose=False),
+        arms=replace(ArmConfig.partial_travel(), other_angle=0.1, other_range=0.2, reach_extremes=False,
+                     walk_from_any_pose=False),
         actions=ActionConfig(enabled=True),
     )
 

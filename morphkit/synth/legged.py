@@ -696,7 +696,7 @@ def calibrate_legs(m: Morphology, plan: BodyPlan, solver: LimbSolver, cfg: LegCo
                                               for k, ab in enumerate((cand.a, cand.b))):
                 st = cand
                 break
-        chosen = tried[tried.index(e)] if st is not None else ext
+        chosen = e if st is not None else ext
         reasons = []
         if rest_ext > cfg.stance_extension_max:
             reasons.append(f"straighter than {cfg.stance_extension_max:g} the legs are singular")
