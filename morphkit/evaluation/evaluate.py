@@ -27,7 +27,7 @@ from morphkit.evaluation.table import TableRow, dataset_row, evaluate_clips, ref
 from morphkit.graph import Morphology
 from morphkit.metrics import UnrealisticFrames, unrealistic_frame_ratio
 from morphkit.motion import Motion, Pairing, body_length, ee_distributions, map_end_effectors
-from morphkit.retarget.retargeter import Retargeter
+from morphkit.retarget.retargeter import RetargetedClip, Retargeter
 from morphkit.retarget.runs import load
 from morphkit.retarget.training_data import (
     DataConfig,
@@ -41,7 +41,7 @@ CONTACT_ROWS = ("ACE", "NKN")
 """Methods whose motions are also scored through each contact-aware export (a row each)."""
 
 __all__ = ["CONTACT_ROWS", "Evaluation", "MethodResult", "Reference", "evaluate_methods", "open_method",
-           "reference_for", "retarget"]
+           "reference_for", "retarget", "retarget_clips"]
 
 
 @dataclass(eq=False)
@@ -133,9 +133,14 @@ def reference_for(methods: Sequence[Method], *, human_data: str | os.PathLike[st
                      character), clips
 
 
+def retarget_clips(method: Method, clips: Sequence[Motion], *, device: str = "cpu") -> list[RetargetedClip]:
+    """``clips`` retargeted by ``method``, with what the method says of them (its stance flags, ...)."""
+    return open_method(method, device=device).retarget(clips)
+
+
 def retarget(method: Method, clips: Sequence[Motion], *, device: str = "cpu") -> list[Motion]:
     """``clips`` retargeted by ``method`` (clips resampled to the run's frame rate where needed)."""
-    return [r.motion for r in open_method(method, device=device).retarget(clips)]
+    return [r.motion for r in retarget_clips(method, clips, device=device)]
 
 
 def evaluate_methods(
@@ -182,15 +187,17 @@ def evaluate_methods(
     failed: dict[str, str] = {}
     for i, method in enumerate(methods):
         try:
-            motions = retarget(method, clips, device=device)
+            retargeted = retarget_clips(method, clips, device=device)
         except MorphkitError as exc:  # one method failing leaves the others' rows and the report
             failed[f"{method.name} (seed {method.seed})"] = f"{method.stage}: {exc}"
             log(f"[{i + 1}/{len(methods)}] {method.name} (seed {method.seed}): FAILED: {exc}")
             continue
+        motions = [r.motion for r in retargeted]
         variants = [(method, motions)]
-        if method.name in CONTACT_ROWS:
+        if method.name in CONTACT_ROWS:  # lock holds the method's own stance flags where it has them
             variants += [(dataclasses.replace(method, name=f"{method.name}+{mode}"),
-                          [apply_contacts(m, mode) for m in motions]) for mode in contacts if mode != "none"]
+                          [apply_contacts(r.motion, mode, stance=r.stance) for r in retargeted])
+                         for mode in contacts if mode != "none"]
         for shown_as, shown in variants:
             row = evaluate_clips(shown_as.name, list(clips), shown, data, ref.pairing, seed=seed)
             causes = UnrealisticFrames.concatenate([unrealistic_frame_ratio(m) for m in shown]).cause_ratios()

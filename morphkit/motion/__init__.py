@@ -31,6 +31,7 @@ from morphkit.motion.codec import character_state_from_q as character_state_from
 from morphkit.motion.codec import decode_character_states as decode_character_states
 from morphkit.motion.codec import ground_path as ground_path
 from morphkit.motion.codec import human_state_from_q as human_state_from_q
+from morphkit.motion.codec import stance_flags_of as stance_flags_of
 from morphkit.motion.codec import world_end_effectors as world_end_effectors
 from morphkit.motion.ee_mapping import EndEffectorMapping as EndEffectorMapping
 from morphkit.motion.ee_mapping import Gaussian as Gaussian
@@ -60,6 +61,9 @@ from morphkit.motion.states import StateLayout as StateLayout
 from morphkit.motion.states import character_state as character_state
 from morphkit.motion.states import character_state_from_motion as character_state_from_motion
 from morphkit.motion.states import character_state_layout as character_state_layout
+from morphkit.motion.states import derive_character_state as derive_character_state
+from morphkit.motion.states import foot_contact_flags as foot_contact_flags
+from morphkit.motion.states import foot_names as foot_names
 from morphkit.motion.states import heading_frame as heading_frame
 from morphkit.motion.states import human_state as human_state
 from morphkit.motion.states import human_state_from_motion as human_state_from_motion
@@ -89,10 +93,13 @@ __all__ = [
     "character_state_layout",
     "compiled_model",
     "decode_character_states",
+    "derive_character_state",
     "ee_distributions",
     "feature_dim",
     "features",
     "fit_gaussian",
+    "foot_contact_flags",
+    "foot_names",
     "ground_motion",
     "ground_path",
     "guess_skeleton_map",
@@ -116,6 +123,7 @@ __all__ = [
     "read_skeleton_map",
     "read_usd_motion",
     "skeleton_maps",
+    "stance_flags_of",
     "standing_height",
     "to_canonical",
     "world_end_effectors",

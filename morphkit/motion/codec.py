@@ -50,6 +50,7 @@ __all__ = [
     "decode_character_states",
     "ground_path",
     "human_state_from_q",
+    "stance_flags_of",
     "world_end_effectors",
 ]
 
@@ -93,6 +94,7 @@ def decode_character_states(
     *,
     initial_pose: Any = None,
     name: str = "",
+    layout: StateLayout | None = None,
 ) -> tuple[Motion, ClampReport]:
     """A :class:`Motion` from character states x^r (inverse of ``character_state_from_motion``).
 
@@ -104,6 +106,8 @@ def decode_character_states(
             ``T_world_root`` [7] (its height and tilt are ignored: the state has them). Default:
             the origin, facing +x.
         name: The motion's name.
+        layout: The states' layout (default :func:`~morphkit.motion.states.character_state_layout`'s,
+            without stance flags; :func:`stance_flags_of` reads them where the layout has them).
 
     Returns:
         The motion and a :class:`ClampReport`.
@@ -111,7 +115,7 @@ def decode_character_states(
     Raises:
         MotionFormatError: a state of the wrong width or a bad ``initial_pose``.
     """
-    layout = character_state_layout(morphology)
+    layout = character_state_layout(morphology) if layout is None else layout
     x = np.asarray(states, dtype=float)
     if x.ndim != 2 or x.shape[1] != layout.dim:
         raise MotionFormatError(
@@ -136,6 +140,17 @@ def decode_character_states(
     q[:, b:] = x[:, layout.slice("joint_q")]
     report = _normalise_and_clamp(morphology, q)
     return Motion(morphology, fps, q, name), report
+
+
+def stance_flags_of(states: Any, layout: StateLayout) -> np.ndarray:
+    """The stance flags [T, F] (bool) of character or human states [T, D] whose layout has ``foot_contacts``.
+
+    Raises:
+        MotionFormatError: a layout without stance flags.
+    """
+    if "foot_contacts" not in layout.names():
+        raise MotionFormatError(f"{layout.kind} states without stance flags (no foot_contacts field)")
+    return np.asarray(states, dtype=float)[..., layout.slice("foot_contacts")] > 0.5
 
 
 def ground_path(states: Any, layout: StateLayout) -> tuple[Any, Any]:

@@ -49,6 +49,16 @@ field                            dims     meaning
 
 ``previous_root_orientation`` carries the yaw change between frames, and ``root_displacement``
 the step, so a sequence of states can be integrated back into a world trajectory.
+
+**Stance flags** (beyond the paper, ``contacts=True`` in the layouts): both states may end with
+``foot_contacts`` [F], one flag per end-effector of role ``foot`` (1 in stance, 0 in swing), in the
+morphology's end-effector order. A creature's synthesised data take them from the synthesis' plan;
+any other motion from :func:`foot_contact_flags` (height and speed).
+
+**Derived slots.** Given the previous state, the root velocities and the end-effector velocities
+follow from a state's own root step, height and orientations and its end-effector positions, which
+follow from its tilt and joints by FK: :func:`derive_character_state` recomputes them, so a model
+that predicts only the first can complete a state whose every slot agrees with its export.
 """
 
 from __future__ import annotations
@@ -82,6 +92,9 @@ __all__ = [
     "character_state",
     "character_state_from_motion",
     "character_state_layout",
+    "derive_character_state",
+    "foot_contact_flags",
+    "foot_names",
     "heading_frame",
     "human_state",
     "human_state_from_motion",
@@ -129,8 +142,20 @@ def _layout(kind: str, sizes: Sequence[tuple[str, int]], ee_names: tuple[str, ..
     return StateLayout(kind, tuple(fields), ee_names)
 
 
-def human_state_layout(morphology: Morphology) -> StateLayout:
-    """Layout of the human state x^h for ``morphology`` (see the module docstring)."""
+def foot_names(morphology: Morphology) -> tuple[str, ...]:
+    """The end-effectors of role ``foot``, in the morphology's order (the stance flags' order)."""
+    from morphkit.graph import EndEffectorRole
+
+    return tuple(e.name for e in morphology.end_effectors if e.role == EndEffectorRole.FOOT)
+
+
+def _with_contacts(sizes: list[tuple[str, int]], morphology: Morphology, contacts: bool) -> list[tuple[str, int]]:
+    return [*sizes, ("foot_contacts", len(foot_names(morphology)))] if contacts else sizes
+
+
+def human_state_layout(morphology: Morphology, *, contacts: bool = False) -> StateLayout:
+    """Layout of the human state x^h for ``morphology`` (see the module docstring); ``contacts`` adds
+    the stance flags."""
     e = len(morphology.end_effectors)
     sizes = [
         ("root_height", 1),
@@ -141,11 +166,13 @@ def human_state_layout(morphology: Morphology) -> StateLayout:
         ("ee_positions", 3 * e),
         ("ee_velocities", 3 * e),
     ]
-    return _layout("human", sizes, tuple(x.name for x in morphology.end_effectors))
+    return _layout("human", _with_contacts(sizes, morphology, contacts),
+                   tuple(x.name for x in morphology.end_effectors))
 
 
-def character_state_layout(morphology: Morphology) -> StateLayout:
-    """Layout of the character state x^r for ``morphology`` (see the module docstring)."""
+def character_state_layout(morphology: Morphology, *, contacts: bool = False) -> StateLayout:
+    """Layout of the character state x^r for ``morphology`` (see the module docstring); ``contacts`` adds
+    the stance flags."""
     e = len(morphology.end_effectors)
     sizes = [
         ("root_height", 1),
@@ -158,7 +185,8 @@ def character_state_layout(morphology: Morphology) -> StateLayout:
         ("ee_positions", 3 * e),
         ("ee_velocities", 3 * e),
     ]
-    return _layout("character", sizes, tuple(x.name for x in morphology.end_effectors))
+    return _layout("character", _with_contacts(sizes, morphology, contacts),
+                   tuple(x.name for x in morphology.end_effectors))
 
 
 # ---- heading frame and differences (NumPy arrays or torch tensors) -------------------------
@@ -251,7 +279,7 @@ def _flat_tail(x: Any) -> Any:
     return x.reshape(*x.shape[:-2], -1)
 
 
-def human_state(root_pose: Any, link_positions: Any, ee_positions: Any, fps: float) -> Any:
+def human_state(root_pose: Any, link_positions: Any, ee_positions: Any, fps: float, *, contacts: Any = None) -> Any:
     """Human state x^h per frame (§6.1; layout in :func:`human_state_layout`).
 
     NumPy arrays or torch tensors (differentiable), with any leading batch shape.
@@ -261,9 +289,10 @@ def human_state(root_pose: Any, link_positions: Any, ee_positions: Any, fps: flo
         link_positions: World positions of all links (root first), shape [..., T, L, 3] [m].
         ee_positions: World positions of the end-effectors, shape [..., T, E, 3] [m].
         fps: Frame rate [1/s].
+        contacts: Stance flags [..., T, F] appended as ``foot_contacts`` (``None``: none).
 
     Returns:
-        [..., T, 11 + 3 (L - 1) + 6 E] (float64 for NumPy input).
+        [..., T, 11 + 3 (L - 1) + 6 E (+ F)] (float64 for NumPy input).
     """
     root_pose, link_positions, ee_positions = _as_float(root_pose), _as_float(link_positions), _as_float(ee_positions)
     _check_frames("human_state", {"link_positions": link_positions, "ee_positions": ee_positions}, root_pose,
@@ -282,6 +311,7 @@ def human_state(root_pose: Any, link_positions: Any, ee_positions: Any, fps: flo
             joints,
             ee,
             ee_vel,
+            *_contact_block(contacts, root_pose),
         ]
     )
 
@@ -307,6 +337,7 @@ def character_state(
     fps: float,
     *,
     morphology: Morphology | None = None,
+    contacts: Any = None,
 ) -> Any:
     """Character state x^r per frame (§6.2; layout in :func:`character_state_layout`).
 
@@ -318,9 +349,10 @@ def character_state(
         ee_positions: World end-effector positions, shape [..., T, E, 3] [m].
         fps: Frame rate [1/s].
         morphology: When given, spherical joints' quaternions are put in the ``w >= 0`` half.
+        contacts: Stance flags [..., T, F] appended as ``foot_contacts`` (``None``: none).
 
     Returns:
-        [..., T, 17 + (C - B) + 6 E] (float64 for NumPy input).
+        [..., T, 17 + (C - B) + 6 E (+ F)] (float64 for NumPy input).
     """
     root_pose, joint_q, ee_positions = _as_float(root_pose), _as_float(joint_q), _as_float(ee_positions)
     _check_frames("character_state", {"joint_q": joint_q, "ee_positions": ee_positions}, root_pose,
@@ -342,20 +374,108 @@ def character_state(
             joint_q,
             ee,
             ee_vel,
+            *_contact_block(contacts, root_pose),
         ]
     )
 
 
-def human_state_from_motion(motion: Motion) -> np.ndarray:
-    """:func:`human_state` of a motion (link and end-effector positions from the FK kernels)."""
-    return human_state(motion.root_pose(), motion.link_positions(), motion.end_effector_positions(), motion.fps)
+def _contact_block(contacts: Any, root_pose: Any) -> list[Any]:
+    if contacts is None:
+        return []
+    if _is_torch(root_pose):
+        import torch
+
+        return [torch.as_tensor(contacts, dtype=root_pose.dtype, device=root_pose.device)]
+    c = np.asarray(contacts, dtype=float)
+    if c.shape[:-1] != root_pose.shape[:-1]:
+        raise MotionFormatError(f"contacts has shape {list(c.shape)}, root_pose has {root_pose.shape[-2]} frames")
+    return [c]
 
 
-def character_state_from_motion(motion: Motion) -> np.ndarray:
-    """:func:`character_state` of a motion (end-effector positions from the FK kernels)."""
+STANCE_HEIGHT = 0.05
+"""[m]: a foot within this of its ground height can be in stance (ours: GMD's contact height)."""
+STANCE_SPEED = 0.3
+"""[m/s]: a foot slower than this horizontally can be in stance (ours: 1 cm per frame at 30 fps, a tenth of
+a walk's swing speed)."""
+
+
+def foot_contact_flags(motion: Motion, *, height: float = STANCE_HEIGHT, speed: float = STANCE_SPEED) -> np.ndarray:
+    """Stance flags [T, F] (1.0 / 0.0) of a motion's feet (:func:`foot_names`) from their height and speed.
+
+    A foot is in stance where it is within ``height`` of its ground height — its clip's 5th-percentile
+    height, clamped to ``[0, height]`` (a human's toe joint rests a few centimetres up) — and moves
+    slower than ``speed`` horizontally (backward difference; frame 0 copies frame 1's).
+    """
+    m = motion.morphology
+    names = foot_names(m)
+    if not names or motion.frame_count == 0:
+        return np.zeros((motion.frame_count, len(names)))
+    index = {e.name: i for i, e in enumerate(m.end_effectors)}
+    feet = motion.end_effector_positions()[:, [index[n] for n in names]]
+    ground = np.clip(np.percentile(feet[..., 2], 5, axis=0), 0.0, height)
+    step = np.linalg.norm(_backward_diff(feet[..., :2], -3), axis=-1) * motion.fps
+    return ((feet[..., 2] - ground < height) & (step < speed)).astype(float)
+
+
+def _flags(motion: Motion, contacts: Any) -> Any:
+    if contacts is None or contacts is False:
+        return None
+    return foot_contact_flags(motion) if contacts is True else contacts
+
+
+def human_state_from_motion(motion: Motion, *, contacts: Any = None) -> np.ndarray:
+    """:func:`human_state` of a motion (link and end-effector positions from the FK kernels).
+
+    ``contacts``: stance flags [T, F], or ``True`` for :func:`foot_contact_flags` (``None``: no flags).
+    """
+    return human_state(motion.root_pose(), motion.link_positions(), motion.end_effector_positions(), motion.fps,
+                       contacts=_flags(motion, contacts))
+
+
+def character_state_from_motion(motion: Motion, *, contacts: Any = None) -> np.ndarray:
+    """:func:`character_state` of a motion (end-effector positions from the FK kernels).
+
+    ``contacts``: stance flags [T, F] (e.g. the synthesis' plan), or ``True`` for
+    :func:`foot_contact_flags` (``None``: no flags).
+    """
     return character_state(
-        motion.root_pose(), motion.joint_q, motion.end_effector_positions(), motion.fps, morphology=motion.morphology
+        motion.root_pose(), motion.joint_q, motion.end_effector_positions(), motion.fps, morphology=motion.morphology,
+        contacts=_flags(motion, contacts),
     )
+
+
+def derive_character_state(prev: Any, cur: Any, ee_positions: Any, fps: float, layout: StateLayout) -> Any:
+    """``cur`` [..., D] with its derived slots recomputed from its own root and joint slots and ``prev``.
+
+    Both are denormalised character states of ``layout`` (NumPy or torch, differentiable); ``prev``
+    is frame t − 1's, whose ee block is taken as its end-effectors. Recomputed:
+
+    * ``root_orientation`` made unit (``w >= 0``);
+    * ``previous_root_orientation`` = R_z(Δψ) · ``prev``'s root orientation, Δψ the yaw of ``cur``'s
+      (the yaw change is all ``cur`` says there);
+    * ``root_linear_velocity`` = (``root_displacement``, height change) · fps;
+    * ``root_angular_velocity`` = rotation vector of ``root_orientation · previous_root_orientation⁻¹`` · fps;
+    * ``ee_positions`` = ``ee_positions`` [..., E, 3] (FK of ``cur``'s tilt and joints, heading frame);
+    * ``ee_velocities`` = (e_t − R_z(Δψ) e_{t−1} + step) · fps.
+
+    These are the numbers :func:`character_state` gives the motion the states decode to.
+    """
+    from morphkit.rotations import quat_from_yaw, quat_normalize, yaw_from_quat
+
+    sl = layout.slice
+    ro = quat_canonical(quat_normalize(cur[..., sl("root_orientation")]))
+    # q_{t-1} in frame t's heading frame: the previous state's tilt turned by the yaw change cur carries
+    dyaw = yaw_from_quat(quat_normalize(cur[..., sl("previous_root_orientation")]))
+    pro = quat_canonical(quat_multiply(quat_from_yaw(dyaw), quat_normalize(prev[..., sl("root_orientation")])))
+    disp = _cat([cur[..., sl("root_displacement")], cur[..., sl("root_height")] - prev[..., sl("root_height")]])
+    omega = axis_angle_from_quat(quat_multiply(ro, quat_conjugate(pro))) * fps
+    e_prev = prev[..., sl("ee_positions")].reshape(ee_positions.shape)
+    turn = quat_from_yaw(dyaw)[..., None, :]
+    ee_vel = (ee_positions - quat_rotate(turn, e_prev) + disp[..., None, :]) * fps
+    parts = {"root_orientation": ro, "previous_root_orientation": pro, "root_linear_velocity": disp * fps,
+             "root_angular_velocity": omega, "ee_positions": _flat_tail(ee_positions),
+             "ee_velocities": _flat_tail(ee_vel)}
+    return _cat([parts.get(name, cur[..., a:b]) for name, a, b in layout.fields])
 
 
 # ---- normalisation ------------------------------------------------------------------------

@@ -35,6 +35,9 @@ class RetargetedClip:
     """[T, Sr] the method's own denormalised output states, where it has them (ACE)."""
     clamp: ClampReport = field(default_factory=lambda: ClampReport(0.0, 0.0, ()))
     """Joint coordinates decoding had to clamp into their limits (nothing, for methods that do not clamp)."""
+    stance: np.ndarray | None = None
+    """[T, F] the method's own stance flags of the creature's feet (:func:`~morphkit.motion.foot_names` order),
+    where it predicts them (ACE with stance flags); the ``lock`` export holds them."""
 
 
 def check_finite(motion: Motion, *, run: str | os.PathLike[str], clip: str) -> Motion:
@@ -112,4 +115,4 @@ class WithContacts:
         """One raw clip through the export (its states and clamp report are the raw output's)."""
         from morphkit.synth import apply_contacts
 
-        return dataclasses.replace(clip, motion=apply_contacts(clip.motion, self.mode))
+        return dataclasses.replace(clip, motion=apply_contacts(clip.motion, self.mode, stance=clip.stance))

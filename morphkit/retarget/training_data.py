@@ -38,6 +38,7 @@ __all__ = [
     "CONVENTION_FILE",
     "DataConfig",
     "StateWindows",
+    "character_data",
     "character_motions",
     "evaluation_clips",
     "evaluation_split",
@@ -125,6 +126,19 @@ def character_motions(
         progress: Show the synthesis progress bar.
         log: Told whether the data came from the cache or were synthesised (one line).
     """
+    return character_data(morphology, data, cache_dir=cache_dir, progress=progress, log=log)[0]
+
+
+def character_data(
+    morphology: Morphology,
+    data: DataConfig,
+    *,
+    cache_dir: str | os.PathLike[str] | None = None,
+    progress: bool = True,
+    log: Callable[[str], None] | None = None,
+) -> tuple[list[Motion], list[np.ndarray]]:
+    """:func:`character_motions` and, per motion, the synthesis' stance flags [T, F] (1.0 / 0.0) of the
+    creature's feet (:func:`~morphkit.motion.foot_names`; F = 0 without feet)."""
     from morphkit.synth import source_digest, synthesize
 
     cache = Path(cache_dir) if cache_dir is not None else default_cache_dir()
@@ -136,25 +150,42 @@ def character_motions(
     if path.is_file():
         try:
             with np.load(path, allow_pickle=False) as f:
-                q, lengths, names = f["q"], f["lengths"], [str(n) for n in f["names"]]
+                q, lengths, names, contact = f["q"], f["lengths"], [str(n) for n in f["names"]], f["contact"]
             starts = np.concatenate([[0], np.cumsum(lengths)])
             if log is not None:
                 log(f"character data: {int(lengths.sum())} frames of {morphology.name} from the cache ({path})")
-            return [Motion(morphology, data.fps, q[a:b], n) for a, b, n in zip(starts[:-1], starts[1:], names,
-                                                                              strict=True)]
+            spans = list(zip(starts[:-1], starts[1:], names, strict=True))
+            return ([Motion(morphology, data.fps, q[a:b], n) for a, b, n in spans],
+                    [contact[a:b].astype(float) for a, b, _ in spans])
         except (OSError, KeyError, ValueError):
-            pass  # a damaged cache entry is rebuilt
+            pass  # a damaged (or older, flag-less) cache entry is rebuilt
     if log is not None:
         log(f"character data: synthesising {data.character_frames} frames of {morphology.name} "
             f"(kept in {cache} for the next run)")
     result = synthesize(morphology, frames=data.character_frames, fps=data.fps, seed=data.synth_seed,
                         config=_synth_config(data), progress=progress)
     motions = list(result.motions)
+    contacts = [_foot_order(morphology, getattr(result.rig.plan, "legs", ()), c, m.frame_count)
+                for c, m in zip(result.contact, motions, strict=True)]
     cache.mkdir(parents=True, exist_ok=True)
     with atomic_path(path) as tmp, open(tmp, "wb") as f:
         np.savez(f, q=np.concatenate([m.q for m in motions]), lengths=np.array([m.frame_count for m in motions]),
-                 names=np.array([m.name for m in motions]))
-    return motions
+                 names=np.array([m.name for m in motions]), contact=np.concatenate(contacts).astype(np.uint8))
+    return motions, contacts
+
+
+def _foot_order(morphology: Morphology, legs: Sequence[Any], contact: np.ndarray, frames: int) -> np.ndarray:
+    """The synthesis' per-leg stance [T, NL] as flags [T, F] of :func:`~morphkit.motion.foot_names` (a foot
+    no leg plans is in stance: the synthesis keeps it on the ground)."""
+    from morphkit.motion import foot_names
+
+    feet = foot_names(morphology)
+    out = np.ones((frames, len(feet)))
+    leg_of = {leg.end_effector: i for i, leg in enumerate(legs)}
+    for j, name in enumerate(feet):
+        if name in leg_of and contact.size:
+            out[:, j] = contact[:, leg_of[name]]
+    return out
 
 
 def _read_human_folder(path: str | os.PathLike[str], fps: float,

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 from morphkit.errors import ConfigError
 from morphkit.motion.motion import Motion
 from morphkit.synth.lock import lock_feet
@@ -15,8 +17,11 @@ along the root path (:func:`~morphkit.synth.replan.replan_legs`); ``lock``: the 
 with stance feet held at their touchdown points (:func:`~morphkit.synth.lock.lock_feet`)."""
 
 
-def apply_contacts(motion: Motion, mode: str) -> Motion:
+def apply_contacts(motion: Motion, mode: str, *, stance: Any = None) -> Motion:
     """The contact-aware export ``mode`` (one of :data:`CONTACT_MODES`) of a retargeted motion.
+
+    ``stance``: the retargeter's stance flags [T, F] (feet in :func:`~morphkit.motion.foot_names` order),
+    which ``lock`` holds instead of deciding stance from the feet's height and speed.
 
     Raises:
         ConfigError: an unknown mode.
@@ -26,5 +31,5 @@ def apply_contacts(motion: Motion, mode: str) -> Motion:
     if mode == "replan":
         return replan_legs(motion)
     if mode == "lock":
-        return lock_feet(motion)
+        return lock_feet(motion, stance=stance)
     raise ConfigError(f"unknown contact mode {mode!r}; expected one of: {', '.join(CONTACT_MODES)}")

@@ -102,7 +102,8 @@ def lock_targets(feet: np.ndarray, stance: np.ndarray, ground: np.ndarray, blend
 
 
 def lock_feet(motion: Motion, *, height: float = 0.05, speed: float = 1.0, blend_seconds: float = 0.1,
-              max_offset: float = 0.3, step_seconds: float = 0.2, config: SynthConfig | None = None) -> Motion:
+              max_offset: float = 0.3, step_seconds: float = 0.2, config: SynthConfig | None = None,
+              stance: np.ndarray | None = None) -> Motion:
     """``motion`` with its stance feet locked at their touchdown points (see the module docstring).
 
     Args:
@@ -114,6 +115,8 @@ def lock_feet(motion: Motion, *, height: float = 0.05, speed: float = 1.0, blend
         max_offset: Fraction of a leg's reach its foot's own position may get from its locked point
             before the foot steps to it (lifted by a tenth of the reach, over ``step_seconds``).
         config: Synthesis configuration whose IK and stance calibration are used (default :class:`SynthConfig`).
+        stance: The retargeter's own stance flags [T, F] of the feet (:func:`~morphkit.motion.foot_names`
+            order; as causal as the retargeter), used instead of deciding stance from height and speed.
 
     Returns:
         A motion of the same creature, frame rate and length: root orientation and ground path and
@@ -145,7 +148,13 @@ def lock_feet(motion: Motion, *, height: float = 0.05, speed: float = 1.0, blend
     ground = np.clip(stance_pose.end_effector_positions()[0, cols, 2], 0.0, height)
 
     feet = motion.end_effector_positions()[:, cols]
-    stance = stance_flags(feet, ground, motion.fps, height=height, speed=speed)
+    if stance is None:
+        stance = stance_flags(feet, ground, motion.fps, height=height, speed=speed)
+    else:
+        from morphkit.motion import foot_names
+
+        order = {n: i for i, n in enumerate(foot_names(m))}
+        stance = np.asarray(stance)[:, [order[n] for n in names]] > 0.5
     reach = np.array([leg.reach for leg in rig.plan.legs])
     targets = lock_targets(feet, stance, ground, round(blend_seconds * motion.fps), max_offset=max_offset * reach,
                            step_frames=round(step_seconds * motion.fps), step_height=0.1 * float(reach.mean()))

@@ -360,14 +360,14 @@ def test_an_evaluation_survives_one_failing_method(smoke, tmp_path, monkeypatch)
     out, env, _ = smoke
     monkeypatch.setenv("MORPHKIT_CACHE_DIR", env["MORPHKIT_CACHE_DIR"])
     runs = out / "testdog" / "runs"
-    real = evaluate.retarget
+    real = evaluate.retarget_clips
 
     def failing(method, clips, **kw):
         if method.name == "NKN":
             raise RunError(f"clip {clips[0].name!r}: non-finite output at frame 3 of 10 (root_x)")
         return real(method, clips, **kw)
 
-    monkeypatch.setattr(evaluate, "retarget", failing)
+    monkeypatch.setattr(evaluate, "retarget_clips", failing)
     with pytest.raises(RunError, match="1 method\\(s\\) failed: NKN \\(seed 0\\)"):
         reproduce.evaluate_runs([runs / "ace_seed0", runs / "nkn_seed0"], tmp_path / "eval", clips=1, videos=0,
                                 log=lambda s: None)

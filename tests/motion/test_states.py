@@ -155,3 +155,50 @@ def test_states_for_other_bases(name: str) -> None:
     x = character_state_from_motion(motion)
     assert x.shape == (5, character_state_layout(m).dim)
     assert np.isfinite(x).all()
+
+
+@pytest.mark.parametrize("name", ["spot", "stretch"])
+def test_derived_slots_are_the_encoders_from_the_states_own_root_and_joints(name: str) -> None:
+    """Velocity and end-effector slots scrambled, then derived from the root step, height, orientations,
+    joints, FK and the previous state: the encoder's own numbers (to rounding)."""
+    from morphkit_testing import shipped_morphology
+
+    from morphkit.motion import derive_character_state
+    from morphkit.synth import synthesize
+
+    m = shipped_morphology(name)
+    motion = synthesize(m, frames=60, seed=3, progress=False).motions[0]
+    lay = character_state_layout(m)
+    x = character_state_from_motion(motion)
+    rng = np.random.default_rng(0)
+    scrambled = x.copy()
+    for field in ("root_linear_velocity", "root_angular_velocity", "ee_velocities"):
+        scrambled[:, lay.slice(field)] = rng.normal(size=scrambled[:, lay.slice(field)].shape)
+    ro = lay.slice("root_orientation")
+    scrambled[:, ro] *= 1.7  # not unit: derived slots make it unit again
+    ee = x[:, lay.slice("ee_positions")].reshape(len(x), -1, 3)
+    got = derive_character_state(x[:-1], scrambled[1:], ee[1:], motion.fps, lay)
+    np.testing.assert_allclose(got, x[1:], atol=1e-9)
+
+
+def test_foot_contact_flags_from_height_and_speed() -> None:
+    """A standing human has both feet in stance; gliding at 1 m/s (above the stance speed) or lifted 10 cm
+    (above the stance height) it has none; flags follow the morphology's foot end-effectors."""
+    from morphkit_testing import shipped_morphology
+
+    from morphkit.motion import foot_contact_flags, foot_names
+    from morphkit.motion.states import STANCE_HEIGHT, STANCE_SPEED
+
+    m = shipped_morphology("human")
+    assert len(foot_names(m)) == 2
+    q = np.tile(m.rest_q(), (30, 1))
+    q[:, 2] += 0.02 - Motion(m, 30.0, q[:1]).end_effector_positions()[0, :, 2].min()  # toes 2 cm up
+    standing = foot_contact_flags(Motion(m, 30.0, q))
+    assert standing.shape == (30, 2) and standing.all()
+    glide = q.copy()
+    glide[:, 0] += np.arange(30) * 1.0 / 30.0
+    assert 1.0 > STANCE_SPEED and not foot_contact_flags(Motion(m, 30.0, glide)).any()
+    lifted = q.copy()
+    lifted[15:, 2] += 2 * STANCE_HEIGHT  # the second half up: the clip's 5th percentile stays the ground
+    flags = foot_contact_flags(Motion(m, 30.0, lifted))
+    assert flags[:15].all() and not flags[15:].any()

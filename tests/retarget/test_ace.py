@@ -439,3 +439,88 @@ def test_character_data_keep_arms_within_partial_travel_when_asked(tmp_path):
     slack = 0.1 * (upper[arm] - lower[arm])  # IK follows the tips on straight lines between pooled poses
     assert (part[:, arm] >= inner_lo - slack).all() and (part[:, arm] <= inner_hi + slack).all()
     assert np.ptp(full[:, arm], axis=0).sum() > np.ptp(part[:, arm], axis=0).sum()
+
+
+def test_completed_states_are_the_encoding_of_the_motion_they_decode_to(dog):
+    """π's outputs (data plus noise) completed step by step: every derived slot — end-effectors (FK of the
+    predicted tilt and joints), their velocities, the root velocities — equals, to 1e-5 m, what the NumPy
+    encoder gives the decoded motion; the stance flags are 0/1 from the logits, with σ's gradient."""
+    from morphkit.motion import (
+        NormStats,
+        Pairing,
+        character_state_from_motion,
+        character_state_layout,
+        decode_character_states,
+        stance_flags_of,
+    )
+    from morphkit.retarget.ace.model import FeatureMap, StateCompletion
+
+    _, _, motion = _dog_feature_map(dog, frames=60)
+    m = motion.morphology
+    lay = character_state_layout(m, contacts=True)
+    flags = np.ones((motion.frame_count, 4))
+    flags[::3, 0] = 0.0
+    x = character_state_from_motion(motion, contacts=flags)
+    stats = NormStats.fit([x])
+    ees = tuple(e.name for e in m.end_effectors)
+    fmap = FeatureMap(m, lay, lay, stats, stats, Pairing(ees, ees, 0.4, 0.4))
+    complete = StateCompletion(fmap, motion.fps, derive=True, contacts=True)
+    rng = np.random.default_rng(0)
+    noisy = x + 0.05 * stats.std * rng.normal(size=x.shape)
+    lower, upper = m.coordinate_limits
+    b = m.base_coordinate_count
+    js = lay.slice("joint_q")
+    noisy[:, js] = np.clip(noisy[:, js], lower[b:] + 1e-6, upper[b:] - 1e-6)  # decoding clamps nothing
+    logit = rng.normal(size=(len(x), 4)) * 3
+    raw = torch.as_tensor(stats.normalize(noisy), dtype=torch.float64)
+    raw[:, lay.slice("foot_contacts")] = torch.as_tensor(logit)
+    raw.requires_grad_(True)
+    states = [torch.as_tensor(stats.normalize(x[:1]), dtype=torch.float64)[0]]
+    for t in range(1, len(x)):
+        states.append(complete(states[-1], raw[t])[0])
+    out = torch.stack(states)
+    done = stats.denormalize(out.detach().numpy())
+    np.testing.assert_array_equal(stance_flags_of(done[1:], lay), logit[1:] > 0)
+    back, report = decode_character_states(done, m, motion.fps, layout=lay)
+    assert not report.coordinates
+    again = character_state_from_motion(back, contacts=stance_flags_of(done, lay).astype(float))
+    for name in ("ee_positions", "ee_velocities", "root_linear_velocity", "root_angular_velocity",
+                 "previous_root_orientation", "root_orientation", "joint_q", "foot_contacts"):
+        s = lay.slice(name)
+        scale = 1.0 / motion.fps if "velocit" in name else 1.0  # velocities compared as per-frame steps
+        np.testing.assert_allclose(done[1:, s] * scale, again[1:, s] * scale, atol=1e-5, err_msg=name)
+    # straight-through flags: d flag / d logit = σ'(logit), through the normalisation
+    fs = lay.slice("foot_contacts")
+    out[5, fs].sum().backward()
+    p = torch.sigmoid(torch.as_tensor(logit[5]))
+    want = (p * (1 - p)) / torch.as_tensor(stats.std[fs])
+    torch.testing.assert_close(raw.grad[5, fs], want, rtol=1e-9, atol=0)
+
+
+def test_stance_flags_and_derived_slots_train_retarget_and_lock(tmp_path, human_dir, dog, cache):
+    """With both options: the logged prior loss is exactly its weighted terms (the stance term among them);
+    retargeted clips carry 0/1 stance flags per foot, their states' ee block is FK of the decoded motion,
+    and ``lock`` holds those flags."""
+    from morphkit.motion import character_state_from_motion
+    from morphkit.retarget import WithContacts, load
+
+    cfg = replace_config(preset("smoke"), [*TINY, "prior.contact_flags=true", "prior.derive_slots=true",
+                                           "prior.contact_weight=2"])
+    train_ace(tmp_path / "run", read_morphology(dog), cfg, human_data=human_dir, progress=False, log=lambda s: None)
+    prior = tmp_path / "run" / "prior" / "metrics.csv"
+    loss, recon, kl, foot, stance = (_column(prior, k) for k in ("prior_loss", "prior_recon", "prior_kl",
+                                                                   "prior_foot", "prior_stance"))
+    np.testing.assert_allclose(loss, recon + cfg.prior.kl_beta * kl + cfg.prior.foot_weight * foot + 2 * stance,
+                               rtol=1e-5)
+    assert (stance > 0).all()
+    model = load(tmp_path / "run")
+    from morphkit.motion import load_motions
+
+    raw = model.retarget(load_motions(human_dir)[:1])[0]
+    assert raw.stance is not None and raw.stance.shape == (raw.motion.frame_count, 4)
+    lay = model.layout
+    ee = lay.slice("ee_positions")
+    again = character_state_from_motion(raw.motion)
+    np.testing.assert_allclose(raw.states[1:, ee], again[1:, ee], atol=1e-4)  # flags come last: same slice
+    locked = WithContacts(model, "lock").export(raw)
+    assert locked.motion.frame_count == raw.motion.frame_count and np.isfinite(locked.motion.q).all()

@@ -95,3 +95,27 @@ def test_lock_is_a_contact_mode_and_leaves_creatures_without_legs_alone():
     m = read_morphology("spot")
     raw = _sliding_stance(m, frames=6)
     np.testing.assert_array_equal(apply_contacts(raw, "lock").q, lock_feet(raw).q)
+
+
+def test_lock_holds_the_retargeters_own_stance_flags_when_given():
+    """The dragged feet are held when the flags say stance; flagged in swing they follow their own path
+    (1 cm per frame), although height and speed alone would have held them; flags in foot_names order."""
+    from morphkit.motion import foot_names
+
+    m = read_morphology("spot")
+    cols, _ = _legs(m)
+    raw = _sliding_stance(m)
+    F = len(foot_names(m))
+    step = {}
+    for label, flags in (("stance", np.ones((raw.frame_count, F))), ("swing", np.zeros((raw.frame_count, F))),
+                         ("detected", None)):
+        feet = apply_contacts(raw, "lock", stance=flags).end_effector_positions()[:, cols]
+        step[label] = np.linalg.norm(np.diff(feet[..., :2], axis=0), axis=-1)
+    assert step["stance"].max() <= 2e-3 and step["detected"].max() <= 2e-3
+    np.testing.assert_allclose(step["swing"][3:], 0.01, atol=1e-3)  # after the blend, each foot moves with the body
+    one = np.ones((raw.frame_count, F))
+    one[:, 0] = 0.0  # only the first foot in swing: that one slides, the others stay
+    feet = apply_contacts(raw, "lock", stance=one).end_effector_positions()[:, cols]
+    moved = np.linalg.norm(feet[-1, :, :2] - feet[0, :, :2], axis=-1)
+    names = [m.end_effectors[c].name for c in cols]
+    assert moved[names.index(foot_names(m)[0])] > 0.08 and np.delete(moved, names.index(foot_names(m)[0])).max() < 0.01

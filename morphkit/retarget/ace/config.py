@@ -61,6 +61,31 @@ class PriorConfig:
     planted_step: float = 0.002
     """A data foot is planted over a transition when its ground step is below this [m] and it is below
     the contact height (2 cm, the contact kernels' default)."""
+    contact_flags: bool = False
+    """Beyond the paper, off (False: its states): both states end with per-foot stance flags
+    (``foot_contacts``, :mod:`morphkit.motion.states`) — the synthesis' plan on the character's data, height
+    and speed (:func:`~morphkit.motion.foot_contact_flags`) on the human's. π predicts them (its output in
+    those slots is a logit, trained by ``contact_weight`` × a logistic loss; the state carries the 0/1 flag,
+    with a straight-through gradient), G reads the human's, D sees the character's, and the ``lock`` export
+    holds π's flags. Measured with the main job (``quick``, Spot, the embedded human), off / on, seeds 0 and
+    1: hand-height follow 0.35 / 0.05 and 0.00 / −0.03; raw UFR 27.9 / 45.9 % and 58.3 / 0.5 % (but 99 % of
+    its frames floating); ACE+lock UFR 2.4 / 2.1 % and 3.9 / 6.1 %; matched FID 1.90 / 1.84 and 2.55 / 3.08.
+    π learns the flags (logistic loss 0.02 per foot); D then tells G's transitions apart on 97–100 % of them
+    and the arm follows less, so it stays off."""
+    contact_weight: float = 1.0
+    """Weight of the logistic loss on π's stance flags (ours)."""
+    derive_slots: bool = False
+    """Beyond the paper, off (False: π predicts every slot): π's output is completed inside the forward pass —
+    end-effector positions by morphkit's FK of its tilt and joints, the previous orientation's tilt from the
+    previous state, end-effector and root velocities from its root step, height and orientations and the
+    previous state (:func:`~morphkit.motion.derive_character_state`) — so π's loss, the feature loss, D and
+    the export read the numbers the exported motion has; π's reconstruction loss then weighs FK's
+    end-effector positions and not the velocities (a derived velocity's error is 30× its positions'; weighed,
+    it kept π from learning: reconstruction 1.35 against 0.37). Measured as ``contact_flags``, off / on,
+    seeds 0 and 1: matched FID 1.90 / 1.59 and 2.55 / 2.52, L_fea 1.01 / 0.88 and 1.27 / 1.47, ACE+lock UFR
+    2.4 / 1.9 % and 3.9 / 1.7 %, raw UFR 27.9 / 80.8 % and 58.3 / 14.9 %, hand-height follow 0.35 / −0.18 and
+    0.00 / −0.23; both options together: hand 0.35 / −0.04 and 0.00 / −0.24, ACE+replan UFR 0 / 19.6 % and
+    0 / 0. The main job takes 1.5× as long (FK at every rollout step). Off until the arm follows."""
     rollout: int = 8
     """Steps of a scheduled-sampling rollout (MotionVAE: 8)."""
     teacher_fraction: float = 0.15

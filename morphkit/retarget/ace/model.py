@@ -6,6 +6,8 @@
 * :class:`FeatureMap` — Ψ (§6.3) of human states and of generated character states, with the
   character's end-effectors taken from **morphkit's FK of the generated joint coordinates** (through
   :mod:`morphkit.torch`), so what the feature loss scores is what is exported.
+* :class:`StateCompletion` — π's output made a whole state: stance flags from its logits, derived
+  slots from FK and the previous state (``PriorConfig.contact_flags``, ``PriorConfig.derive_slots``).
 
 All networks read and write *normalised* states (z-scores with the run's statistics).
 """
@@ -19,13 +21,21 @@ from torch import nn
 
 import morphkit.torch as mt
 from morphkit.graph import BaseType, Morphology
-from morphkit.motion import NormStats, Pairing, StateLayout, compiled_model, features, world_end_effectors
+from morphkit.motion import (
+    NormStats,
+    Pairing,
+    StateLayout,
+    compiled_model,
+    derive_character_state,
+    features,
+    world_end_effectors,
+)
 from morphkit.retarget.ace.config import PriorConfig, RetargetConfig
 from morphkit.retarget.ace.networks import MotionEncoder, MotionPrior, MotionVAE
 from morphkit.retarget.networks import MLP
 
-__all__ = ["FOOT_HEIGHT_SCALE", "FOOT_STEP_SCALE", "Discriminator", "FeatureMap", "Generator", "build_vae",
-           "foot_view"]
+__all__ = ["FOOT_HEIGHT_SCALE", "FOOT_STEP_SCALE", "Discriminator", "FeatureMap", "Generator", "StateCompletion",
+           "build_vae", "foot_view"]
 
 
 def build_vae(state_dim: int, cfg: PriorConfig) -> MotionVAE:
@@ -178,3 +188,65 @@ class FeatureMap:
         """Ψ of denormalised states whose ee block is already FK's (:meth:`creature_with_fk`)."""
         return features(fixed, self.creature_layout, length=self.creature_length, ee_names=self.creature_ees,
                         centre=self.pairing.creature_centre)
+
+
+VELOCITY_SLOTS = ("root_linear_velocity", "root_angular_velocity", "ee_velocities")
+"""The character state's velocity fields (derived from positions when ``PriorConfig.derive_slots``)."""
+
+
+@dataclass(eq=False)
+class StateCompletion:
+    """π's raw output made a whole state (normalised states in and out, any leading shape).
+
+    * ``contacts``: π's output in the ``foot_contacts`` slots is a logit per foot; the state carries the
+      flag ``1[σ(logit) > 0.5]`` with the straight-through gradient of σ(logit) (the data's flags are
+      0/1, so D cannot tell π's by their softness).
+    * ``derive``: the root orientations are made unit, the end-effectors are FK of the tilt and joints
+      (:meth:`FeatureMap.fk_end_effectors`), and the velocities follow from them and the previous state
+      (:func:`~morphkit.motion.derive_character_state`).
+
+    With neither, the output is π's as it is.
+    """
+
+    features: FeatureMap
+    fps: float
+    derive: bool
+    contacts: bool
+
+    def __post_init__(self) -> None:
+        lay = self.features.creature_layout
+        self._flags = lay.slice("foot_contacts") if self.contacts else None
+        mask = torch.ones(lay.dim)
+        skip = (["foot_contacts"] if self.contacts else []) + (list(VELOCITY_SLOTS) if self.derive else [])
+        for name in skip:
+            mask[lay.slice(name)] = 0.0
+        self.regression_mask = mask
+        """[D] 1 on the slots π's reconstruction loss weighs: not the stance flags (a logistic loss), nor, when
+        derived, the velocities (differences of predicted positions times the frame rate: their error is
+        the positions' error ×30, and it would drown the rest; the positions carry it)."""
+
+    def __call__(self, prev: torch.Tensor, raw: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor | None]:
+        """``prev`` (x_{t-1}) and π's output ``raw`` [..., D] → (completed x_t [..., D], stance logits [..., F]
+        or ``None``)."""
+        if not (self.derive or self._flags is not None):
+            return raw, None
+        stats, lay = self.features.creature_stats, self.features.creature_layout
+        x = stats.denormalize(raw)
+        logits = None
+        if self._flags is not None:
+            logits = raw[..., self._flags]
+            p = torch.sigmoid(logits)
+            flag = (p > 0.5).to(p.dtype) + p - p.detach()
+            parts = [x[..., : self._flags.start], flag, x[..., self._flags.stop :]]
+            x = torch.cat(parts, dim=-1)
+        if self.derive:
+            ro = lay.slice("root_orientation")
+            unit = torch.nn.functional.normalize(x[..., ro], dim=-1)
+            x = torch.cat([x[..., : ro.start], unit, x[..., ro.stop :]], dim=-1)
+            x = derive_character_state(stats.denormalize(prev), x, self.features.fk_end_effectors(x), self.fps, lay)
+        return stats.normalize(x), logits
+
+    def flags_of(self, x_norm: torch.Tensor) -> torch.Tensor:
+        """The 0/1 stance flags [..., F] of normalised states."""
+        assert self._flags is not None
+        return self.features.creature_stats.denormalize(x_norm)[..., self._flags].round()

@@ -37,12 +37,13 @@ from morphkit.motion import (
     decode_character_states,
     human_state_from_motion,
     human_state_layout,
+    stance_flags_of,
     to_canonical,
 )
 from morphkit.retarget.ace.checkpoint import AceArtifact
 from morphkit.retarget.ace.config import AceVariant, PriorConfig, RetargetConfig
 from morphkit.retarget.ace.model import FeatureMap, Generator, build_vae
-from morphkit.retarget.ace.train import PRIOR_TRAINER, rollout
+from morphkit.retarget.ace.train import PRIOR_TRAINER, completion, rollout
 from morphkit.retarget.checkpoint import load_checkpoint
 from morphkit.retarget.config import read_config
 from morphkit.retarget.retargeter import RetargetedClip, check_finite
@@ -63,6 +64,14 @@ def _stage_trainer(stage: Path) -> str:
     if not path.is_file():
         raise RunError(f"not a trained stage: {RUN_FILE} is missing", location=SourceLocation(str(stage)))
     return str((yaml.safe_load(path.read_text()) or {}).get("trainer", ""))
+
+
+def _prior_config(path: Path) -> PriorConfig:
+    """The prior stage's config; one written before stance flags and derived slots existed has neither."""
+    pc = read_config(PriorConfig, path)
+    if "derive_slots" not in (yaml.safe_load(path.read_text(encoding="utf-8")) or {}):
+        pc = dataclasses.replace(pc, contact_flags=False, derive_slots=False)
+    return pc
 
 
 def _stage_dir(run: Path, stage: str | os.PathLike[str] | None) -> Path:
@@ -109,7 +118,6 @@ class AceRetargeter:
         self.human_data = self.artifact.human_data
         self.device = torch.device(device)
         self.mapping: dict[str, str] = self.pairing.mapping
-        self.layout = character_state_layout(self.creature)
         prior_dir = Path(prior_dir) if prior_dir is not None else self.artifact.prior_stage(self.dir)
         retarget_dir = _stage_dir(self.dir, retarget_dir)
         if _stage_trainer(prior_dir) != PRIOR_TRAINER:
@@ -124,7 +132,9 @@ class AceRetargeter:
         """The stage's trainer name (``ace``, ``ace-wofea``, ...)."""
         self.label = self.variant.label
         self.stage = retarget_dir
-        pc = read_config(PriorConfig, _need(prior_dir / CONFIG_FILE))
+        pc = _prior_config(_need(prior_dir / CONFIG_FILE))
+        self.prior_config = pc
+        self.layout = character_state_layout(self.creature, contacts=pc.contact_flags)
         rc = read_config(RetargetConfig, _need(retarget_dir / CONFIG_FILE))
         vae = build_vae(self.layout.dim, pc)
         vae.load_state_dict(load_checkpoint(_need(prior_dir / CHECKPOINT_FILE))["states"]["model"])
@@ -154,13 +164,14 @@ class AceRetargeter:
 
     def feature_map(self, human_layout_of: Motion) -> FeatureMap:
         """The run's Ψ pairing, for clips of ``human_layout_of``'s skeleton."""
-        return FeatureMap(self.creature, self.layout, human_state_layout(human_layout_of.morphology), self._c_stats,
-                          self._h_stats, self.pairing)
+        return FeatureMap(self.creature, self.layout,
+                          human_state_layout(human_layout_of.morphology, contacts=self.prior_config.contact_flags),
+                          self._c_stats, self._h_stats, self.pairing)
 
     def _human_states(self, clip: Motion) -> np.ndarray:
         if abs(clip.fps - self.fps) > 1e-6:
             clip = clip.resample(self.fps)
-        x = human_state_from_motion(clip)
+        x = human_state_from_motion(clip, contacts=self.prior_config.contact_flags)
         if x.shape[1] != self._h_dim:
             raise MotionFormatError(
                 f"clip {clip.name!r} has human states of {x.shape[1]} dims; this run was trained on "
@@ -198,14 +209,15 @@ class AceRetargeter:
         nearest = np.argmin(((self.artifact.start_psi[None] - psi_h[:, None]) ** 2).sum(-1), axis=1)
         x0 = torch.as_tensor(self._c_stats.normalize(self.artifact.start_states[nearest]), dtype=torch.float32,
                              device=self.device)
-        _, gen = rollout(self.generator, self.prior, x_h, x0)
+        _, gen = rollout(self.generator, self.prior, x_h, x0, complete=completion(fmap, self.fps, self.prior_config))
         gen_np = self._c_stats.denormalize(gen.double().cpu().numpy())
         result = []
         for clip, n, x in zip(clips, lengths, gen_np, strict=True):
             root = clip.root_pose()[0]
             start = (root[0], root[1], float(yaw_from_quat(root[3:])))
             motion, clamp = decode_character_states(x[:n], self.creature, self.fps, initial_pose=start,
-                                                    name=f"{clip.name}_{self.creature.name}")
+                                                    name=f"{clip.name}_{self.creature.name}", layout=self.layout)
             check_finite(motion, run=self.dir, clip=clip.name)
-            result.append(RetargetedClip(clip, motion, x[:n], clamp))
+            stance = stance_flags_of(x[:n], self.layout) if self.prior_config.contact_flags else None
+            result.append(RetargetedClip(clip, motion, x[:n], clamp, stance))
         return result

@@ -39,14 +39,22 @@ from morphkit.motion import (
 )
 from morphkit.retarget.ace.checkpoint import META_FILE, PRIOR_STAGE, AceArtifact
 from morphkit.retarget.ace.config import AceConfig, AceVariant, PriorConfig, RetargetConfig
-from morphkit.retarget.ace.model import Discriminator, FeatureMap, Generator, build_vae, foot_view
+from morphkit.retarget.ace.model import (
+    Discriminator,
+    FeatureMap,
+    Generator,
+    StateCompletion,
+    build_vae,
+    foot_view,
+)
 from morphkit.retarget.ace.networks import MotionVAE, kl_divergence
 from morphkit.retarget.distributed import average_gradients, broadcast_parameters, init_distributed
 from morphkit.retarget.run import Run
-from morphkit.retarget.training_data import StateWindows, character_motions, human_motions
+from morphkit.retarget.training_data import StateWindows, character_data, human_motions
 
 __all__ = [
     "AceData",
+    "completion",
     "disc_logits",
     "foot_indices",
     "frozen_prior",
@@ -106,15 +114,17 @@ def prepare(
     if existing is not None and existing != creature.name:
         raise RunError(f"run folder is of creature {existing!r}, not {creature.name!r}",
                        location=SourceLocation(str(run / META_FILE)))
-    character = character_motions(creature, cfg.data, cache_dir=cache_dir, progress=progress, log=log)
+    character, stance = character_data(creature, cfg.data, cache_dir=cache_dir, progress=progress, log=log)
     human = human_motions(human_data, cfg.data)
     human_m = human[0].morphology
     if not human_m.end_effectors:
         raise ConfigError(f"human skeleton {human_m.name!r} has no end-effectors")
     log(f"human data: {len(human)} clips, {sum(m.frame_count for m in human)} frames"
         f" ({'embedded default' if human_data is None else human_data})")
-    c_states = [character_state_from_motion(m) for m in character]
-    h_states = [human_state_from_motion(m) for m in human]
+    flags = cfg.prior.contact_flags
+    c_states = [character_state_from_motion(m, contacts=c if flags else None) for m, c in zip(character, stance,
+                                                                                            strict=True)]
+    h_states = [human_state_from_motion(m, contacts=flags) for m in human]
     c_len, h_len = body_length(creature, character), body_length(human_m, human)
     c_dist = ee_distributions(character, length=c_len, max_frames_per_clip=300)
     h_dist = ee_distributions(human, length=h_len, max_frames_per_clip=300)
@@ -125,8 +135,8 @@ def prepare(
     pairing = Pairing.from_mapping(mapping.mapping, c_len, h_len)
     if cfg.centre_features:
         pairing = pairing.with_centres(character, human)
-    fmap = FeatureMap(creature, character_state_layout(creature), human_state_layout(human_m), c_stats, h_stats,
-                      pairing)
+    fmap = FeatureMap(creature, character_state_layout(creature, contacts=flags),
+                      human_state_layout(human_m, contacts=flags), c_stats, h_stats, pairing)
     if _main_process():
         starts, start_psi = _start_states(c_states, fmap, cfg.seed)
         AceArtifact(creature, c_stats, h_stats, pairing, mapping.to_json(), starts, start_psi, cfg.data,
@@ -146,6 +156,11 @@ def _start_states(states: Sequence[np.ndarray], fmap: FeatureMap, seed: int) -> 
     x = flat[np.sort(pick)]
     return x, features(x, fmap.creature_layout, length=fmap.creature_length, ee_names=fmap.creature_ees,
                        centre=fmap.pairing.creature_centre)
+
+
+def completion(fmap: FeatureMap, fps: float, cfg: PriorConfig) -> StateCompletion:
+    """The :class:`~.model.StateCompletion` of π's outputs that ``cfg`` asks for."""
+    return StateCompletion(fmap, float(fps), cfg.derive_slots, cfg.contact_flags)
 
 
 # ---- stage 1: the motion prior ----------------------------------------------------------------
@@ -179,6 +194,7 @@ def train_prior(
     windows = StateWindows.build(data.character_states, pc.rollout + 1, data.features.creature_stats)
     feet = foot_indices(data.creature)
     use_feet = pc.foot_weight > 0 and bool(feet)
+    complete = completion(data.features, cfg.data.fps, pc)
     with Run(prior_dir, trainer=PRIOR_TRAINER, config=pc, creature=data.creature.name, seed=cfg.seed, device=device,
              progress=progress) as run:
         vae = build_vae(windows.states.shape[1], pc).to(run.device)
@@ -194,29 +210,34 @@ def train_prior(
             for _ in run.steps(pc.steps_per_epoch):
                 idx = torch.randint(len(windows), (pc.batch_size,), generator=run.generator)
                 w = windows.windows(idx, run.device)
-                x_prev, recon, kl = w[:, 0], 0.0, 0.0
+                x_prev, recon, kl, stance = w[:, 0], 0.0, 0.0, w.new_zeros(())
+                mask = complete.regression_mask.to(w)
                 prevs, preds = [], []
                 for t in range(1, w.shape[1]):
                     out = model(x_prev, w[:, t], generator=None)
-                    recon = recon + F.mse_loss(out.x, w[:, t])
+                    x_hat, logits = complete(x_prev, out.x)
+                    recon = recon + ((x_hat - w[:, t]).square() * mask).sum(-1).mean() / mask.sum()
+                    if logits is not None:
+                        stance = stance + F.binary_cross_entropy_with_logits(logits, complete.flags_of(w[:, t]))
                     kl = kl + kl_divergence(out.mu, out.logvar)
                     prevs.append(x_prev)
-                    preds.append(out.x)
+                    preds.append(x_hat)
                     own = torch.rand(w.shape[0], 1, generator=run.generator).to(run.device) < p_own
-                    x_prev = torch.where(own, out.x.detach(), w[:, t])
+                    x_prev = torch.where(own, x_hat.detach(), w[:, t])
                 steps = w.shape[1] - 1
                 foot = w.new_zeros(())
                 if use_feet:
                     foot = steps * prior_foot_term(data.features, feet, torch.stack(prevs, 1), torch.stack(preds, 1),
                                                    w[:, :-1], w[:, 1:], planted_boost=pc.foot_planted_boost,
-                                                   planted_step=pc.planted_step)
-                loss = (recon + pc.kl_beta * kl + pc.foot_weight * foot) / steps
+                                                   planted_step=pc.planted_step, fk=not complete.derive)
+                loss = (recon + pc.kl_beta * kl + pc.foot_weight * foot + pc.contact_weight * stance) / steps
                 opt.zero_grad(set_to_none=True)
                 loss.backward()
                 opt.step()
                 sched.step()
                 run.log(prior_loss=loss.detach(), prior_recon=recon.detach() / steps, prior_kl=kl.detach() / steps,
-                        prior_foot=foot.detach() / steps, p_own=p_own, lr=sched.get_last_lr()[0])
+                        prior_foot=foot.detach() / steps, prior_stance=stance.detach() / steps,
+                        p_own=p_own, lr=sched.get_last_lr()[0])
     vae.eval()
     return vae
 
@@ -253,6 +274,7 @@ def rollout(
     start: torch.Tensor,
     *,
     tbptt: int = 0,
+    complete: StateCompletion | None = None,
 ) -> tuple[torch.Tensor, torch.Tensor]:
     """Autoregressive retargeting: ẑ_t = G(x^h_t, x^r_{t-1}), x̂^r_t = π(ẑ_t, x^r_{t-1}) (Eq. 4).
 
@@ -260,6 +282,7 @@ def rollout(
         x_h: Normalised human states [B, T, Sh].
         start: Normalised character start states x^r_0 [B, Sr].
         tbptt: Detach the carried state every this many frames (0: never).
+        complete: Completes each of π's outputs (flags, derived slots) before it is output and carried.
 
     Returns:
         ``(previous, generated)``, each [B, T, Sr]: the states each step was conditioned on, and its output.
@@ -269,6 +292,8 @@ def rollout(
         if tbptt and t and t % tbptt == 0:
             x_prev = x_prev.detach()
         x = prior(generator(x_h[:, t], x_prev), x_prev)
+        if complete is not None:
+            x = complete(x_prev, x)[0]
         prevs.append(x_prev)
         outs.append(x)
         x_prev = x
@@ -290,7 +315,7 @@ def foot_indices(creature: Morphology) -> list[int]:
 
 def prior_foot_term(fmap: FeatureMap, feet: Sequence[int], prev: torch.Tensor, pred: torch.Tensor,
                     prev_data: torch.Tensor, data: torch.Tensor, *, planted_boost: float = 0.0,
-                    planted_step: float = 0.002, contact_height: float = 0.02) -> torch.Tensor:
+                    planted_step: float = 0.002, contact_height: float = 0.02, fk: bool = True) -> torch.Tensor:
     """Beyond the paper: the prior's foot term (``PriorConfig.foot_weight``), in squared body lengths.
 
     For each transition ``prev`` → ``pred`` (normalised states [..., Sr]; ``pred`` = π's output) the
@@ -299,10 +324,12 @@ def prior_foot_term(fmap: FeatureMap, feet: Sequence[int], prev: torch.Tensor, p
     with the data's step ``prev_data`` → ``data``, and the predicted feet's height with the data's.
     A planted foot's data step is zero, so this is what keeps π's planted feet planted; feet the
     data has planted (step below ``planted_step``, below ``contact_height``) weigh ``1 + planted_boost``.
+    ``fk=False`` reads the predicted states' own ee slots (already FK's: :class:`~.model.StateCompletion`).
     """
     lay, stats = fmap.creature_layout, fmap.creature_stats
     x = stats.denormalize(torch.stack([prev, pred], dim=-2))
-    p_hat = world_end_effectors(x, lay, fmap.fk_end_effectors(x))[..., feet, :]
+    ee_hat = fmap.fk_end_effectors(x) if fk else x[..., lay.slice("ee_positions")].unflatten(-1, (-1, 3))
+    p_hat = world_end_effectors(x, lay, ee_hat)[..., feet, :]
     d = stats.denormalize(torch.stack([prev_data, data], dim=-2))
     p = world_end_effectors(d, lay, d[..., lay.slice("ee_positions")].unflatten(-1, (-1, 3)))[..., feet, :]
     step = p[..., 1, :, :] - p[..., 0, :, :]
@@ -359,6 +386,7 @@ def train_retargeter(
              progress=progress) as run:
         dev = run.device
         prior = frozen_prior(vae.to(dev))
+        complete = completion(fmap, cfg.data.fps, cfg.prior)
         gen = Generator(sh, sr, vae.prior.latent_features, rc).to(dev)
         gen.set_latent_range(*latent_range(vae, reals))
         feet = foot_indices(data.creature) if rc.discriminator_feet else []
@@ -376,8 +404,11 @@ def train_retargeter(
                 b = rc.batch_size
                 x_h = humans.windows(torch.randint(len(humans), (b,), generator=run.generator), dev)
                 x0 = starts.windows(torch.randint(len(starts), (b,), generator=run.generator), dev)[:, 0]
-                prev, fake = rollout(g_model, prior, x_h, x0, tbptt=rc.tbptt)
-                fixed, gap = fmap.creature_with_fk(fake)  # what is exported: ee from FK of the joints
+                prev, fake = rollout(g_model, prior, x_h, x0, tbptt=rc.tbptt, complete=complete)
+                if complete.derive:  # ee slots already FK's
+                    fixed, gap = stats.denormalize(fake), fake.new_zeros(())
+                else:
+                    fixed, gap = fmap.creature_with_fk(fake)  # what is exported: ee from FK of the joints
                 if rc.discriminate_exported:
                     shown = stats.normalize(fixed)
                     prev = torch.cat([x0[:, None], shown[:, :-1]], dim=1)
