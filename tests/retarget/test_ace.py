@@ -524,3 +524,25 @@ def test_stance_flags_and_derived_slots_train_retarget_and_lock(tmp_path, human_
     np.testing.assert_allclose(raw.states[1:, ee], again[1:, ee], atol=1e-4)  # flags come last: same slice
     locked = WithContacts(model, "lock").export(raw)
     assert locked.motion.frame_count == raw.motion.frame_count and np.isfinite(locked.motion.q).all()
+
+
+def test_a_prior_from_before_stance_flags_reads_with_both_options_off(tmp_path):
+    """A prior stage's config.yaml written before the two options existed (no such keys) reads as trained:
+    flag-less states, π's own slots; one that names them keeps them."""
+    from dataclasses import asdict
+
+    import yaml
+
+    from morphkit.retarget.ace.config import PriorConfig
+    from morphkit.retarget.ace.retarget import read_prior_config
+
+    old = {k: v for k, v in asdict(PriorConfig()).items() if k not in ("contact_flags", "contact_weight",
+                                                                         "derive_slots")}
+    path = tmp_path / "config.yaml"
+    path.write_text(yaml.safe_dump({k: list(v) if isinstance(v, tuple) else v for k, v in old.items()}))
+    pc = read_prior_config(path)
+    assert not pc.contact_flags and not pc.derive_slots
+    path.write_text(yaml.safe_dump({**{k: list(v) if isinstance(v, tuple) else v for k, v in old.items()},
+                                    "contact_flags": True, "derive_slots": True}))
+    pc = read_prior_config(path)
+    assert pc.contact_flags and pc.derive_slots

@@ -50,7 +50,7 @@ from morphkit.retarget.retargeter import RetargetedClip, check_finite
 from morphkit.retarget.run import CHECKPOINT_FILE, CONFIG_FILE, RUN_FILE
 from morphkit.rotations import yaw_from_quat
 
-__all__ = ["AceRetargeter", "RetargetedClip"]  # RetargetedClip: re-exported from the protocol
+__all__ = ["AceRetargeter", "RetargetedClip", "read_prior_config"]  # RetargetedClip: from the protocol
 
 
 def _need(path: Path) -> Path:
@@ -66,10 +66,10 @@ def _stage_trainer(stage: Path) -> str:
     return str((yaml.safe_load(path.read_text()) or {}).get("trainer", ""))
 
 
-def _prior_config(path: Path) -> PriorConfig:
-    """The prior stage's config; one written before stance flags and derived slots existed has neither."""
+def read_prior_config(path: str | os.PathLike[str]) -> PriorConfig:
+    """A prior stage's ``config.yaml``; one written before stance flags and derived slots existed has neither."""
     pc = read_config(PriorConfig, path)
-    if "derive_slots" not in (yaml.safe_load(path.read_text(encoding="utf-8")) or {}):
+    if "derive_slots" not in (yaml.safe_load(Path(path).read_text(encoding="utf-8")) or {}):
         pc = dataclasses.replace(pc, contact_flags=False, derive_slots=False)
     return pc
 
@@ -132,7 +132,7 @@ class AceRetargeter:
         """The stage's trainer name (``ace``, ``ace-wofea``, ...)."""
         self.label = self.variant.label
         self.stage = retarget_dir
-        pc = _prior_config(_need(prior_dir / CONFIG_FILE))
+        pc = read_prior_config(_need(prior_dir / CONFIG_FILE))
         self.prior_config = pc
         self.layout = character_state_layout(self.creature, contacts=pc.contact_flags)
         rc = read_config(RetargetConfig, _need(retarget_dir / CONFIG_FILE))
