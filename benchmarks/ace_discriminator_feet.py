@@ -44,14 +44,18 @@ def measure(run: Path, transitions: int = 4000, seed: int = 0) -> dict[float, tu
     from morphkit.motion import character_state_from_motion, character_state_layout, world_end_effectors
     from morphkit.retarget.ace.checkpoint import AceArtifact
     from morphkit.retarget.ace.model import foot_view
+    from morphkit.retarget.ace.retarget import read_prior_config
     from morphkit.retarget.ace.train import foot_indices
-    from morphkit.retarget.training_data import character_motions
+    from morphkit.retarget.training_data import character_data
 
     art = AceArtifact.load(run)
-    m, lay, stats = art.creature, character_state_layout(art.creature), art.character_stats
+    flags = read_prior_config(art.prior_stage(run) / "config.yaml").contact_flags
+    m, lay, stats = art.creature, character_state_layout(art.creature, contacts=flags), art.character_stats
     feet = foot_indices(m)
     disc, foot_count = _discriminator(run / "retarget", lay.dim)
-    states = [character_state_from_motion(c) for c in character_motions(m, art.data, progress=False)]
+    motions, stance = character_data(m, art.data, progress=False)
+    states = [character_state_from_motion(c, contacts=f if flags else None) for c, f in zip(motions, stance,
+                                                                                            strict=True)]
     pairs = np.concatenate([np.stack([s[:-1], s[1:]], axis=1) for s in states])  # [N, 2, Sr]
     ee = pairs[..., lay.slice("ee_positions")].reshape(*pairs.shape[:2], -1, 3)
     p = world_end_effectors(pairs, lay, ee)[..., feet, :]
@@ -97,9 +101,12 @@ def main(argv: list[str] | None = None) -> int:
 def _sees_feet(run: Path) -> str:
     from morphkit.motion import character_state_layout
     from morphkit.retarget.ace.checkpoint import AceArtifact
+    from morphkit.retarget.ace.retarget import read_prior_config
 
     art = AceArtifact.load(run)
-    return "yes" if _discriminator(run / "retarget", character_state_layout(art.creature).dim)[1] else "no"
+    flags = read_prior_config(art.prior_stage(run) / "config.yaml").contact_flags
+    dim = character_state_layout(art.creature, contacts=flags).dim
+    return "yes" if _discriminator(run / "retarget", dim)[1] else "no"
 
 
 if __name__ == "__main__":

@@ -546,3 +546,22 @@ def test_a_prior_from_before_stance_flags_reads_with_both_options_off(tmp_path):
                                     "contact_flags": True, "derive_slots": True}))
     pc = read_prior_config(path)
     assert pc.contact_flags and pc.derive_slots
+
+
+def test_prior_reach_benchmark_moves_the_hand_towards_its_target(tmp_path, human_dir, cache):
+    """benchmarks/ace_prior_reach.py on a smoke run: optimising the latents brings the gripper's height
+    closer to the sine it is asked to follow than the unoptimised latents do (a smoke prior barely answers
+    its latent: a few per cent closer), and the table prints a row per run."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("ace_prior_reach", Path(__file__).parents[2] / "benchmarks" /
+                                                  "ace_prior_reach.py")
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    cfg = replace_config(preset("smoke"), TINY)
+    train_ace(tmp_path / "run", read_morphology("spot"), cfg, human_data=human_dir, progress=False,
+              log=lambda s: None)
+    before = bench.measure(tmp_path / "run", iterations=0, seconds=0.5)
+    after = bench.measure(tmp_path / "run", iterations=15, seconds=0.5)
+    assert after["rms"] < before["rms"]
+    assert bench.main([str(tmp_path / "run"), "--iterations", "1"]) == 0
