@@ -67,11 +67,11 @@ class PriorConfig:
     and speed (:func:`~morphkit.motion.foot_contact_flags`) on the human's. π predicts them (its output in
     those slots is a logit, trained by ``contact_weight`` × a logistic loss; the state carries the 0/1 flag,
     with a straight-through gradient), G reads the human's, D sees the character's, and the ``lock`` export
-    holds π's flags. Measured with the main job (``quick``, Spot, the embedded human), off / on, seeds 0 and
-    1: hand-height follow 0.35 / 0.05 and 0.00 / −0.03; raw UFR 27.9 / 45.9 % and 58.3 / 0.5 % (but 99 % of
-    its frames floating); ACE+lock UFR 2.4 / 2.1 % and 3.9 / 6.1 %; matched FID 1.90 / 1.84 and 2.55 / 3.08.
-    π learns the flags (logistic loss 0.02 per foot); D then tells G's transitions apart on 97–100 % of them
-    and the arm follows less, so it stays off."""
+    holds π's flags. Measured with the main job (``quick``, the shipped quadruped with an arm, the embedded
+    human), off / on, seeds 0 and 1: hand-height follow 0.35 / 0.05 and 0.00 / −0.03; raw UFR 27.9 / 45.9 %
+    and 58.3 / 0.5 % (but 99 % of its frames floating); ACE+lock UFR 2.4 / 2.1 % and 3.9 / 6.1 %; matched FID
+    1.90 / 1.84 and 2.55 / 3.08. π learns the flags (logistic loss 0.02 per foot); D then tells G's
+    transitions apart on 97–100 % of them and the arm follows less, so it stays off."""
     contact_weight: float = 1.0
     """Weight of the logistic loss on π's stance flags (ours)."""
     derive_slots: bool = False
