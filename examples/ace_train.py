@@ -40,7 +40,7 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def run(args: argparse.Namespace) -> int:
-    from morphkit.evaluation.table import dataset_row, evaluate_clips, reference_data, write_table
+    from morphkit.evaluation.table import dataset_row, evaluate_clips, pooled_skating, reference_data, write_table
     from morphkit.io import read_morphology
     from morphkit.motion import write_motion_files
     from morphkit.retarget import WithContacts, load
@@ -75,6 +75,7 @@ def run(args: argparse.Namespace) -> int:
                                    model.pairing, seed=cfg.seed))
     table = write_table(rows, out / "metrics")
     print(table)
+    print(f"the source humans' own skating ratio on these clips: {100 * pooled_skating(humans):.2f} %")
     print(f"retargeted clips: {out / 'clips'}")
     _videos(results[: 1 if args.smoke else args.videos], out / "videos", sheet=args.smoke)
     print(f"done in {time.perf_counter() - started:.0f} s: {out}")

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 
 from morphkit.errors import ConfigError, MorphkitError, MotionFormatError
 from morphkit.evaluation.methods import Method
-from morphkit.evaluation.table import TableRow, dataset_row, evaluate_clips, reference_data
+from morphkit.evaluation.table import TableRow, dataset_row, evaluate_clips, pooled_skating, reference_data
 from morphkit.graph import Morphology
 from morphkit.metrics import UnrealisticFrames, unrealistic_frame_ratio
 from morphkit.motion import Motion, Pairing, body_length, ee_distributions, map_end_effectors
@@ -85,6 +85,8 @@ class Evaluation:
     failed: dict[str, str] = field(default_factory=dict)
     """Methods that could not be scored (``"ACE (seed 0)"`` → the error, which names the clip): left out
     of the rows, listed in the report."""
+    source_skating: float | None = None
+    """The source humans' own skating ratio on the clips (:func:`~morphkit.evaluation.table.pooled_skating`)."""
 
 
 def open_method(method: Method, *, device: str = "cpu") -> Retargeter:
@@ -204,5 +206,6 @@ def evaluate_methods(
             results.append(MethodResult(shown_as, row, causes, shown[:keep]))
             log(f"[{i + 1}/{len(methods)}] {shown_as.name} (seed {method.seed}, {method.stage}): DIV {row.div:.3f}, "
                 f"FID {row.fid:.3f}, L_fea {row.feature_loss:.3f}, UFR {100 * row.ufr:.2f}%, follow {row.follow:.2f}")
-    return Evaluation(ref, list(clips), dataset, dataset_ufr.cause_ratios(), results, failed)
+    return Evaluation(ref, list(clips), dataset, dataset_ufr.cause_ratios(), results, failed,
+                      source_skating=pooled_skating(clips))
 

@@ -309,7 +309,7 @@ def write_index(out: str | os.PathLike[str], evaluation: Evaluation, rows: Seque
     """``out/index.html``: Table 1, the paper's claims (``checks``, default: checked on ``rows``), UFR by
     effect, the charts and the videos, with links relative to ``out``."""
     root = Path(out)
-    checks = check_targets(rows) if checks is None else checks
+    checks = check_targets(rows, source_skating=evaluation.source_skating) if checks is None else checks
     ref = evaluation.reference
     frames = sum(c.frame_count for c in evaluation.clips)
     pairs = ", ".join(f"{c}→{h}" for c, h in ref.pairing.mapping.items())
@@ -389,7 +389,7 @@ def write_report(
     failures = "".join(f"\n\nFAILED {name}: {why}" for name, why in evaluation.failed.items())
     markdown = write_table_files(root / "table", format_summary(rows) + "\n\n" + format_extra(rows) + failures,
                                  [r.as_dict() for r in rows])
-    checks = check_targets(rows)
+    checks = check_targets(rows, source_skating=evaluation.source_skating)
     atomic_write_text(root / "targets.md", format_targets(checks) + "\n")
     records = _run_records(evaluation)
     write_table_files(root / "runs", _format_runs(records), records)
@@ -401,7 +401,7 @@ def write_report(
         "clips": {c.name: c.frame_count for c in evaluation.clips},
         "table": [r.as_dict() for r in rows], "runs": records,
         "targets": [{"claim": c.claim, "met": c.met, "measured": c.detail} for c in checks],
-        "failed": dict(evaluation.failed),
+        "failed": dict(evaluation.failed), "source_skating": evaluation.source_skating,
     }
     atomic_write_text(root / "evaluation.json", json.dumps(summary, indent=1) + "\n")
     notes: list[str] = []

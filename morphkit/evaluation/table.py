@@ -38,7 +38,7 @@ from morphkit.motion import ROOT_FEATURE_DIM, Motion, Pairing
 from morphkit.retarget.tables import write_table_files
 
 __all__ = ["EXTRA_COLUMNS", "PERCENT_FIGURES", "ReferenceData", "TableRow", "dataset_row", "evaluate_clips",
-           "follow_figures", "follow_series", "format_table", "reference_data", "write_table"]
+           "follow_figures", "follow_series", "format_table", "pooled_skating", "reference_data", "write_table"]
 
 
 @dataclass(frozen=True)
@@ -152,15 +152,22 @@ def _contact_figures(motions: Sequence[Motion], ref: ReferenceData) -> dict[str,
         out[key] = float(UnrealisticFrames.concatenate(flags).ratio)
     feet = FootContactFigures.concatenate([foot_contact_figures(m) for m in motions])
     out["foot_sliding"], out["foot_penetration"] = feet.sliding_rate, feet.penetration_rate
-    transitions = np.maximum(frames - 1, 0)
-    skating = [skating_ratio(m) for m in motions]
-    out["skating"] = float(np.dot(skating, transitions) / max(transitions.sum(), 1))
+    out["skating"] = pooled_skating(motions)
     physdiff = [physdiff_figures(m) for m in motions]
     for key in ("penetrate_mm", "float_mm", "skate_mm"):
         out[key] = float(np.dot([getattr(f, key) for f in physdiff], w))
     floating = sum(int(floating_frames(m, ref.longest_flight).sum()) for m in motions)
     out["floating"] = floating / float(frames.sum())
     return out
+
+
+def pooled_skating(motions: Sequence[Motion]) -> float:
+    """GMD's skating ratio (:func:`~morphkit.metrics.skating_ratio`) of ``motions``' own feet, frame transitions
+    pooled over the clips; for the source humans it is the bar a retargeted creature is held to (the same
+    clips, the same test on the humans' feet)."""
+    transitions = np.array([max(m.frame_count - 1, 0) for m in motions], dtype=float)
+    skating = [skating_ratio(m) for m in motions]
+    return float(np.dot(skating, transitions) / max(transitions.sum(), 1.0))
 
 
 _HEIGHT, _FORWARD, _YAW = 0, 5, 10

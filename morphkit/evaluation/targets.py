@@ -48,8 +48,9 @@ def _mean(rows: dict[str, SummaryRow], name: str, key: str) -> float | None:
     return None if value is None else float(value[0])
 
 
-def check_targets(rows: Sequence[SummaryRow]) -> list[TargetCheck]:
-    """Check Table 1's claims on ``rows`` (:func:`~morphkit.evaluation.report.summarize`'s: the data set first)."""
+def check_targets(rows: Sequence[SummaryRow], *, source_skating: float | None = None) -> list[TargetCheck]:
+    """Check Table 1's claims on ``rows`` (:func:`~morphkit.evaluation.report.summarize`'s: the data set first)
+    and, given the source humans' own skating ratio on the clips, that the shipped ACE skates no more."""
     by_name = {r.name: r for r in rows}
     data = rows[0]
     m = {(n, k): _mean(by_name, n, k) for n in (*PAPER_METHODS, "ACE+contact") for k in ("div", "fid", "feature_loss",
@@ -96,7 +97,7 @@ def check_targets(rows: Sequence[SummaryRow]) -> list[TargetCheck]:
         "" if None in (c_ufr, c_fea, a_fea, ufr["ACE"]) else
         f"UFR {100 * c_ufr:.2f} % vs {100 * ufr['ACE']:.2f} %; L_fea {c_fea:.3f} vs {a_fea:.3f} "  # type: ignore[operator]
         f"({100 * (c_fea / a_fea - 1):+.1f} %)")  # type: ignore[operator]
-    out += _shipped_targets(by_name)
+    out += _shipped_targets(by_name, source_skating)
     return out
 
 
@@ -114,8 +115,9 @@ def _extra(row: SummaryRow | None, key: str) -> float | None:
     return None if value is None else float(value[0])
 
 
-def _shipped_targets(by_name: dict[str, SummaryRow]) -> list[TargetCheck]:
-    """Beyond the paper: ACE as shipped plants its feet and follows the human."""
+def _shipped_targets(by_name: dict[str, SummaryRow], source_skating: float | None) -> list[TargetCheck]:
+    """Beyond the paper: ACE as shipped plants its feet, skates no more than the humans it retargets and
+    follows them."""
     row, raw = by_name.get(SHIPPED), by_name.get("ACE")
     if row is None:
         return [TargetCheck(f"{SHIPPED}: UFR ≤ {100 * PAPER_ACE_UFR:g} %, no penetration, no floating", None,
@@ -125,6 +127,12 @@ def _shipped_targets(by_name: dict[str, SummaryRow]) -> list[TargetCheck]:
                        ufr <= PAPER_ACE_UFR and not pen and not flo,
                        f"UFR {100 * ufr:.2f} %, penetration {100 * (pen or 0):.2f} % of foot-frames, floating "
                        f"{100 * (flo or 0):.2f} % of frames")]
+    if source_skating is not None:
+        skating = _extra(row, "skating")
+        out.append(TargetCheck(f"{SHIPPED}: skating ratio ≤ the source humans' own on the same clips",
+                               None if skating is None else skating <= source_skating,
+                               f"{SHIPPED} {'–' if skating is None else f'{100 * skating:.2f} %'}, humans "
+                               f"{100 * source_skating:.2f} %"))
     for key, what, bound in FOLLOW_TARGETS:
         value = _extra(row, key)
         out.append(TargetCheck(f"{SHIPPED} follows the human's {what}: correlation ≥ {bound:g}",

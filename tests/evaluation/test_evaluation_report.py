@@ -136,6 +136,18 @@ def test_targets_check_each_claim_of_table_1_and_name_the_methods_not_run():
     assert missed["ACE's L_fea is below NKN's and ACEwoFea's"] is False
 
 
+def test_shipped_ace_is_held_to_the_source_humans_skating_ratio():
+    from morphkit.evaluation.targets import SHIPPED, check_targets
+
+    claim = f"{SHIPPED}: skating ratio ≤ the source humans' own on the same clips"
+    rows = _rows() + [(0, TableRow(SHIPPED, 2.4, 0.5, 0.6, 0.0, 300, skating=0.02))]
+    checks = {c.claim: c for c in check_targets(summarize(DATASET, rows), source_skating=0.0287)}
+    assert checks[claim].met is True and checks[claim].detail == f"{SHIPPED} 2.00 %, humans 2.87 %"
+    checks = {c.claim: c for c in check_targets(summarize(DATASET, rows), source_skating=0.015)}
+    assert checks[claim].met is False
+    assert claim not in {c.claim for c in check_targets(summarize(DATASET, rows))}  # no humans' figure: not claimed
+
+
 def test_index_links_are_relative_and_point_at_files_of_the_report(tmp_path):
     evaluation = _evaluation(tmp_path)
     out = tmp_path / "report"

@@ -249,6 +249,17 @@ def _naive_physdiff(pos: np.ndarray, ground: float, contact: float) -> tuple[flo
                 skates.append((dx * dx + dy * dy) ** 0.5)
     skate = sum(skates) / len(skates) if skates else 0.0
     return 1000 * pen / T, 1000 * flo / T, 1000 * skate
+def test_pooled_skating_weighs_clips_by_their_transitions(quad):
+    """The humans' bar (and each row's skating): transitions pooled over clips, not a mean of per-clip ratios."""
+    from morphkit.evaluation.table import pooled_skating
+
+    clips = [_motion(quad, 20, fl_slide=0.03 * np.arange(20)),  # 19 of 19 transitions skate (above)
+             _motion(quad, 11),  # standing: 0 of 10
+             _motion(quad, 20, fl_slide=0.02 * np.arange(20))]  # 15 of 19
+    assert pooled_skating(clips) == pytest.approx(34 / 48)
+    assert pooled_skating(clips[1:2]) == 0.0 and pooled_skating([]) == 0.0
+
+
 
 
 def test_physdiff_figures_match_a_naive_loop(quad):
