@@ -140,7 +140,7 @@ def test_shipped_ace_is_held_to_the_source_humans_skating_ratio():
     from morphkit.evaluation.targets import SHIPPED, check_targets
 
     claim = f"{SHIPPED}: skating ratio ≤ the source humans' own on the same clips"
-    rows = _rows() + [(0, TableRow(SHIPPED, 2.4, 0.5, 0.6, 0.0, 300, skating=0.02))]
+    rows = [*_rows(), (0, TableRow(SHIPPED, 2.4, 0.5, 0.6, 0.0, 300, skating=0.02))]
     checks = {c.claim: c for c in check_targets(summarize(DATASET, rows), source_skating=0.0287)}
     assert checks[claim].met is True and checks[claim].detail == f"{SHIPPED} 2.00 %, humans 2.87 %"
     checks = {c.claim: c for c in check_targets(summarize(DATASET, rows), source_skating=0.015)}
