@@ -53,7 +53,7 @@ def measure(run: Path, iterations: int = 150, seconds: float = 3.0, seed: int = 
     for it in range(iterations + 1):  # the last pass measures the final latents
         x, heights = x0, []
         for k in range(T):
-            z = gen.z_mean + gen.bound * gen.z_std * torch.tanh(g[k : k + 1] / gen.bound)
+            z = gen.latent(g[k : k + 1])
             x = complete(x, model.prior(z, x))[0]
             d = stats.denormalize(x)
             heights.append(d[0, lay.slice("root_height")][0] + fmap.fk_end_effectors(d)[0, hand, 2])

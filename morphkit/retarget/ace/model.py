@@ -69,7 +69,10 @@ class Generator(nn.Module):
 
     def forward(self, x_h: torch.Tensor, x_prev: torch.Tensor) -> torch.Tensor:
         """``x_h`` [..., Sh], ``x_prev`` [..., Sr] → ẑ [..., Z]."""
-        g = self.mlp(torch.cat([x_h, x_prev], dim=-1))
+        return self.latent(self.mlp(torch.cat([x_h, x_prev], dim=-1)))
+
+    def latent(self, g: torch.Tensor) -> torch.Tensor:
+        """The MLP's output ``g`` [..., Z] → ẑ [..., Z], squashed into the latent range (unbounded: ``g``)."""
         if self.bound <= 0:
             return g
         return self.z_mean + self.bound * self.z_std * torch.tanh(g / self.bound)
