@@ -37,7 +37,7 @@ from morphkit.errors import GraphError
 from morphkit.graph.types import EndEffectorRole, JointType, ShapeType
 from morphkit.kernels._collision_kernels import self_collision_kernel, shape_ground_kernel
 from morphkit.kernels.dtypes import transform_type, vec3_type
-from morphkit.kernels.launch import launch, resolve_device
+from morphkit.kernels.launch import check_device, launch, output_array, resolve_device
 from morphkit.model.kinematic_model import KinematicModel
 
 __all__ = [
@@ -196,17 +196,6 @@ def _feet_array(feet: Any, E: int, device: Any) -> wp.array:
     return hit
 
 
-def _check_out(out: wp.array | None, shape: tuple[int, ...], dtype: Any, device: Any, requires_grad: bool) -> wp.array:
-    if out is None:
-        return wp.zeros(shape, dtype=dtype, device=device, requires_grad=requires_grad)
-    if tuple(out.shape) != shape or out.dtype != dtype or not out.is_contiguous:
-        raise GraphError(
-            f"out: expected a contiguous array of shape {list(shape)} and dtype {wp.types.type_repr(dtype)}, "
-            f"got shape {list(out.shape)} and dtype {wp.types.type_repr(out.dtype)}"
-        )
-    return out
-
-
 def foot_indices(model: KinematicModel) -> np.ndarray:
     """Indices of the model's end-effectors whose role is ``foot``, shape [F], int32."""
     return np.flatnonzero(np.asarray(model.ee_role) == int(EndEffectorRole.FOOT)).astype(np.int32)
@@ -216,7 +205,7 @@ def foot_indices(model: KinematicModel) -> np.ndarray:
 # ground: heights and penetration
 # ---------------------------------------------------------------------------------------------
 def _foot_height(points: Any, feet: Any, ground_height: float, penetration: int, out: Any, device: Any) -> wp.array:
-    device = resolve_device(device, points)
+    device = resolve_device(device, points, out=out)
     pts = _as_points(points, device)
     if pts.ndim < 1:
         raise GraphError(f"points: expected shape [..., E], got {list(pts.shape)}")
@@ -225,7 +214,7 @@ def _foot_height(points: Any, feet: Any, ground_height: float, penetration: int,
     feet_a = _feet_array(feet, E, device)
     F = feet_a.shape[0]
     scalar = _scalar_of(pts.dtype)
-    out = _check_out(out, (*lead, F), scalar, device, pts.requires_grad)
+    out = output_array(out, (*lead, F), scalar, device, zeros=True, requires_grad=pts.requires_grad)
     if N and F:
         wp.launch(foot_height_kernel, dim=(N, F),
                   inputs=[pts.reshape((N, E)), feet_a, scalar(ground_height), penetration],
@@ -262,14 +251,15 @@ def eval_penetration_depth(points: Any, *, feet: Any = None, ground_height: floa
 
 def _foot_height_adjoint(points: Any, adj_out: wp.array, feet: Any, ground_height: float, penetration: int,
                          adj_points: Any, device: Any) -> wp.array:
-    device = resolve_device(device, points)
+    device = resolve_device(device, points, out=adj_out)
+    check_device(adj_out, device, "adj_out")
     pts = _as_points(points, device)
     lead, E = tuple(pts.shape[:-1]), pts.shape[-1]
     N = int(np.prod(lead)) if lead else 1
     feet_a = _feet_array(feet, E, device)
     F = feet_a.shape[0]
     scalar = _scalar_of(pts.dtype)
-    adj_points = _check_out(adj_points, tuple(pts.shape), pts.dtype, device, False)
+    adj_points = output_array(adj_points, tuple(pts.shape), pts.dtype, device, zeros=True)
     if tuple(adj_out.shape) != (*lead, F):
         raise GraphError(f"adj_out: expected shape {[*lead, F]}, got {list(adj_out.shape)}")
     if N and F:
@@ -331,12 +321,12 @@ def eval_sliding_speed(points: Any, fps: float, *, feet: Any = None, height_thre
         Sliding speeds [m/s], shape [..., T, F].
     """
     _check_fps(fps)
-    device = resolve_device(device, points)
+    device = resolve_device(device, points, out=out)
     pts, lead, N, T, E = _motion_points(points, device)
     feet_a = _feet_array(feet, E, device)
     F = feet_a.shape[0]
     scalar = _scalar_of(pts.dtype)
-    out = _check_out(out, (*lead, T, F), scalar, device, pts.requires_grad)
+    out = output_array(out, (*lead, T, F), scalar, device, zeros=True, requires_grad=pts.requires_grad)
     if N and T and F:
         wp.launch(sliding_speed_kernel, dim=(N, T, F),
                   inputs=[pts.reshape((N, T, E)), feet_a, scalar(ground_height), scalar(height_threshold),
@@ -353,12 +343,13 @@ def eval_sliding_speed_adjoint(points: Any, adj_out: wp.array, fps: float, *, fe
     The contact gate is piecewise constant and gets no gradient; at zero speed the gradient is zero.
     """
     _check_fps(fps)
-    device = resolve_device(device, points)
+    device = resolve_device(device, points, out=adj_out)
+    check_device(adj_out, device, "adj_out")
     pts, lead, N, T, E = _motion_points(points, device)
     feet_a = _feet_array(feet, E, device)
     F = feet_a.shape[0]
     scalar = _scalar_of(pts.dtype)
-    adj_points = _check_out(adj_points, tuple(pts.shape), pts.dtype, device, False)
+    adj_points = output_array(adj_points, tuple(pts.shape), pts.dtype, device, zeros=True)
     if tuple(adj_out.shape) != (*lead, T, F):
         raise GraphError(f"adj_out: expected shape {[*lead, T, F]}, got {list(adj_out.shape)}")
     if N and T and F:
@@ -381,12 +372,12 @@ def eval_contact_flags(points: Any, fps: float, *, feet: Any = None, height_thre
     Same array arguments as :func:`eval_sliding_speed`; returns ``wp.bool`` flags, shape [..., T, F].
     """
     _check_fps(fps)
-    device = resolve_device(device, points)
+    device = resolve_device(device, points, out=out)
     pts, lead, N, T, E = _motion_points(points, device)
     feet_a = _feet_array(feet, E, device)
     F = feet_a.shape[0]
     scalar = _scalar_of(pts.dtype)
-    out = _check_out(out, (*lead, T, F), wp.bool, device, False)
+    out = output_array(out, (*lead, T, F), wp.bool, device, zeros=True)
     if N and T and F:
         wp.launch(contact_flags_kernel, dim=(N, T, F),
                   inputs=[pts.reshape((N, T, E)), feet_a, scalar(ground_height), scalar(height_threshold),
@@ -421,11 +412,11 @@ def eval_shape_ground_distance(model: KinematicModel, link_X: Any, *, ground_hei
     Returns:
         Signed heights [m], shape [..., S]; mesh shapes get :data:`~morphkit.kernels.geometry.NO_CONTACT_DISTANCE`.
     """
-    device = resolve_device(device, link_X)
+    device = resolve_device(device, link_X, out=out)
     X, lead, N = _link_transforms(model, link_X, device)
     scalar = _scalar_of(X.dtype)
     S = model.shape_count
-    out = _check_out(out, (*lead, S), scalar, device, X.requires_grad)
+    out = output_array(out, (*lead, S), scalar, device, zeros=True, requires_grad=X.requires_grad)
     if N and S:
         a = model.arrays(device, scalar)
         launch(shape_ground_kernel, N, device,
@@ -439,11 +430,12 @@ def eval_shape_ground_distance_adjoint(model: KinematicModel, link_X: Any, adj_o
                                        ground_height: float = 0.0, adj_link_X: wp.array | None = None,
                                        device: Any = None) -> wp.array:
     """Accumulate the vector–Jacobian product of :func:`eval_shape_ground_distance` into ``adj_link_X`` ([..., L])."""
-    device = resolve_device(device, link_X)
+    device = resolve_device(device, link_X, out=adj_out)
+    check_device(adj_out, device, "adj_out")
     X, lead, N = _link_transforms(model, link_X, device)
     scalar = _scalar_of(X.dtype)
     S, L = model.shape_count, model.link_count
-    adj_link_X = _check_out(adj_link_X, (*lead, L), X.dtype, device, False)
+    adj_link_X = output_array(adj_link_X, (*lead, L), X.dtype, device, zeros=True)
     if tuple(adj_out.shape) != (*lead, S):
         raise GraphError(f"adj_out: expected shape {[*lead, S]}, got {list(adj_out.shape)}")
     if N and S:
@@ -630,11 +622,11 @@ def self_collision_pairs(model: KinematicModel, *, rest_margin: float = 0.0, ski
 
 def _self_collision(model: KinematicModel, pairs: SelfCollisionPairs, link_X: Any, penetration: int, out: Any,
                     device: Any) -> wp.array:
-    device = resolve_device(device, link_X)
+    device = resolve_device(device, link_X, out=out)
     X, lead, N = _link_transforms(model, link_X, device)
     scalar = _scalar_of(X.dtype)
     P = pairs.pair_count
-    out = _check_out(out, (*lead, P), scalar, device, X.requires_grad)
+    out = output_array(out, (*lead, P), scalar, device, zeros=True, requires_grad=X.requires_grad)
     if N and P:
         a = model.arrays(device, scalar)
         pa, pb = pairs.arrays(device)
@@ -702,12 +694,13 @@ def eval_self_collision_penetration(model: KinematicModel, pairs: SelfCollisionP
 
 def _self_collision_adjoint(model: KinematicModel, pairs: SelfCollisionPairs, link_X: Any, adj_out: wp.array,
                             penetration: int, adj_link_X: Any, device: Any) -> wp.array:
-    device = resolve_device(device, link_X)
+    device = resolve_device(device, link_X, out=adj_out)
+    check_device(adj_out, device, "adj_out")
     X, lead, N = _link_transforms(model, link_X, device)
     scalar = _scalar_of(X.dtype)
     P = pairs.pair_count
     L = model.link_count
-    adj_link_X = _check_out(adj_link_X, (*lead, L), X.dtype, device, False)
+    adj_link_X = output_array(adj_link_X, (*lead, L), X.dtype, device, zeros=True)
     if tuple(adj_out.shape) != (*lead, P):
         raise GraphError(f"adj_out: expected shape {[*lead, P]}, got {list(adj_out.shape)}")
     if N and P:

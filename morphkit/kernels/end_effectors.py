@@ -16,7 +16,7 @@ import warp as wp
 
 from morphkit.errors import GraphError
 from morphkit.kernels.fk import eval_fk, eval_fk_adjoint
-from morphkit.kernels.launch import as_batch, launch, resolve_device
+from morphkit.kernels.launch import as_batch, check_device, launch, output_array, resolve_device
 from morphkit.kernels.spatial import heading_transform
 from morphkit.model.kinematic_model import KinematicModel
 
@@ -115,15 +115,6 @@ def _types(dtype: Any) -> tuple[Any, Any, Any]:
     return wp.vec3, wp.quat, wp.transform
 
 
-def _check_out(out: wp.array | None, shape: tuple[int, ...], dtype: Any, device: Any, what: str) -> wp.array:
-    if out is None:
-        return wp.empty(shape, dtype=dtype, device=device)
-    if tuple(out.shape) != shape or not wp.types.types_equal(out.dtype, dtype) or not out.is_contiguous:
-        raise GraphError(f"{what}: expected a contiguous array of shape {list(shape)} and dtype "
-                         f"{wp.types.type_repr(dtype)}, got {list(out.shape)} of {wp.types.type_repr(out.dtype)}")
-    return out
-
-
 def eval_end_effectors(
     model: KinematicModel,
     q: Any,
@@ -152,7 +143,7 @@ def eval_end_effectors(
         ``(positions, orientations)``: shape [..., E] of vec3 [m] and of xyzw quaternions.
     """
     heading = frame_code(frame)
-    device = resolve_device(device, q, model)
+    device = resolve_device(device, q, model, out=out_positions if Ts_world_link is None else Ts_world_link)
     q2, lead, dtype = as_batch(model, q, device)
     B, E, L = q2.shape[0], model.ee_count, model.link_count
     vec3, quat, _ = _types(dtype)
@@ -160,8 +151,9 @@ def eval_end_effectors(
         Ts_world_link = eval_fk(model, q2, wheel_q=None if wheel_q is None else _flat(wheel_q, B), device=device)
     elif tuple(Ts_world_link.shape) != (*lead, L):
         raise GraphError(f"Ts_world_link: expected shape {[*lead, L]}, got {list(Ts_world_link.shape)}")
-    pos = _check_out(out_positions, (*lead, E), vec3, device, "out_positions")
-    rot = _check_out(out_orientations, (*lead, E), quat, device, "out_orientations")
+    check_device(Ts_world_link, device, "Ts_world_link")
+    pos = output_array(out_positions, (*lead, E), vec3, device, "out_positions")
+    rot = output_array(out_orientations, (*lead, E), quat, device, "out_orientations")
     if B == 0 or E == 0:
         return pos, rot
     a = model.arrays(device, dtype)
@@ -196,7 +188,10 @@ def eval_end_effectors_adjoint(
     into the link transforms, then the FK adjoint.
     """
     heading = frame_code(frame)
-    device = resolve_device(device, q, model)
+    device = resolve_device(device, q, model, out=Ts_world_link)
+    for a, what in ((Ts_world_link, "Ts_world_link"), (adj_positions, "adj_positions"),
+                    (adj_orientations, "adj_orientations"), (adj_q, "adj_q")):
+        check_device(a, device, what)
     q2, lead, dtype = as_batch(model, q, device)
     B, E, L = q2.shape[0], model.ee_count, model.link_count
     vec3, quat, transform = _types(dtype)
@@ -224,7 +219,7 @@ def eval_heading_transforms(model: KinematicModel, Ts_world_link: wp.array, *, o
     lead = tuple(Ts_world_link.shape[:-1])
     B = int(np.prod(lead)) if lead else 1
     transform = Ts_world_link.dtype
-    out = _check_out(out, lead, transform, device, "out")
+    out = output_array(out, lead, transform, device, "out")
     if B:
         launch(heading_transforms, B, device, [Ts_world_link.reshape((B, model.link_count)), 0],
                [out.reshape((B,))])
@@ -250,7 +245,7 @@ def eval_finite_difference(x: wp.array, *, dt: float, out: wp.array | None = Non
     device = wp.get_device(device) if device is not None else x.device
     lead, T, N = tuple(x.shape[:-2]), x.shape[-2], x.shape[-1]
     B = int(np.prod(lead)) if lead else 1
-    out = _check_out(out, tuple(x.shape), x.dtype, device, "out")
+    out = output_array(out, tuple(x.shape), x.dtype, device, "out")
     scalar = x.dtype._wp_scalar_type_
     if B * T * N:
         launch(finite_difference, B, device, [x.contiguous().reshape((B, T, N)), scalar(1.0 / dt), 0],

@@ -31,7 +31,7 @@ from morphkit._version import __version__
 from morphkit.errors import GraphError
 from morphkit.kernels._fk_codegen import generate_source
 from morphkit.kernels.dtypes import quat_type, transform_type, vec3_type
-from morphkit.kernels.launch import as_batch, as_shape, launch, resolve_device
+from morphkit.kernels.launch import as_batch, as_shape, check_device, launch, output_array, resolve_device
 from morphkit.model.kinematic_model import KinematicModel, resolve_float_dtype
 
 __all__ = [
@@ -149,19 +149,12 @@ def _fk_inputs(q: wp.array, wheel: wp.array, wheel_batched: int) -> list:
 
 def _eval(model: KinematicModel, q: Any, kernel_name: str, out_dtype_of: Any, *, out: Any, wheel_q: Any,
           device: Any) -> wp.array:
-    device = resolve_device(device, q, model)
+    device = resolve_device(device, q, model, out=out)
     q2, lead, dtype = as_batch(model, q, device)
     B = q2.shape[0]
     wheel, wheel_batched = _wheel_input(model, wheel_q, B, lead, device, dtype)
     L = model.link_count
-    out_type = out_dtype_of(dtype)
-    if out is None:
-        out = wp.empty((*lead, L), dtype=out_type, device=device, requires_grad=q2.requires_grad)
-    elif tuple(out.shape) != (*lead, L) or not wp.types.types_equal(out.dtype, out_type) or not out.is_contiguous:
-        raise GraphError(
-            f"out: expected a contiguous array of shape {[*lead, L]} and dtype {wp.types.type_repr(out_type)}, "
-            f"got shape {list(out.shape)} and dtype {wp.types.type_repr(out.dtype)}"
-        )
+    out = output_array(out, (*lead, L), out_dtype_of(dtype), device, requires_grad=q2.requires_grad)
     if B == 0:
         return out
     kernel = getattr(fk_module(model, dtype), kernel_name)
@@ -207,7 +200,8 @@ def _adjoint_args(model: KinematicModel, q: Any, adj_out: wp.array, out_dtype_of
                   wheel_q: Any, device: Any) -> tuple[Any, wp.array, Any, wp.array, int, wp.array]:
     """Validate the arguments of an FK adjoint; returns device, q as [B, C], dtype, wheel input, whether
     wheels are batched, and ``adj_q`` (allocated zeroed when not given)."""
-    device = resolve_device(device, q, model)
+    device = resolve_device(device, q, model, out=adj_out)
+    check_device(adj_out, device, "adj_out")
     q2, lead, dtype = as_batch(model, q, device)
     L, C = model.link_count, model.coordinate_count
     wheel, wheel_batched = _wheel_input(model, wheel_q, q2.shape[0], lead, device, dtype)
@@ -215,10 +209,7 @@ def _adjoint_args(model: KinematicModel, q: Any, adj_out: wp.array, out_dtype_of
     if tuple(adj_out.shape) != (*lead, L) or not wp.types.types_equal(adj_out.dtype, out_type):
         raise GraphError(f"adj_out: expected shape {[*lead, L]} of {wp.types.type_repr(out_type)}, "
                          f"got {list(adj_out.shape)} of {wp.types.type_repr(adj_out.dtype)}")
-    if adj_q is None:
-        adj_q = wp.zeros((*lead, C), dtype=dtype, device=device)
-    elif tuple(adj_q.shape) != (*lead, C) or adj_q.dtype != dtype:
-        raise GraphError(f"adj_q: expected shape {[*lead, C]}, got {list(adj_q.shape)}")
+    adj_q = output_array(adj_q, (*lead, C), dtype, device, "adj_q", zeros=True)
     return device, q2, dtype, wheel, wheel_batched, adj_q
 
 
@@ -346,15 +337,12 @@ def eval_wheel_angles(model: KinematicModel, q: Any, *, out: wp.array | None = N
     Returns:
         Wheel angles, shape [..., T, W] (same dtype as ``q``).
     """
-    device = resolve_device(device, q, model)
+    device = resolve_device(device, q, model, out=out)
     q2, lead, dtype = as_batch(model, q, device)
     if len(lead) < 1:
         raise GraphError(f"q: expected a motion of shape [..., T, {model.coordinate_count}], got {list(q.shape)}")
     W = model.wheel_count
-    if out is None:
-        out = wp.zeros((*lead, W), dtype=dtype, device=device)
-    elif tuple(out.shape) != (*lead, W) or out.dtype != dtype:
-        raise GraphError(f"out: expected shape {[*lead, W]} of {wp.types.type_repr(dtype)}, got {list(out.shape)}")
+    out = output_array(out, (*lead, W), dtype, device, zeros=True)
     T = lead[-1]
     B = q2.shape[0] // T if T else 0
     if W == 0 or B == 0:

@@ -38,7 +38,7 @@ from morphkit.errors import GraphError
 from morphkit.graph.types import BaseType, JointType
 from morphkit.kernels.dtypes import vec3_type
 from morphkit.kernels.fk import eval_fk
-from morphkit.kernels.launch import as_batch, resolve_device
+from morphkit.kernels.launch import as_batch, output_array, resolve_device
 from morphkit.model.kinematic_model import KinematicModel
 
 __all__ = ["IKResult", "eval_ee_jacobian", "ik_dof_mask", "ik_solve", "ik_step"]
@@ -549,7 +549,7 @@ def ik_step(model: KinematicModel, q: Any, targets: Any, *, ee: Any = None, damp
     """
     if not np.isfinite(damping) or damping < 0:
         raise GraphError(f"damping must be >= 0, got {damping!r}")
-    device = resolve_device(device, q, model)
+    device = resolve_device(device, q, model, out=out)
     q2, lead, scalar = as_batch(model, q, device)
     ee_idx = _ee_indices(model, ee)
     E = len(ee_idx)
@@ -557,11 +557,7 @@ def ik_step(model: KinematicModel, q: Any, targets: Any, *, ee: Any = None, damp
     plan = _plan(model, ee_idx, dof_mask, device, scalar)
     B, C = q2.shape
     vec3 = vec3_type(scalar)
-    if out is None:
-        out = wp.empty((*lead, C), dtype=scalar, device=device)
-    elif tuple(out.shape) != (*lead, C) or out.dtype != scalar or not out.is_contiguous:
-        raise GraphError(f"out: expected a contiguous array of shape {[*lead, C]} and dtype "
-                         f"{wp.types.type_repr(scalar)}, got {list(out.shape)} of {wp.types.type_repr(out.dtype)}")
+    out = output_array(out, (*lead, C), scalar, device)
     residual = wp.empty((*lead, E), dtype=vec3, device=device)
     if B == 0:
         return out, residual

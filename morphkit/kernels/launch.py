@@ -28,11 +28,13 @@ from morphkit.model.kinematic_model import KinematicModel
 __all__ = [
     "as_batch",
     "as_shape",
+    "check_device",
     "cpu_pool",
     "cpu_thread_count",
     "init_warp_quietly",
     "launch",
     "launch_chunks",
+    "output_array",
     "resolve_device",
     "set_cpu_thread_count",
     "tape_active",
@@ -182,14 +184,45 @@ def launch(kernel: Any, batch: int, device: Any, inputs: list, outputs: list, *,
         f.result()
 
 
-def resolve_device(device: Any, x: Any = None, model: KinematicModel | None = None) -> Any:
-    """The Warp device to launch on: ``device`` if given, else ``x``'s when it is a Warp array, else the
-    model's (Warp's default device without a model)."""
+def resolve_device(device: Any, x: Any = None, model: KinematicModel | None = None, out: Any = None) -> Any:
+    """The Warp device to launch on: ``device`` if given, else ``x``'s when it is a Warp array, else
+    ``out``'s when it is one (NumPy inputs follow the output they are written into), else the model's
+    (Warp's default device without a model)."""
     if device is not None:
         return wp.get_device(device)
     if isinstance(x, wp.array):
         return x.device
+    if isinstance(out, wp.array):
+        return out.device
     return wp.get_device(model.device if model is not None else None)
+
+
+def output_array(out: wp.array | None, shape: tuple[int, ...], dtype: Any, device: Any, what: str = "out", *,
+                 zeros: bool = False, requires_grad: bool = False) -> wp.array:
+    """A launch's output: ``out`` checked against ``shape``, ``dtype`` and ``device``, or a new array.
+
+    Args:
+        zeros: A new array starts at zero (adjoints accumulate into it); else it is left uninitialised.
+
+    Raises:
+        GraphError: ``out`` has another shape or dtype, is not contiguous, or lives on another device.
+    """
+    if out is None:
+        make = wp.zeros if zeros else wp.empty
+        return make(shape, dtype=dtype, device=device, requires_grad=requires_grad)
+    if tuple(out.shape) != tuple(shape) or not wp.types.types_equal(out.dtype, dtype) or not out.is_contiguous:
+        raise GraphError(f"{what}: expected a contiguous array of shape {list(shape)} and dtype "
+                         f"{wp.types.type_repr(dtype)}, got shape {list(out.shape)} and dtype "
+                         f"{wp.types.type_repr(out.dtype)}")
+    check_device(out, device, what)
+    return out
+
+
+def check_device(a: Any, device: Any, what: str) -> None:
+    """Refuse a Warp array ``a`` that lives on another device than the launch's (a CUDA kernel reading or
+    writing through a CPU pointer would fault and poison the CUDA context)."""
+    if isinstance(a, wp.array) and str(a.device) != str(device):
+        raise GraphError(f"{what}: array is on {a.device}, expected {device} (where the inputs are)")
 
 
 def as_shape(a: wp.array, shape: tuple[int, ...]) -> wp.array:

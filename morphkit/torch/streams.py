@@ -26,6 +26,9 @@ def on_torch_stream(device: torch.device | wp.Device) -> Iterator[wp.Device]:
     Args:
         device: A torch device (e.g. ``tensor.device``) or the Warp device it maps to.
     """
+    if isinstance(device, torch.device) and device.type == "cuda" and device.index is None:
+        # torch.device("cuda") names no ordinal, which Warp's mapping needs: take torch's current one.
+        device = torch.device("cuda", torch.cuda.current_device())
     wp_device = device if isinstance(device, wp.Device) else wp.device_from_torch(device)
     if wp_device.is_cuda:
         with wp.ScopedStream(wp.stream_from_torch(torch.cuda.current_stream(wp_device.ordinal))):
