@@ -565,3 +565,24 @@ def test_prior_reach_benchmark_moves_the_hand_towards_its_target(tmp_path, human
     after = bench.measure(tmp_path / "run", iterations=15, seconds=0.5)
     assert after["rms"] < before["rms"]
     assert bench.main([str(tmp_path / "run"), "--iterations", "1"]) == 0
+
+
+def test_linear_decay_reaches_its_fraction_then_holds_and_resumes_where_it_was():
+    from morphkit.retarget.ace.train import linear_decay
+
+    def make():
+        opt = torch.optim.SGD([torch.nn.Parameter(torch.zeros(1))], lr=1e-3)
+        return opt, linear_decay(opt, 0.1, 10)
+
+    opt, sched = make()
+    lrs = []
+    for _ in range(14):
+        lrs.append(opt.param_groups[0]["lr"])
+        opt.step()
+        sched.step()
+    expected = [1e-3 * (1 - 0.9 * min(k, 10) / 10) for k in range(14)]
+    np.testing.assert_allclose(lrs, expected, rtol=1e-12)
+    opt2, sched2 = make()  # a resumed run: its state dicts restore the position in the schedule
+    opt2.load_state_dict(opt.state_dict())
+    sched2.load_state_dict(sched.state_dict())
+    assert opt2.param_groups[0]["lr"] == pytest.approx(1e-4, rel=1e-12)

@@ -200,9 +200,7 @@ def train_prior(
         vae = build_vae(windows.states.shape[1], pc).to(run.device)
         model = run.wrap(vae)
         opt = torch.optim.Adam(vae.parameters(), lr=pc.lr)
-        total = max(pc.epochs * pc.steps_per_epoch, 1)
-        final = pc.lr_final / pc.lr
-        sched = torch.optim.lr_scheduler.LambdaLR(opt, lambda s: 1.0 + (final - 1.0) * min(s / total, 1.0))
+        sched = linear_decay(opt, pc.lr_final / pc.lr, pc.epochs * pc.steps_per_epoch)
         run.track(model=vae, optimizer=opt, scheduler=sched)
         for epoch in run.epochs(pc.epochs):
             p_own = sampling_probability(pc, epoch)
@@ -243,6 +241,13 @@ def train_prior(
 
 
 # ---- stage 2: the retargeter ------------------------------------------------------------------
+
+
+def linear_decay(opt: torch.optim.Optimizer, final_fraction: float, steps: int) -> torch.optim.lr_scheduler.LambdaLR:
+    """Scale ``opt``'s learning rates linearly from 1 to ``final_fraction`` over ``steps`` scheduler steps,
+    then hold them."""
+    total = max(steps, 1)
+    return torch.optim.lr_scheduler.LambdaLR(opt, lambda s: 1.0 + (final_fraction - 1.0) * min(s / total, 1.0))
 
 
 def frozen_prior(vae: MotionVAE) -> torch.nn.Module:
@@ -398,7 +403,11 @@ def train_retargeter(
         g_model, d_model = gen, disc
         opt_g = torch.optim.Adam(gen.parameters(), lr=rc.lr_generator, betas=rc.betas)
         opt_d = torch.optim.Adam(disc.parameters(), lr=rc.lr_discriminator, betas=rc.betas)
+        sched_g, sched_d = (linear_decay(opt, rc.lr_final_fraction, rc.epochs * rc.steps_per_epoch)
+                            for opt in (opt_g, opt_d))
         run.track(generator=gen, discriminator=disc, optimizer_g=opt_g, optimizer_d=opt_d)
+        if rc.lr_final_fraction != 1.0:  # a constant rate has no state: runs from before it resume as they were
+            run.track(scheduler_g=sched_g, scheduler_d=sched_d)
         for _ in run.epochs(rc.epochs):
             for _ in run.steps(rc.steps_per_epoch):
                 b = rc.batch_size
@@ -450,6 +459,9 @@ def train_retargeter(
                 loss_g.backward()
                 average_gradients(gen, run.context)
                 opt_g.step()
+                sched_g.step()
+                if use_adversarial:  # D's schedule counts G steps too; without D it never steps
+                    sched_d.step()
                 run.log(**row, loss_g=loss_g.detach(), loss_g_adv=g_adv.detach(), loss_g_fea=g_fea.detach(),
                         loss_g_contact=g_contact.detach(), feature_loss=fea.detach(), ee_fk_gap=gap.mean())
     gen.eval()
