@@ -177,6 +177,13 @@ def sampling_probability(cfg: PriorConfig, epoch: int) -> float:
     return (epoch - teacher + 1) / (ramp + 1)
 
 
+def linear_decay(opt: torch.optim.Optimizer, final_fraction: float, steps: int) -> torch.optim.lr_scheduler.LambdaLR:
+    """Scale ``opt``'s learning rates linearly from 1 to ``final_fraction`` over ``steps`` scheduler steps,
+    then hold them."""
+    total = max(steps, 1)
+    return torch.optim.lr_scheduler.LambdaLR(opt, lambda s: 1.0 + (final_fraction - 1.0) * min(s / total, 1.0))
+
+
 def train_prior(
     prior_dir: str | os.PathLike[str],
     data: AceData,
@@ -241,13 +248,6 @@ def train_prior(
 
 
 # ---- stage 2: the retargeter ------------------------------------------------------------------
-
-
-def linear_decay(opt: torch.optim.Optimizer, final_fraction: float, steps: int) -> torch.optim.lr_scheduler.LambdaLR:
-    """Scale ``opt``'s learning rates linearly from 1 to ``final_fraction`` over ``steps`` scheduler steps,
-    then hold them."""
-    total = max(steps, 1)
-    return torch.optim.lr_scheduler.LambdaLR(opt, lambda s: 1.0 + (final_fraction - 1.0) * min(s / total, 1.0))
 
 
 def frozen_prior(vae: MotionVAE) -> torch.nn.Module:
