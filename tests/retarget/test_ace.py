@@ -360,6 +360,26 @@ def test_character_data_cache_is_keyed_by_the_synthesis_source(tmp_path, dog, mo
     assert len(list(tmp_path.glob("synth_*.npz"))) == 3
 
 
+def test_character_data_walk_only_forwards_when_asked(tmp_path, dog):
+    """``data.forward_speed`` reaches the synthesis' commands: with (0, 5) m/s no frame's root moves backwards
+    along its heading, while it does walk forwards; the option keys the cache."""
+    from morphkit.retarget.training_data import DataConfig, character_motions
+    from morphkit.rotations import yaw_from_quat
+
+    m = read_morphology(dog)
+    motions = character_motions(m, DataConfig(character_frames=600, forward_speed=(0.0, 5.0)), cache_dir=tmp_path,
+                                progress=False)
+    forward = []
+    for x in motions:
+        step = np.diff(x.q[:, :2], axis=0) * x.fps
+        yaw = yaw_from_quat(x.q[1:, 3:7])
+        forward.append(step[:, 0] * np.cos(yaw) + step[:, 1] * np.sin(yaw))
+    forward = np.concatenate(forward)
+    assert forward.min() > -1e-4 and forward.max() > 0.1
+    character_motions(m, DataConfig(character_frames=600), cache_dir=tmp_path, progress=False)
+    assert len(list(tmp_path.glob("synth_*.npz"))) == 2
+
+
 def test_generator_latent_stays_inside_its_bound_for_any_output():
     """ẑ = μ + b·σ·tanh(g/b): inside μ ± b·σ however large G's raw output, ≈ μ + σ·g for small g, g itself at b = 0."""
     from dataclasses import replace
