@@ -70,11 +70,12 @@ class DataConfig:
     commands only, while held-out humans mostly stand, bend and reach."""
     forward_speed: tuple[float, float] | None = None
     """Forward speed range [m/s] of the synthesised commands at the synthesis' reference size; ``None``: the
-    synthesis' own (:attr:`morphkit.synth.CommandConfig.forward_speed`, −1.5 to 5, which gives Spot 29 % of
-    its frames walking backwards faster than 0.3 m/s). Ours. Measured on Spot (``default``, seed 0, CMU): with
-    (−0.5, 5) ACE's slow walk backwards where the human stands turns into a faster walk forwards (+0.12 to +0.26
-    body lengths/s per standing clip, against −0.02 to −0.13), forward follow 0.58 → 0.51, matched FID 1.005 →
-    1.232: the adversarial term pulls G towards the data's common speeds whichever way they go. Unset."""
+    synthesis' own (:attr:`morphkit.synth.CommandConfig.forward_speed`, −1.5 to 5, which gives the shipped quadruped
+    with an arm 29 % of its frames walking backwards faster than 0.3 m/s). Ours. Measured on it (``default``,
+    seed 0, CMU): with (−0.5, 5) ACE's slow walk backwards where the human stands turns into a faster walk
+    forwards (+0.12 to +0.26 body lengths/s per standing clip, against −0.02 to −0.13), forward follow 0.58 → 0.51,
+    matched FID 1.005 → 1.232: the adversarial term pulls G towards the data's common speeds whichever way they
+    go. Unset."""
     full_arm_travel: bool = True
     """Synthesise the character's arms over each joint's whole travel (the synthesis' default,
     :class:`morphkit.synth.ArmConfig`: a wheeled robot's lift to its top); off:
