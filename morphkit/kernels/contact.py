@@ -149,8 +149,7 @@ def _as_vec_array(x: Any, width: int, vec_of: Any, device: Any, what: str) -> wp
     anything NumPy reads as [..., width] (copied to ``device``).
     """
     if isinstance(x, wp.array):
-        if str(x.device) != str(device):
-            raise GraphError(f"{what}: array is on {x.device}, expected {device}")
+        check_device(x, device, what)
         if not x.is_contiguous:
             x = x.contiguous()
         if x.dtype in (wp.float32, wp.float64):

@@ -38,7 +38,7 @@ from morphkit.errors import GraphError
 from morphkit.graph.types import BaseType, JointType
 from morphkit.kernels.dtypes import vec3_type
 from morphkit.kernels.fk import eval_fk
-from morphkit.kernels.launch import as_batch, output_array, resolve_device
+from morphkit.kernels.launch import as_batch, check_device, output_array, resolve_device
 from morphkit.model.kinematic_model import KinematicModel
 
 __all__ = ["IKResult", "eval_ee_jacobian", "ik_dof_mask", "ik_solve", "ik_step"]
@@ -464,8 +464,7 @@ def _targets(targets: Any, lead: tuple[int, ...], E: int, scalar: Any, device: A
         if t.dtype != vec3:
             raise GraphError(f"targets: expected {wp.types.type_repr(vec3)} (the precision of q), "
                              f"got {wp.types.type_repr(t.dtype)}")
-        if str(t.device) != str(device):
-            raise GraphError(f"targets: array is on {t.device}, expected {device}")
+        check_device(t, device, "targets")
     else:
         arr = np.asarray(targets, dtype=np.float64 if scalar == wp.float64 else np.float32)
         if arr.ndim < 1 or arr.shape[-1] != 3:

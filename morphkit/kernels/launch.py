@@ -254,8 +254,7 @@ def as_batch(model: KinematicModel, q: Any, device: Any, what: str = "q") -> tup
         raise GraphError(
             f"{what}: expected shape [..., {C}] for {model.name!r} ({C} coordinates), got {list(q.shape)}"
         )
-    if str(q.device) != str(device):
-        raise GraphError(f"{what}: array is on {q.device}, expected {device}")
+    check_device(q, device, what)
     lead = tuple(q.shape[:-1])
     B = int(np.prod(lead)) if lead else 1
     if not q.is_contiguous:
