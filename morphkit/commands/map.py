@@ -31,6 +31,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="override one pair on the command line, e.g. --set gripper=lwrist_end (repeatable)")
     p.add_argument("--kl-only", action="store_true",
                    help="the paper's rule: KL alone, ignoring roles (the role-aware mapping is still reported)")
+    p.add_argument("--one-hand", action="store_true",
+                   help="map a lone hand or tool to the one human hand KL prefers (default: whichever hand moves, "
+                        "as ACE trains)")
     p.add_argument("--json", action="store_true",
                    help='print {"mapping", "rule", "kl_only", "by_role", "roles", "kl", "data", "body_length"} as JSON')
     p.add_argument("--max-frames", type=int, default=300, metavar="N",
@@ -104,7 +107,8 @@ def run(args: argparse.Namespace) -> int:
         creature = ee_distributions(creatures, max_frames_per_clip=args.max_frames, length=lengths["creature"])
     roles = tuple({e.name: e.role for e in clips[0].morphology.end_effectors} for clips in (creatures, humans))
     try:
-        result = map_end_effectors(creature, human, override=override, roles=roles, kl_only=args.kl_only)
+        result = map_end_effectors(creature, human, override=override, roles=roles, kl_only=args.kl_only,
+                                   active_hand=not args.one_hand)
     except ConfigError as exc:
         where = SourceLocation(args.override) if args.override and exc.location is None else exc.location
         raise ConfigError(exc.message, location=where) from None

@@ -125,8 +125,10 @@ def reference_for(methods: Sequence[Method], *, human_data: str | os.PathLike[st
         c_len, h_len = body_length(creature, character), body_length(human, clips)
         roles = ({e.name: e.role for e in creature.end_effectors}, {e.name: e.role for e in human.end_effectors})
         mapping = map_end_effectors(ee_distributions(character, length=c_len, max_frames_per_clip=300),
-                                    ee_distributions(clips, length=h_len, max_frames_per_clip=300), roles=roles)
-        pairing, origin = Pairing.from_mapping(mapping.mapping, c_len, h_len), "KL mapping on the evaluation clips"
+                                    ee_distributions(clips, length=h_len, max_frames_per_clip=300), roles=roles,
+                                    active_hand=True)
+        pairing = Pairing.from_mapping(mapping.mapping, c_len, h_len, mapping.active_hand)
+        origin = "KL mapping on the evaluation clips"
     # A run trained before Ψ was centred (or a method without a pairing): the centres come from the
     # data it was trained on (the synthesis is deterministic), and the report says so.
     trained_on = human_motions(model.human_data, model.data)

@@ -40,7 +40,9 @@ from morphkit.motion.ee_mapping import fit_gaussian as fit_gaussian
 from morphkit.motion.ee_mapping import kl_divergence as kl_divergence
 from morphkit.motion.ee_mapping import map_end_effectors as map_end_effectors
 from morphkit.motion.ee_mapping import read_override as read_override
+from morphkit.motion.features import ACTIVE_HAND as ACTIVE_HAND
 from morphkit.motion.features import ROOT_FEATURE_DIM as ROOT_FEATURE_DIM
+from morphkit.motion.features import ActiveHand as ActiveHand
 from morphkit.motion.features import Pairing as Pairing
 from morphkit.motion.features import feature_dim as feature_dim
 from morphkit.motion.features import features as features
@@ -70,10 +72,12 @@ from morphkit.motion.states import human_state_from_motion as human_state_from_m
 from morphkit.motion.states import human_state_layout as human_state_layout
 
 __all__ = [
+    "ACTIVE_HAND",
     "CANONICAL_HUMAN",
     "MOTION_READ_SUFFIXES",
     "MOTION_WRITE_SUFFIXES",
     "ROOT_FEATURE_DIM",
+    "ActiveHand",
     "ClampReport",
     "EndEffectorMapping",
     "Gaussian",

@@ -35,7 +35,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from morphkit.errors import ConfigError, SourceLocation
-from morphkit.motion.features import ROOT_FEATURE_DIM, motion_features
+from morphkit.motion.features import ACTIVE_HAND, ROOT_FEATURE_DIM, ActiveHand, motion_features
 from morphkit.motion.scale import body_length
 
 if TYPE_CHECKING:
@@ -160,6 +160,8 @@ class EndEffectorMapping:
         kl_only: The paper's rule, ``argmin_h KL`` per creature end-effector (overrides applied).
         by_role: The role-aware mapping (overrides applied); ``None`` when no roles were given.
         roles: ``{creature_ee: role name}`` when roles were given (``"foot"``, ``"hand"``, ...).
+        active_hand: The human hands a lone creature hand or tool follows when it is mapped to
+            :data:`~morphkit.motion.features.ACTIVE_HAND` (``None``: none is).
     """
 
     mapping: dict[str, str]
@@ -169,6 +171,7 @@ class EndEffectorMapping:
     kl_only: dict[str, str] = field(default_factory=dict)
     by_role: dict[str, str] | None = None
     roles: dict[str, str] | None = None
+    active_hand: ActiveHand | None = None
 
     def feature_order(self) -> tuple[tuple[str, ...], tuple[str, ...]]:
         """``(creature_ees, human_ees)``: the end-effector lists Ψ takes, paired index by index.
@@ -189,6 +192,8 @@ class EndEffectorMapping:
         out["kl"] = {k: dict(v) for k, v in self.kl.items()}
         if self.overridden:
             out["overridden"] = sorted(self.overridden)
+        if self.active_hand is not None:
+            out["active_hand"] = {"hands": list(self.active_hand.hands), "mirror": list(self.active_hand.mirror)}
         return out
 
     def format_table(self) -> str:
@@ -226,6 +231,10 @@ class EndEffectorMapping:
             lines.append(f"mapping: {rule}; {other_name}: the other rule's choice (! where it differs)")
         if self.overridden:
             lines.append("* manual override")
+        if self.active_hand is not None:
+            hands = ", ".join(self.active_hand.hands)
+            lines.append(f"{ACTIVE_HAND}: whichever of {hands} is moved furthest from where it usually is "
+                         "(a lone hand or tool follows either hand)")
         return "\n".join(lines)
 
 
@@ -236,6 +245,7 @@ def map_end_effectors(
     override: Mapping[str, str] | None = None,
     roles: tuple[Mapping[str, Any], Mapping[str, Any]] | None = None,
     kl_only: bool = False,
+    active_hand: bool = False,
 ) -> EndEffectorMapping:
     """Eq. 11: map each creature end-effector to ``argmin_i KL(p_r ‖ p_h_i)``, within roles when given.
 
@@ -252,6 +262,10 @@ def map_end_effectors(
             quadruped's feet.
         kl_only: With ``roles``, still choose by the paper's rule (the role-aware mapping is kept in
             :attr:`EndEffectorMapping.by_role` for comparison).
+        active_hand: With ``roles`` (ours): a creature's lone hand or tool (the only end-effector of its role
+            group, not overridden) is mapped to :data:`~morphkit.motion.features.ACTIVE_HAND` — whichever of
+            the human's two or more hands moves — instead of the one hand KL prefers; a tool on one side of
+            the body takes the other side's hand mirrored (its lateral displacement negated).
 
     Raises:
         ConfigError: empty inputs, or an override naming an unknown end-effector (listing the valid ones).
@@ -269,9 +283,25 @@ def map_end_effectors(
     if roles is None:
         return EndEffectorMapping(dict(paper), kl, frozenset(override), "kl", paper)
     by_role = _assign_by_role(kl, roles, override, creature, human)
+    lone = _lone_hand(roles, override, creature, human) if active_hand else None
+    if lone is not None:
+        by_role[lone[0]] = ACTIVE_HAND
     role_names = {c: _role_name(roles[0][c]) for c in kl if c in roles[0]}
     rule, chosen = ("kl", paper) if kl_only else ("roles", by_role)
-    return EndEffectorMapping(dict(chosen), kl, frozenset(override), rule, paper, by_role, role_names)
+    return EndEffectorMapping(dict(chosen), kl, frozenset(override), rule, paper, by_role, role_names,
+                              None if kl_only or lone is None else lone[1])
+
+
+def _lone_hand(roles: tuple[Mapping[str, Any], Mapping[str, Any]], override: Mapping[str, str],
+               creature: Mapping[str, Gaussian], human: Mapping[str, Gaussian]) -> tuple[str, ActiveHand] | None:
+    """The creature's lone hand or tool and the :class:`ActiveHand` it follows (``None``: no lone one, or the human
+    has fewer than two hands)."""
+    members = [c for c in creature if c in roles[0] and _role_group(roles[0][c]) == "hand"]
+    hands = [h for h in human if h in roles[1] and _role_name(roles[1][h]) == "hand"]
+    if len(members) != 1 or members[0] in override or len(hands) < 2:
+        return None
+    side = _side(creature[members[0]])
+    return members[0], ActiveHand(tuple(hands), mirror=tuple(side != 0 and _side(human[h]) == -side for h in hands))
 
 
 def _role_name(role: Any) -> str:

@@ -42,10 +42,68 @@ from morphkit.motion.states import (
 if TYPE_CHECKING:
     from morphkit.motion.motion import Motion
 
-__all__ = ["ROOT_FEATURE_DIM", "Pairing", "feature_dim", "features", "motion_features"]
+__all__ = ["ACTIVE_HAND", "ACTIVE_HAND_SOFTNESS", "ROOT_FEATURE_DIM", "ActiveHand", "Pairing", "feature_dim",
+           "features", "motion_features"]
 
 ROOT_FEATURE_DIM = 11
 """Dimensions of Ψ before the end-effector block (height 1, orientation 4, velocities 6)."""
+
+
+ACTIVE_HAND = "active_hand"
+"""A virtual human end-effector (ours): of the human's hands, the one moved furthest from where it usually is.
+A creature's lone hand or tool is paired with it (:func:`~morphkit.motion.ee_mapping.map_end_effectors`), so a
+one-armed creature follows whichever hand acts — the wave of a left hand as well as the reach of a right one."""
+ACTIVE_HAND_SOFTNESS = 0.05
+"""[body lengths] Softness of the active hand's choice (ours): each hand's weight is a softmax of its distance from
+its own mean position over this, so a hand 0.1 body lengths further out than the other takes 88 % of the weight,
+and the choice moves smoothly from hand to hand."""
+
+
+@dataclass(frozen=True)
+class ActiveHand:
+    """How Ψ's :data:`ACTIVE_HAND` block is formed from the human's hands.
+
+    Per frame, each hand's heading-frame position / body length minus its mean over the human data (``means``)
+    is its displacement $d_i$; the block is $\\sum_i w_i d_i$ with $w = \\mathrm{softmax}(\\|d_i\\| / s)$,
+    ``s`` = :attr:`softness`. A hand marked in ``mirror`` has its lateral (y) displacement negated, so that a
+    creature's tool on one side moves outward when either hand does.
+    """
+
+    hands: tuple[str, ...]
+    """The human's hand end-effectors."""
+    means: tuple[float, ...] | None = None
+    """Each hand's mean Ψ position over the human data [3 h] (``None``: displacements from the root)."""
+    mirror: tuple[bool, ...] = ()
+    """Per hand, whether its lateral displacement is negated (empty: none)."""
+    softness: float = ACTIVE_HAND_SOFTNESS
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "hands", tuple(self.hands))
+        object.__setattr__(self, "mirror", tuple(bool(v) for v in self.mirror) or (False,) * len(self.hands))
+        if self.means is not None:
+            object.__setattr__(self, "means", tuple(float(v) for v in self.means))
+        if len(self.hands) < 2:
+            raise ConfigError(f"an active hand needs two or more human hands, got {list(self.hands)}")
+        if len(self.mirror) != len(self.hands) or (self.means is not None and len(self.means) != 3 * len(self.hands)):
+            raise ConfigError("ActiveHand: mirror needs one flag and means three values per hand")
+        if not self.softness > 0:
+            raise ConfigError(f"ActiveHand.softness must be > 0, got {self.softness!r}")
+
+    def block(self, state: Any, layout: StateLayout, inv: float) -> Any:
+        """The active hand's Ψ block [..., 3] of states [..., layout.dim] (NumPy or torch, not normalised)."""
+        d = _centred(state[..., _ee_columns(layout, self.hands)] * inv, self.means)
+        sign = np.ones(3 * len(self.hands))
+        sign[[3 * i + 1 for i, m in enumerate(self.mirror) if m]] = -1.0
+        if isinstance(d, np.ndarray):
+            d = (d * sign).reshape(*d.shape[:-1], len(self.hands), 3)
+            a = np.linalg.norm(d, axis=-1) / self.softness
+            w = np.exp(a - a.max(axis=-1, keepdims=True))
+            return (w[..., None] * d).sum(axis=-2) / w.sum(axis=-1)[..., None]
+        import torch
+
+        d = (d * torch.as_tensor(sign, dtype=d.dtype, device=d.device)).unflatten(-1, (len(self.hands), 3))
+        w = torch.softmax(d.norm(dim=-1) / self.softness, dim=-1)
+        return (w.unsqueeze(-1) * d).sum(dim=-2)
 
 
 def feature_dim(ee_count: int) -> int:
@@ -85,7 +143,7 @@ def _centred(ee: Any, centre: Sequence[float] | None) -> Any:
 
 
 def features(state: Any, layout: StateLayout, *, length: float, ee_names: Sequence[str] | None = None,
-             centre: Sequence[float] | None = None) -> Any:
+             centre: Sequence[float] | None = None, active_hand: ActiveHand | None = None) -> Any:
     """Ψ of states (see the module docstring).
 
     Args:
@@ -95,23 +153,31 @@ def features(state: Any, layout: StateLayout, *, length: float, ee_names: Sequen
         ee_names: End-effectors to include, in this order (default: all, in layout order).
         centre: Subtracted from the end-effector block after dividing by ``length`` [3 k] (the side's
             mean over its own data set: :attr:`Pairing.creature_centre`); ``None``: not centred.
+        active_hand: How an :data:`ACTIVE_HAND` in ``ee_names`` is formed (needed when one is).
 
     Returns:
         [..., 11 + 3 k] features, same type as ``state``.
 
     Raises:
-        ConfigError: an unknown end-effector name or a non-positive length.
+        ConfigError: an unknown end-effector name, a non-positive length, or an :data:`ACTIVE_HAND` without
+            ``active_hand``.
     """
     if not length > 0:
         raise ConfigError(f"body length must be > 0, got {length!r}")
-    cols = _ee_columns(layout, ee_names)
     inv = 1.0 / float(length)
+    if ee_names is not None and ACTIVE_HAND in ee_names:
+        if active_hand is None:
+            raise ConfigError(f"Ψ of {ACTIVE_HAND!r} needs the human's hands (Pairing.active_hand)")
+        ee = _cat([active_hand.block(state, layout, inv) if n == ACTIVE_HAND
+                   else state[..., _ee_columns(layout, [n])] * inv for n in ee_names])
+    else:
+        ee = state[..., _ee_columns(layout, ee_names)] * inv
     parts = [
         state[..., layout.slice("root_height")] * inv,
         state[..., layout.slice("root_orientation")],
         state[..., layout.slice("root_linear_velocity")] * inv,
         state[..., layout.slice("root_angular_velocity")],
-        _centred(state[..., cols] * inv, centre),
+        _centred(ee, centre),
     ]
     return _cat(parts)
 
@@ -157,6 +223,9 @@ class Pairing:
     frame), subtracted from it (``None``: Ψ not centred, as the paper and runs before centring)."""
     human_centre: tuple[float, ...] | None = None
     """The same for the human side, over the human data."""
+    active_hand: ActiveHand | None = None
+    """How the human's :data:`ACTIVE_HAND` is formed, when ``human_ees`` holds it (its hands' means set by
+    :meth:`with_centres`)."""
 
     def __post_init__(self) -> None:
         if len(self.creature_ees) != len(self.human_ees):
@@ -173,6 +242,8 @@ class Pairing:
                 if len(value) != 3 * len(self.creature_ees):
                     raise ConfigError(f"Pairing.{name} needs {3 * len(self.creature_ees)} values, got {len(value)}")
                 object.__setattr__(self, name, value)
+        if ACTIVE_HAND in self.human_ees and self.active_hand is None:
+            raise ConfigError(f"a pairing with {ACTIVE_HAND!r} needs its ActiveHand (the human's hands)")
 
     @property
     def centred(self) -> bool:
@@ -187,14 +258,24 @@ class Pairing:
         compared is how end-effectors move about where they usually are.
         """
         plain = dataclasses.replace(self, creature_centre=None, human_centre=None)
+        if plain.active_hand is not None:  # the hands' own means first: the active hand is chosen by distance from them
+            hands = dataclasses.replace(plain.active_hand, means=None)
+            means = np.concatenate([
+                features(human_state_from_motion(m), human_state_layout(m.morphology), length=self.human_length,
+                         ee_names=hands.hands) for m in human])[:, ROOT_FEATURE_DIM:].mean(axis=0)
+            plain = dataclasses.replace(plain, active_hand=dataclasses.replace(hands, means=tuple(means.tolist())))
         c = np.concatenate([plain.creature_psi(m) for m in creature])[:, ROOT_FEATURE_DIM:].mean(axis=0)
         h = np.concatenate([plain.human_psi(m) for m in human])[:, ROOT_FEATURE_DIM:].mean(axis=0)
-        return dataclasses.replace(self, creature_centre=tuple(c.tolist()), human_centre=tuple(h.tolist()))
+        return dataclasses.replace(self, creature_centre=tuple(c.tolist()), human_centre=tuple(h.tolist()),
+                                   active_hand=plain.active_hand)
 
     @staticmethod
-    def from_mapping(mapping: Mapping[str, str], creature_length: float, human_length: float) -> Pairing:
-        """The (uncentred) pairing of ``{creature_ee: human_ee}`` (an :attr:`EndEffectorMapping.mapping`)."""
-        return Pairing(tuple(mapping), tuple(mapping.values()), creature_length, human_length)
+    def from_mapping(mapping: Mapping[str, str], creature_length: float, human_length: float,
+                     active_hand: ActiveHand | None = None) -> Pairing:
+        """The (uncentred) pairing of ``{creature_ee: human_ee}`` (an :attr:`EndEffectorMapping.mapping`, with
+        its :attr:`~EndEffectorMapping.active_hand` when it pairs one)."""
+        return Pairing(tuple(mapping), tuple(mapping.values()), creature_length, human_length,
+                       active_hand=active_hand if ACTIVE_HAND in mapping.values() else None)
 
     @property
     def mapping(self) -> dict[str, str]:
@@ -210,4 +291,4 @@ class Pairing:
         """Ψ of a human motion's frames [T, 11 + 3k], its end-effectors in the creature's order."""
         layout = human_state_layout(motion.morphology)
         return features(human_state_from_motion(motion), layout, length=self.human_length, ee_names=self.human_ees,
-                        centre=self.human_centre)
+                        centre=self.human_centre, active_hand=self.active_hand)

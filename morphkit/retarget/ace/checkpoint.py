@@ -32,7 +32,7 @@ from morphkit._atomic import atomic_path, atomic_write_text
 from morphkit.errors import RunError, SourceLocation
 from morphkit.graph import Morphology
 from morphkit.io import read_morphology, write_morphology
-from morphkit.motion import CANONICAL_HUMAN, NormStats, Pairing, canonical_record
+from morphkit.motion import CANONICAL_HUMAN, ActiveHand, NormStats, Pairing, canonical_record
 from morphkit.retarget.training_data import DataConfig
 
 __all__ = ["META_FILE", "PRIOR_STAGE", "AceArtifact"]
@@ -138,6 +138,10 @@ class AceArtifact:
         if self.pairing.centred:
             meta["psi_centre"] = {"creature": list(self.pairing.creature_centre or ()),
                                   "human": list(self.pairing.human_centre or ())}
+        hand = self.pairing.active_hand
+        if hand is not None:
+            meta["active_hand"] = {"hands": list(hand.hands), "mirror": list(hand.mirror),
+                                   "means": None if hand.means is None else list(hand.means), "softness": hand.softness}
         if self.prior_dir is not None:
             meta["prior_dir"] = self.prior_dir
         if self.canonical_human is not None:
@@ -177,8 +181,9 @@ class AceArtifact:
                               stand_probability=d.get("stand_probability"),
                               full_arm_travel=bool(d.get("full_arm_travel", False)))
             mapping = json.loads(_need(run / _MAPPING).read_text())
+            hand = meta.get("active_hand")
             pairing = Pairing.from_mapping(mapping["mapping"], float(meta["creature_body_length"]),
-                                           float(meta["human_body_length"]))
+                                           float(meta["human_body_length"]), None if not hand else ActiveHand(**hand))
             centre = meta.get("psi_centre")
             if centre:
                 pairing = dataclasses.replace(pairing, creature_centre=centre["creature"], human_centre=centre["human"])
@@ -187,7 +192,7 @@ class AceArtifact:
         with np.load(_need(run / _START_STATES)) as f:
             states, psi = f["states"], f["psi"]
         known = {"creature", "human_data", "human_skeleton", "creature_body_length", "human_body_length", "fps",
-                 "data", "mapping", "prior_dir", "psi_centre", "canonical_human"}
+                 "data", "mapping", "prior_dir", "psi_centre", "canonical_human", "active_hand"}
         canonical = meta.get("canonical_human")
         return AceArtifact(
             creature=read_morphology(_need(run / _CREATURE)),

@@ -174,6 +174,11 @@ class AceConfig:
     """Map end-effectors by KL alone (the paper's Eq. 11). Default: KL chooses among human end-effectors
     of a compatible role (foot → foot, head → head, hand/tool → hand), ours: KL alone maps a quadruped's
     feet to the synthesised human's hands, whose positions are more spread than its feet's."""
+    active_hand: bool = True
+    """A creature's lone hand or tool follows whichever of the human's hands moves (ours; the mapping's
+    :data:`~morphkit.motion.ACTIVE_HAND`); False: the one hand KL prefers. With one hand fixed, a human who waves
+    with the other is not followed at all (the main job's clips: the left hand waves to 1.85 m, the right one,
+    KL's choice, stays within 2 cm)."""
     centre_features: bool = True
     """Centre each side's Ψ end-effector block on its own data set's mean (ours; False gives the paper's
     Ψ). Uncentred, Ψ compares end-effectors measured from the root: a quadruped's feet stand 0.8 body

@@ -130,9 +130,9 @@ def prepare(
     h_dist = ee_distributions(human, length=h_len, max_frames_per_clip=300)
     roles = None if cfg.kl_only_mapping else ({e.name: e.role for e in creature.end_effectors},
                                               {e.name: e.role for e in human_m.end_effectors})
-    mapping = map_end_effectors(c_dist, h_dist, override=mapping_override, roles=roles)
+    mapping = map_end_effectors(c_dist, h_dist, override=mapping_override, roles=roles, active_hand=cfg.active_hand)
     c_stats, h_stats = NormStats.fit(c_states), NormStats.fit(h_states)
-    pairing = Pairing.from_mapping(mapping.mapping, c_len, h_len)
+    pairing = Pairing.from_mapping(mapping.mapping, c_len, h_len, mapping.active_hand)
     if cfg.centre_features:
         pairing = pairing.with_centres(character, human)
     fmap = FeatureMap(creature, character_state_layout(creature, contacts=flags),
