@@ -263,13 +263,15 @@ def evaluation_clips(path: str | os.PathLike[str] | None, data: DataConfig, *, l
                      cache_dir: str | os.PathLike[str] | bool | None = True, canonical: bool = True) -> list[Motion]:
     """Clips to evaluate on, never trained on: the evaluation split's clips under ``path`` (every clip
     when none of them is named in the split), mapped onto the canonical human unless ``canonical`` is
-    false (see :func:`human_motions`), or embedded default human clips of another seed.
+    false (see :func:`human_motions`), or embedded default human clips of another seed: a quarter of the
+    training frames (at least one clip), or ``limit`` clips' worth when that is more.
     """
     if path is None:
-        from morphkit.synth import default_human_motion
+        from morphkit.synth import default_human_config, default_human_motion
 
-        clips = list(default_human_motion(frames=max(data.human_frames // 4, 300), seed=data.synth_seed + 1000,
-                                          fps=data.fps))
+        clip = round(default_human_config().rollout_seconds * data.fps)
+        frames = max(data.human_frames // 4, clip, clip * (limit or 0))
+        clips = list(default_human_motion(frames=frames, seed=data.synth_seed + 1000, fps=data.fps))
     else:
         motions, maps = _read_human_folder(path, data.fps, cache_dir)
         _, held = split_evaluation_clips(motions)

@@ -41,6 +41,7 @@ from morphkit.synth.core import source_digest as source_digest
 from morphkit.synth.core import synthesize as synthesize
 from morphkit.synth.human import HumanClip as HumanClip
 from morphkit.synth.human import default_human_clips as default_human_clips
+from morphkit.synth.human import default_human_config as default_human_config
 from morphkit.synth.human import default_human_motion as default_human_motion
 from morphkit.synth.legged import LegConfig as LegConfig
 from morphkit.synth.lock import lock_feet as lock_feet
@@ -67,6 +68,7 @@ __all__ = [
     "analyse",
     "apply_contacts",
     "default_human_clips",
+    "default_human_config",
     "default_human_motion",
     "iter_synthesize",
     "lock_feet",

@@ -138,6 +138,16 @@ def test_same_code_trains_shipped_creatures(tmp_path, human_dir, cache, name):
     out = AceRetargeter(tmp_path / "run").retarget(clips)
     assert [r.motion.frame_count for r in out] == [c.frame_count for c in clips]
     assert all(np.isfinite(r.motion.q).all() for r in out)
+    # a lone arm (Spot's, Stretch's gripper) follows the active hand; the crab's two claws one hand each
+    from morphkit.motion import ACTIVE_HAND
+    from morphkit.retarget.ace.checkpoint import AceArtifact
+
+    art = AceArtifact.load(tmp_path / "run")
+    assert (ACTIVE_HAND in art.pairing.human_ees) == (name != "crab")
+    if name != "crab":
+        assert len(art.pairing.active_hand.means) == 6
+    art.save(tmp_path / "copy")  # the pairing, its hands' means included, survives a save and a load
+    assert AceArtifact.load(tmp_path / "copy").pairing == art.pairing
 
 
 def test_same_code_trains_dm_control_dog(tmp_path, human_dir, cache):

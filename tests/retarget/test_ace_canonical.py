@@ -137,3 +137,13 @@ def test_human_training_data_is_canonical_whatever_the_folder_holds(tmp_path):
     raw = evaluation_clips(folder, data, cache_dir=None, canonical=False)
     assert raw[0].morphology.link_names[0] == "root"
     assert evaluation_clips(folder, data, cache_dir=None, limit=1)[0].morphology is canonical_human()
+
+
+def test_embedded_default_evaluation_gives_the_clips_asked_for() -> None:
+    """The main job's `--clips 6` gets six embedded held-out clips (a quarter of the training frames held three),
+    none of them a training clip."""
+    data = DataConfig(human_frames=600)
+    clips = evaluation_clips(None, data, limit=4)
+    assert len(clips) == 4 and all(c.frame_count == 300 for c in clips)
+    trained = human_motions(None, data)
+    assert not any(np.array_equal(c.q[:10], t.q[:10]) for c in clips for t in trained)
