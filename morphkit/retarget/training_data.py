@@ -36,6 +36,7 @@ from morphkit.motion.datasets import default_cache_dir
 
 __all__ = [
     "CONVENTION_FILE",
+    "EMBEDDED_EVALUATION_CLIPS",
     "DataConfig",
     "StateWindows",
     "character_data",
@@ -259,18 +260,23 @@ def human_motions(
     return motions
 
 
+EMBEDDED_EVALUATION_CLIPS = 6
+"""Held-out clips of the embedded default human at least (the main job's ``--clips`` default; a quarter of
+``quick``'s training frames held three)."""
+
+
 def evaluation_clips(path: str | os.PathLike[str] | None, data: DataConfig, *, limit: int | None = None,
                      cache_dir: str | os.PathLike[str] | bool | None = True, canonical: bool = True) -> list[Motion]:
     """Clips to evaluate on, never trained on: the evaluation split's clips under ``path`` (every clip
     when none of them is named in the split), mapped onto the canonical human unless ``canonical`` is
     false (see :func:`human_motions`), or embedded default human clips of another seed: a quarter of the
-    training frames (at least one clip), or ``limit`` clips' worth when that is more.
+    training frames, at least :data:`EMBEDDED_EVALUATION_CLIPS` clips (the first ``limit`` of them).
     """
     if path is None:
         from morphkit.synth import default_human_config, default_human_motion
 
         clip = round(default_human_config().rollout_seconds * data.fps)
-        frames = max(data.human_frames // 4, clip, clip * (limit or 0))
+        frames = max(data.human_frames // 4, clip * EMBEDDED_EVALUATION_CLIPS)
         clips = list(default_human_motion(frames=frames, seed=data.synth_seed + 1000, fps=data.fps))
     else:
         motions, maps = _read_human_folder(path, data.fps, cache_dir)

@@ -311,7 +311,8 @@ def test_morphkit_evaluate_scores_the_runs_to_the_same_table(smoke, tmp_path, mo
                 "--out", str(tmp_path / "one")]) == 0
     assert list(_table(tmp_path / "one" / "table.md")) == ["Dataset", "ACEwoFea"]
     # NKN alone: the end-effector pairing computed as ACE's prepare does gives the same pairing and the same row.
-    assert cli(["evaluate", "--runs", str(runs / "nkn_seed0"), "--videos", "0", "--out", str(tmp_path / "nkn")]) == 0
+    assert cli(["evaluate", "--runs", str(runs / "nkn_seed0"), "--clips", "2", "--videos", "0",
+                "--out", str(tmp_path / "nkn")]) == 0
     full, alone = (json.loads((p / "evaluation.json").read_text()) for p in (out / "testdog" / "report",
                                                                                 tmp_path / "nkn"))
     assert alone["reference"] != full["reference"] and alone["mapping"] == full["mapping"]

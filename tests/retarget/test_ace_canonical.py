@@ -23,7 +23,13 @@ from morphkit.retarget.ace.config import preset
 from morphkit.retarget.ace.retarget import AceRetargeter
 from morphkit.retarget.ace.train import train_ace
 from morphkit.retarget.config import replace_config
-from morphkit.retarget.training_data import CONVENTION_FILE, DataConfig, evaluation_clips, human_motions
+from morphkit.retarget.training_data import (
+    CONVENTION_FILE,
+    EMBEDDED_EVALUATION_CLIPS,
+    DataConfig,
+    evaluation_clips,
+    human_motions,
+)
 
 TINY = ["prior.epochs=1", "prior.steps_per_epoch=2", "retarget.epochs=1", "retarget.steps_per_epoch=2"]
 DATA = Path(os.environ["MORPHKIT_DATA"]) if os.environ.get("MORPHKIT_DATA") else None
@@ -141,9 +147,10 @@ def test_human_training_data_is_canonical_whatever_the_folder_holds(tmp_path):
 
 def test_embedded_default_evaluation_gives_the_clips_asked_for() -> None:
     """The main job's `--clips 6` gets six embedded held-out clips (a quarter of the training frames held three),
-    none of them a training clip."""
+    none of them a training clip; a limit takes the first of them."""
     data = DataConfig(human_frames=600)
-    clips = evaluation_clips(None, data, limit=4)
-    assert len(clips) == 4 and all(c.frame_count == 300 for c in clips)
+    clips = evaluation_clips(None, data)
+    assert len(clips) == EMBEDDED_EVALUATION_CLIPS and all(c.frame_count == 300 for c in clips)
+    assert [c.name for c in evaluation_clips(None, data, limit=2)] == [c.name for c in clips[:2]]
     trained = human_motions(None, data)
     assert not any(np.array_equal(c.q[:10], t.q[:10]) for c in clips for t in trained)
