@@ -258,14 +258,15 @@ class Pairing:
         compared is how end-effectors move about where they usually are.
         """
         plain = dataclasses.replace(self, creature_centre=None, human_centre=None)
+        states = [(human_state_from_motion(m), human_state_layout(m.morphology)) for m in human]
         if plain.active_hand is not None:  # the hands' own means first: the active hand is chosen by distance from them
             hands = dataclasses.replace(plain.active_hand, means=None)
-            means = np.concatenate([
-                features(human_state_from_motion(m), human_state_layout(m.morphology), length=self.human_length,
-                         ee_names=hands.hands) for m in human])[:, ROOT_FEATURE_DIM:].mean(axis=0)
+            means = np.concatenate([features(x, layout, length=self.human_length, ee_names=hands.hands)
+                                    for x, layout in states])[:, ROOT_FEATURE_DIM:].mean(axis=0)
             plain = dataclasses.replace(plain, active_hand=dataclasses.replace(hands, means=tuple(means.tolist())))
         c = np.concatenate([plain.creature_psi(m) for m in creature])[:, ROOT_FEATURE_DIM:].mean(axis=0)
-        h = np.concatenate([plain.human_psi(m) for m in human])[:, ROOT_FEATURE_DIM:].mean(axis=0)
+        h = np.concatenate([plain.human_psi_of_states(x, layout) for x, layout in states])
+        h = h[:, ROOT_FEATURE_DIM:].mean(axis=0)
         return dataclasses.replace(self, creature_centre=tuple(c.tolist()), human_centre=tuple(h.tolist()),
                                    active_hand=plain.active_hand)
 
@@ -289,6 +290,10 @@ class Pairing:
 
     def human_psi(self, motion: Motion) -> np.ndarray:
         """Ψ of a human motion's frames [T, 11 + 3k], its end-effectors in the creature's order."""
-        layout = human_state_layout(motion.morphology)
-        return features(human_state_from_motion(motion), layout, length=self.human_length, ee_names=self.human_ees,
-                        centre=self.human_centre, active_hand=self.active_hand)
+        return self.human_psi_of_states(human_state_from_motion(motion), human_state_layout(motion.morphology))
+
+    def human_psi_of_states(self, state: Any, layout: StateLayout) -> Any:
+        """Ψ of human states [..., layout.dim] (not normalised; NumPy or torch) → [..., 11 + 3k], end-effectors in
+        the creature's order."""
+        return features(state, layout, length=self.human_length, ee_names=self.human_ees, centre=self.human_centre,
+                        active_hand=self.active_hand)

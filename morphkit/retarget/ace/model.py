@@ -152,8 +152,7 @@ class FeatureMap:
 
     def human_psi(self, x_h: torch.Tensor) -> torch.Tensor:
         """Ψ of normalised human states [..., Sh] → [..., 11 + 3k]."""
-        return features(self.human_stats.denormalize(x_h), self.human_layout, length=self.human_length,
-                        ee_names=self.human_ees, centre=self.pairing.human_centre, active_hand=self.pairing.active_hand)
+        return self.pairing.human_psi_of_states(self.human_stats.denormalize(x_h), self.human_layout)
 
     def local_q(self, x: torch.Tensor) -> torch.Tensor:
         """Coordinates [..., C] that put the root at the heading frame's origin with the state's tilt and joints.
