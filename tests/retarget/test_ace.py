@@ -99,7 +99,8 @@ def _train(script: str, out: Path, env: dict) -> subprocess.Popen:
 
 
 def test_sigkill_mid_epoch_then_resume_is_bit_identical(tmp_path, human_dir, dog, cache):
-    sets = ["prior.epochs=2", "prior.steps_per_epoch=6", "retarget.epochs=3", "retarget.steps_per_epoch=12"]
+    sets = ["prior.epochs=2", "prior.steps_per_epoch=6", "retarget.epochs=3", "retarget.steps_per_epoch=12",
+            "retarget.generator_average=0.9"]
     script = _SCRIPT.format(sets=sets, dog=str(dog), human=str(human_dir))
     env = {**os.environ, "MORPHKIT_CACHE_DIR": str(tmp_path.parent / "ace_cache")}
     full = _train(script, tmp_path / "full", env)
@@ -118,7 +119,7 @@ def test_sigkill_mid_epoch_then_resume_is_bit_identical(tmp_path, human_dir, dog
     assert resumed.wait(timeout=900) == 0, resumed.stderr.read()
     a = torch.load(tmp_path / "full" / "retarget" / "checkpoint.pt", weights_only=True)["states"]
     b = torch.load(tmp_path / "killed" / "retarget" / "checkpoint.pt", weights_only=True)["states"]
-    for part in ("generator", "discriminator"):
+    for part in ("generator", "discriminator", "generator_average"):
         for k, v in a[part].items():
             assert torch.equal(v, b[part][k]), f"{part}.{k} differs after resume"
 
@@ -616,3 +617,41 @@ def test_linear_decay_reaches_its_fraction_then_holds_and_resumes_where_it_was()
     opt2.load_state_dict(opt.state_dict())
     sched2.load_state_dict(sched.state_dict())
     assert opt2.param_groups[0]["lr"] == pytest.approx(1e-4, rel=1e-12)
+
+
+def test_generator_average_is_the_moving_average_of_gs_weights_and_the_g_that_retargets(tmp_path, human_dir, dog,
+                                                                                          cache):
+    from morphkit.retarget.ace.checkpoint import AVERAGE_STATE, retargeting_generator_state
+    from morphkit.retarget.ace.model import Generator
+    from morphkit.retarget.ace.retarget import AceRetargeter
+    from morphkit.retarget.ace.train import generator_average
+
+    # The average against a naive one kept by hand over the same SGD steps.
+    torch.manual_seed(0)
+    gen = Generator(5, 7, 3, preset("smoke").retarget)
+    average = generator_average(gen, 0.8)
+    opt = torch.optim.SGD(gen.parameters(), lr=0.1)
+    naive: dict[str, torch.Tensor] = {}
+    for _ in range(6):
+        opt.zero_grad()
+        gen(torch.randn(4, 5), torch.randn(4, 7)).square().sum().backward()
+        opt.step()
+        average.update_parameters(gen)
+        for name, p in gen.named_parameters():
+            naive[name] = p.detach().clone() if name not in naive else 0.8 * naive[name] + 0.2 * p.detach()
+    for name, p in average.module.named_parameters():
+        torch.testing.assert_close(p, naive[name], rtol=1e-6, atol=1e-7)
+    assert generator_average(gen, 0.0) is None
+    with pytest.raises(ConfigError, match="generator_average"):
+        generator_average(gen, 1.0)
+
+    # A run trained with it retargets with the average, not the last step's G.
+    cfg = replace_config(preset("smoke"), [*TINY, "retarget.generator_average=0.5"])
+    train_ace(tmp_path / "run", read_morphology(dog), cfg, human_data=human_dir, progress=False, log=lambda s: None)
+    states = torch.load(tmp_path / "run" / "retarget" / "checkpoint.pt", weights_only=True)["states"]
+    kept = retargeting_generator_state(states)
+    assert AVERAGE_STATE in states and set(kept) == set(states["generator"])
+    assert any(not torch.equal(kept[k], states["generator"][k]) for k in kept)
+    loaded = AceRetargeter(tmp_path / "run").generator.state_dict()
+    for k, v in kept.items():
+        torch.testing.assert_close(loaded[k].cpu(), v)

@@ -35,18 +35,29 @@ from morphkit.io import read_morphology, write_morphology
 from morphkit.motion import CANONICAL_HUMAN, ActiveHand, NormStats, Pairing, canonical_record
 from morphkit.retarget.training_data import DataConfig
 
-__all__ = ["META_FILE", "PRIOR_STAGE", "AceArtifact"]
+__all__ = ["AVERAGE_STATE", "META_FILE", "PRIOR_STAGE", "AceArtifact", "retargeting_generator_state"]
 
 META_FILE = "ace.yaml"
 """The file that makes a folder an ACE run."""
 PRIOR_STAGE = "prior"
 """The motion prior's stage folder inside the run (unless the run shares another run's prior)."""
+AVERAGE_STATE = "generator_average"
+"""The retargeter checkpoint's state of G's weight average (``retarget.generator_average``), when trained with one."""
 _CREATURE = "creature.yaml"
 _CHARACTER_STATS = "stats_character.npz"
 _HUMAN_STATS = "stats_human.npz"
 _MAPPING = "mapping.json"
 _START_STATES = "start_states.npz"
 _UNSET: Any = object()
+
+
+def retargeting_generator_state(states: dict[str, Any]) -> dict[str, Any]:
+    """G's weights that retarget, from a retargeter checkpoint's ``states``: the weight average when the run
+    kept one (a ``torch.optim.swa_utils.AveragedModel``'s state: ``module.``-prefixed, with its count), else G."""
+    average = states.get(AVERAGE_STATE)
+    if average is None:
+        return states["generator"]
+    return {k.removeprefix("module."): v for k, v in average.items() if k.startswith("module.")}
 
 
 def _need(path: Path) -> Path:

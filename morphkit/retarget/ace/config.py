@@ -160,6 +160,10 @@ class RetargetConfig:
     (raw DIV 0.31 / 0.33 against 0.61 / 0.63, matched data 1.53) and matched FID 1.67 / 1.56 against 1.13 / 1.70;
     with twice the G steps, DIV 0.67 / 0.48 and hand follow 0.43 / 0.27 against 0.66 / 0.55 and 0.44 / 0.28 without:
     no gain. So it stays 1."""
+    generator_average: float = 0.0
+    """Decay of an exponential moving average of G's weights, the G that retargets (ours; 0: off, the last
+    step's G as the paper). A GAN's G wanders about its best point while D keeps up (StyleGAN's and BigGAN's
+    generator averages); the average is G's mean over the last ~1/(1 − decay) steps."""
     betas: tuple[float, float] = (0.5, 0.999)
     discriminator_steps: int = 1
     """Discriminator updates per generator update."""

@@ -40,7 +40,7 @@ from morphkit.motion import (
     stance_flags_of,
     to_canonical,
 )
-from morphkit.retarget.ace.checkpoint import AceArtifact
+from morphkit.retarget.ace.checkpoint import AceArtifact, retargeting_generator_state
 from morphkit.retarget.ace.config import AceVariant, PriorConfig, RetargetConfig
 from morphkit.retarget.ace.model import FeatureMap, Generator, build_vae
 from morphkit.retarget.ace.train import PRIOR_TRAINER, completion, rollout
@@ -141,7 +141,7 @@ class AceRetargeter:
         self.prior = vae.prior.to(self.device).eval()
         self._c_stats, self._h_stats = self.artifact.character_stats, self.artifact.human_stats
         self._h_dim = self._h_stats.mean.shape[0]
-        state = load_checkpoint(_need(retarget_dir / CHECKPOINT_FILE))["states"]["generator"]
+        state = retargeting_generator_state(load_checkpoint(_need(retarget_dir / CHECKPOINT_FILE))["states"])
         if "z_mean" not in state:  # trained before the latent bound: G's output is used as it was trained
             rc = dataclasses.replace(rc, latent_bound=0.0)
             state = {**state, "z_mean": torch.zeros(pc.latent), "z_std": torch.ones(pc.latent)}

@@ -37,7 +37,7 @@ from morphkit.motion import (
     map_end_effectors,
     world_end_effectors,
 )
-from morphkit.retarget.ace.checkpoint import META_FILE, PRIOR_STAGE, AceArtifact
+from morphkit.retarget.ace.checkpoint import AVERAGE_STATE, META_FILE, PRIOR_STAGE, AceArtifact
 from morphkit.retarget.ace.config import AceConfig, AceVariant, PriorConfig, RetargetConfig
 from morphkit.retarget.ace.model import (
     Discriminator,
@@ -406,6 +406,9 @@ def train_retargeter(
         sched_g, sched_d = (linear_decay(opt, rc.lr_final_fraction, rc.epochs * rc.steps_per_epoch)
                             for opt in (opt_g, opt_d))
         run.track(generator=gen, discriminator=disc, optimizer_g=opt_g, optimizer_d=opt_d)
+        average = generator_average(gen, rc.generator_average)
+        if average is not None:  # off: runs from before it resume as they were
+            run.track(**{AVERAGE_STATE: average})
         if rc.lr_final_fraction != 1.0:  # a constant rate has no state: runs from before it resume as they were
             run.track(scheduler_g=sched_g, scheduler_d=sched_d)
         for _ in run.epochs(rc.epochs):
@@ -459,13 +462,30 @@ def train_retargeter(
                 loss_g.backward()
                 average_gradients(gen, run.context)
                 opt_g.step()
+                if average is not None:
+                    average.update_parameters(gen)
                 sched_g.step()
                 if use_adversarial:  # D's schedule counts G steps too; without D it never steps
                     sched_d.step()
                 run.log(**row, loss_g=loss_g.detach(), loss_g_adv=g_adv.detach(), loss_g_fea=g_fea.detach(),
                         loss_g_contact=g_contact.detach(), feature_loss=fea.detach(), ee_fk_gap=gap.mean())
-    gen.eval()
-    return gen
+    final = gen if average is None else average.module
+    final.eval()
+    return final
+
+
+def generator_average(gen: torch.nn.Module, decay: float) -> torch.optim.swa_utils.AveragedModel | None:
+    """An exponential moving average of ``gen``'s parameters (``None`` for ``decay`` 0: off).
+
+    Its buffers (the latent range) are copied once: they are set before training and never change.
+    """
+    if decay <= 0.0:
+        return None
+    if decay >= 1.0:
+        raise ConfigError(f"retarget.generator_average must lie in [0, 1), got {decay}")
+    from torch.optim.swa_utils import AveragedModel, get_ema_multi_avg_fn
+
+    return AveragedModel(gen, multi_avg_fn=get_ema_multi_avg_fn(decay))
 
 
 def disc_logits(d_model: torch.nn.Module, disc: torch.nn.Module, transitions: torch.Tensor) -> torch.Tensor:
