@@ -111,6 +111,7 @@ def _nkn_config(cfg: ReproduceConfig, ace: AceConfig, seed: int) -> NknConfig:
         "data.fps": ace.data.fps,
         "data.character_frames": ace.data.character_frames,
         "data.synth_seed": ace.data.synth_seed,
+        "data.arm_hang_share": ace.data.arm_hang_share,
         **NKN_BUDGET.get(cfg.preset, {}),
     }
     base = replace_config(nkn_preset(cfg.preset), shared)

@@ -19,7 +19,7 @@ from __future__ import annotations
 import hashlib
 import os
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -77,6 +77,9 @@ class DataConfig:
     forwards (+0.12 to +0.26 body lengths/s per standing clip, against −0.02 to −0.13), forward follow 0.58 → 0.51,
     matched FID 1.005 → 1.232: the adversarial term pulls G towards the data's common speeds whichever way they
     go. Unset."""
+    arm_hang_share: float | None = None
+    """Share of the synthesised arm moves that go to the lowest-hanging neighbouring pose
+    (:attr:`morphkit.synth.ArmConfig.hang_share`); ``None``: the synthesis' own (0, every move random). Ours."""
     full_arm_travel: bool = True
     """Synthesise the character's arms over each joint's whole travel (the synthesis' default,
     :class:`morphkit.synth.ArmConfig`: a wheeled robot's lift to its top); off:
@@ -107,6 +110,7 @@ def _morphology_key(morphology: Morphology) -> str:
 def _synth_key(data: DataConfig) -> str:
     key = "" if data.stand_probability is None else f"|stand={data.stand_probability!r}"
     key += "" if data.forward_speed is None else f"|forward={tuple(map(float, data.forward_speed))!r}"
+    key += "" if data.arm_hang_share is None else f"|hang={float(data.arm_hang_share)!r}"
     return key + ("|arms=full" if data.full_arm_travel else "|arms=partial")
 
 
@@ -119,7 +123,10 @@ def _synth_config(data: DataConfig) -> Any:
     if data.forward_speed is not None:
         changed["forward_speed"] = tuple(map(float, data.forward_speed))
     commands = CommandConfig(**changed)
-    return SynthConfig(commands=commands, arms=ArmConfig() if data.full_arm_travel else ArmConfig.partial_travel())
+    arms = ArmConfig() if data.full_arm_travel else ArmConfig.partial_travel()
+    if data.arm_hang_share is not None:
+        arms = replace(arms, hang_share=float(data.arm_hang_share))
+    return SynthConfig(commands=commands, arms=arms)
 
 
 def character_motions(

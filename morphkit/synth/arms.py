@@ -84,6 +84,10 @@ class ArmConfig:
     """Pool the poses that put each non-leg chain's end-effector (arm tip, head, tail, tool) at its lowest and
     its highest (within its joints' limits, every upper-body point above the ground, the feet planted): a
     head that can reach the ground does. Arms only where ``joint_range`` is 1."""
+    hang_share: float = 0.0
+    """Share of the pose walk's moves that go to the neighbour whose arm tips hang lowest (mean tip height in
+    the root frame) instead of a random neighbour: arms then spend their time low and rise now and then, as a
+    person's hands mostly hang. 0: every move random."""
     walk_from_any_pose: bool = True
     """Each rollout's walk on the pose graph starts at a random pose (False: at the stance), so that poses many
     moves away from the stance — a joint's limits, a chain's lowest and highest reach — are visited too."""
@@ -480,10 +484,16 @@ def draw_upper_body(rngs: Sequence[np.random.Generator], pool: PosePool, frames:
         walk = np.zeros(S + 1, dtype=np.int64)
         if cfg.walk_from_any_pose:
             walk[0] = rng.integers(len(pool.q))
+        hang = rng.random(S) < cfg.hang_share if cfg.hang_share > 0 else np.zeros(S, dtype=bool)
         for s in range(S):
             nb = pool.neighbours[walk[s]]
             nb = nb[nb >= 0]
-            walk[s + 1] = nb[int(steps[s] * len(nb))] if len(nb) else walk[s]
+            if not len(nb):
+                walk[s + 1] = walk[s]
+            elif hang[s] and A:
+                walk[s + 1] = nb[np.argmin(pool.tips[nb, :, 2].mean(axis=1))]
+            else:
+                walk[s + 1] = nb[int(steps[s] * len(nb))]
         starts = np.concatenate([[0.0], np.cumsum(mv + hd)[:-1]])
         seg = np.clip(np.searchsorted(starts, t, side="right") - 1, 0, S - 1)
         i0[r], i1[r] = walk[seg], walk[seg + 1]

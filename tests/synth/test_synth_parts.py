@@ -317,3 +317,30 @@ def test_limb_solver_step_on_recorded_buffers_equals_the_plain_ik_step(synth_cre
     np.testing.assert_array_equal(fast[0], plain[0])
     np.testing.assert_array_equal(fast[1], plain[1])
     assert np.abs(fast[0] - q).max() > 1e-3  # it moved
+
+
+def test_hang_share_moves_arms_to_the_lowest_neighbour_and_keeps_random_walks_otherwise():
+    """A hand-built pose graph: with ``hang_share`` 1 every move goes to the neighbour whose arm tips hang
+    lowest; with 0 the walk is the plain random one (the same draws as before the option: same generator,
+    same walk); in between, the walk's arm tips sit lower on average."""
+    from morphkit.synth.arms import ArmConfig, PosePool, draw_upper_body
+
+    heights = np.array([0.5, 0.1, 0.9, 0.3, 0.7])
+    neighbours = np.array([[1, 2], [2, 3], [0, 4], [0, 1], [2, -1]])
+    tips = np.zeros((5, 2, 3))
+    tips[:, 0, 2], tips[:, 1, 2] = heights - 0.05, heights + 0.05  # two arms, mean height = heights
+    pool = PosePool(coords=np.arange(1), quat_offsets=(), q=np.zeros((5, 1)), tips=tips, neighbours=neighbours,
+                    arm_coords=np.arange(0), arm_quat_offsets=(), direct=np.arange(1), reach=np.ones(2))
+    lowest = {p: min((n for n in row if n >= 0), key=lambda n: heights[n]) for p, row in enumerate(neighbours)}
+
+    def walk(share: float, seed: int = 3) -> tuple[np.ndarray, np.ndarray]:
+        track = draw_upper_body([np.random.default_rng(seed)], pool, 600, 30.0, replace(ArmConfig(), hang_share=share))
+        return track.i0[0], track.i1[0]
+
+    i0, i1 = walk(1.0)
+    assert all(b == lowest[a] for a, b in zip(i0, i1))
+    plain, default = walk(0.0), draw_upper_body([np.random.default_rng(3)], pool, 600, 30.0, ArmConfig())
+    np.testing.assert_array_equal(plain[1], default.i1[0])
+    assert any(b != lowest[a] for a, b in zip(*plain))
+    mean_height = [np.mean([heights[walk(s, seed)[0]].mean() for seed in range(20)]) for s in (0.0, 0.5)]
+    assert mean_height[1] < mean_height[0] - 0.05

@@ -54,6 +54,9 @@ class NknDataConfig:
     """Seed of the training variants (the unseen evaluation variants use other seeds)."""
     character_frames: int = 12_000
     """Cross-morphology mode: synthesised frames of the target creature (its real motion for D)."""
+    arm_hang_share: float | None = None
+    """Cross-morphology mode: share of the creature's synthesised arm moves that go to the lowest-hanging pose
+    (ACE's ``data.arm_hang_share``; Table 1 sets it to ACE's, so both see the same creature data)."""
     test_frames: int = 120
     """Frames per evaluation clip (§5: 4-second test clips at 30 fps)."""
     held_out: tuple[str, ...] = ()

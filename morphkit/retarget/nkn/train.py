@@ -136,7 +136,7 @@ def prepare(
     setup = NknSetup(mode, template, characters, source, feats, offs)
     if creature is not None:
         synth = DataConfig(character_frames=cfg.data.character_frames, fps=cfg.data.fps,
-                           synth_seed=cfg.data.synth_seed)
+                           synth_seed=cfg.data.synth_seed, arm_hang_share=cfg.data.arm_hang_share)
         target = Character(creature, character_motions(creature, synth, cache_dir=cache_dir, progress=progress,
                                                        log=log),
                            "creature")
