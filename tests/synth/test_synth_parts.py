@@ -338,9 +338,9 @@ def test_hang_share_moves_arms_to_the_lowest_neighbour_and_keeps_random_walks_ot
         return track.i0[0], track.i1[0]
 
     i0, i1 = walk(1.0)
-    assert all(b == lowest[a] for a, b in zip(i0, i1))
+    assert all(b == lowest[a] for a, b in zip(i0, i1, strict=True))
     plain, default = walk(0.0), draw_upper_body([np.random.default_rng(3)], pool, 600, 30.0, ArmConfig())
     np.testing.assert_array_equal(plain[1], default.i1[0])
-    assert any(b != lowest[a] for a, b in zip(*plain))
+    assert any(b != lowest[a] for a, b in zip(*plain, strict=True))
     mean_height = [np.mean([heights[walk(s, seed)[0]].mean() for seed in range(20)]) for s in (0.0, 0.5)]
     assert mean_height[1] < mean_height[0] - 0.05

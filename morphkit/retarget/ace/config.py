@@ -167,7 +167,8 @@ class RetargetConfig:
     the main job (``quick``, seeds 0 / 1) and 0.98 at ``default`` (a quadruped with an arm, seeds 0–2): at ``quick``
     raw UFR 68 / 49 % → 27 / 20 % and forward follow up, but DIV 0.69 / 0.88 → 0.64 / 0.54; at ``default`` the same
     follow, DIV 1.20 → 1.42 (data 1.85), shipped FID 1.016 → 1.111 and 7.8 % self-collision on one seed
-    (docs/guides/train-ace.md). So it stays off."""
+    (docs/guides/train-ace.md). So off by default; ``quick`` uses 0.95 with arms that mostly hang
+    (``data.arm_hang_share``), where the last-step G fell off its best point on one of two seeds."""
     betas: tuple[float, float] = (0.5, 0.999)
     discriminator_steps: int = 1
     """Discriminator updates per generator update."""
