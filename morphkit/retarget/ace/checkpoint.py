@@ -143,6 +143,9 @@ class AceArtifact:
                      "human_frames": self.data.human_frames,
                      # the synthesis options, so the evaluation rebuilds the data set trained on
                      "stand_probability": self.data.stand_probability,
+                     "forward_speed": None if self.data.forward_speed is None else
+                     [float(v) for v in self.data.forward_speed],
+                     "arm_hang_share": self.data.arm_hang_share,
                      "full_arm_travel": self.data.full_arm_travel},
             "mapping": self.pairing.mapping,
         }
@@ -190,6 +193,9 @@ class AceArtifact:
                               fps=float(meta["fps"]), synth_seed=int(d.get("synth_seed", 0)),
                               human_frames=int(d.get("human_frames", DataConfig.human_frames)),
                               stand_probability=d.get("stand_probability"),
+                              forward_speed=None if d.get("forward_speed") is None else
+                              (float(d["forward_speed"][0]), float(d["forward_speed"][1])),
+                              arm_hang_share=d.get("arm_hang_share"),
                               full_arm_travel=bool(d.get("full_arm_travel", False)))
             mapping = json.loads(_need(run / _MAPPING).read_text())
             hand = meta.get("active_hand")
