@@ -29,10 +29,11 @@ import numpy as np
 import yaml
 
 from morphkit._atomic import atomic_path, atomic_write_text
-from morphkit.errors import RunError, SourceLocation
+from morphkit.errors import ConfigError, RunError, SourceLocation
 from morphkit.graph import Morphology
 from morphkit.io import read_morphology, write_morphology
 from morphkit.motion import CANONICAL_HUMAN, ActiveHand, NormStats, Pairing, canonical_record
+from morphkit.retarget.config import config_from_dict, config_to_dict
 from morphkit.retarget.training_data import DataConfig
 
 __all__ = ["AVERAGE_STATE", "META_FILE", "PRIOR_STAGE", "AceArtifact", "retargeting_generator_state"]
@@ -139,14 +140,8 @@ class AceArtifact:
             "creature_body_length": self.pairing.creature_length,
             "human_body_length": self.pairing.human_length,
             "fps": float(self.data.fps),
-            "data": {"character_frames": self.data.character_frames, "synth_seed": self.data.synth_seed,
-                     "human_frames": self.data.human_frames,
-                     # the synthesis options, so the evaluation rebuilds the data set trained on
-                     "stand_probability": self.data.stand_probability,
-                     "forward_speed": None if self.data.forward_speed is None else
-                     [float(v) for v in self.data.forward_speed],
-                     "arm_hang_share": self.data.arm_hang_share,
-                     "full_arm_travel": self.data.full_arm_travel},
+            # every field, so the evaluation rebuilds the data set trained on (and a new option cannot be dropped)
+            "data": config_to_dict(self.data),
             "mapping": self.pairing.mapping,
         }
         if self.pairing.centred:
@@ -188,15 +183,9 @@ class AceArtifact:
         run = Path(run_dir)
         meta = _read_meta(run)
         try:
-            d = meta.get("data") or {}
-            data = DataConfig(character_frames=int(d.get("character_frames", DataConfig.character_frames)),
-                              fps=float(meta["fps"]), synth_seed=int(d.get("synth_seed", 0)),
-                              human_frames=int(d.get("human_frames", DataConfig.human_frames)),
-                              stand_probability=d.get("stand_probability"),
-                              forward_speed=None if d.get("forward_speed") is None else
-                              (float(d["forward_speed"][0]), float(d["forward_speed"][1])),
-                              arm_hang_share=d.get("arm_hang_share"),
-                              full_arm_travel=bool(d.get("full_arm_travel", False)))
+            # runs from before full_arm_travel was recorded used the partial travel
+            d = {"full_arm_travel": False, **(meta.get("data") or {}), "fps": float(meta["fps"])}
+            data = config_from_dict(DataConfig, d, source=str(run / META_FILE))
             mapping = json.loads(_need(run / _MAPPING).read_text())
             hand = meta.get("active_hand")
             pairing = Pairing.from_mapping(mapping["mapping"], float(meta["creature_body_length"]),
@@ -204,7 +193,7 @@ class AceArtifact:
             centre = meta.get("psi_centre")
             if centre:
                 pairing = dataclasses.replace(pairing, creature_centre=centre["creature"], human_centre=centre["human"])
-        except (KeyError, TypeError, ValueError) as exc:
+        except (KeyError, TypeError, ValueError, ConfigError) as exc:
             raise RunError(f"damaged ACE run folder: {exc!r}", location=SourceLocation(str(run / META_FILE))) from exc
         with np.load(_need(run / _START_STATES)) as f:
             states, psi = f["states"], f["psi"]

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 import torch
 from torch.nn import functional as F
+from torch.optim.swa_utils import AveragedModel, get_ema_multi_avg_fn
 
 from morphkit.errors import ConfigError, RunError, SourceLocation
 from morphkit.graph import EndEffectorRole, Morphology
@@ -474,7 +475,7 @@ def train_retargeter(
     return final
 
 
-def generator_average(gen: torch.nn.Module, decay: float) -> torch.optim.swa_utils.AveragedModel | None:
+def generator_average(gen: torch.nn.Module, decay: float) -> AveragedModel | None:
     """An exponential moving average of ``gen``'s parameters (``None`` for ``decay`` 0: off).
 
     Its buffers (the latent range) are copied once: they are set before training and never change.
@@ -483,8 +484,6 @@ def generator_average(gen: torch.nn.Module, decay: float) -> torch.optim.swa_uti
         return None
     if decay >= 1.0:
         raise ConfigError(f"retarget.generator_average must lie in [0, 1), got {decay}")
-    from torch.optim.swa_utils import AveragedModel, get_ema_multi_avg_fn
-
     return AveragedModel(gen, multi_avg_fn=get_ema_multi_avg_fn(decay))
 
 
