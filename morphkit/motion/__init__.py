@@ -1,7 +1,7 @@
 """Motion data: the :class:`Motion` container, BVH/USD/NPZ motion files, the canonical human every human
 clip is mapped onto (:mod:`~morphkit.motion.canonical`), ACE states and Ψ with the state codec (encode
-and decode; NumPy, and torch twins through the FK kernels), the KL end-effector mapping, and windowed
-datasets.
+and decode; NumPy, and torch twins through the FK kernels), the KL end-effector mapping, left-right
+mirroring of a clip, and windowed datasets.
 
 Importing this package loads NumPy and PyYAML only; FK (Warp), USD (``pxr``) and PyTorch
 (:class:`MotionDataset`) load when first used.
@@ -55,6 +55,8 @@ from morphkit.motion.io_bvh import write_bvh_motion as write_bvh_motion
 from morphkit.motion.io_commands import write_robot_commands
 from morphkit.motion.io_npz import read_npz_motion as read_npz_motion
 from morphkit.motion.io_npz import write_npz_motion as write_npz_motion
+from morphkit.motion.mirror import mirror_motion as mirror_motion
+from morphkit.motion.mirror import mirror_partners as mirror_partners
 from morphkit.motion.motion import Motion as Motion
 from morphkit.motion.scale import body_length as body_length
 from morphkit.motion.scale import standing_height as standing_height
@@ -117,6 +119,8 @@ __all__ = [
     "kl_divergence",
     "load_motions",
     "map_end_effectors",
+    "mirror_motion",
+    "mirror_partners",
     "motion_features",
     "motion_to_bvh",
     "read_bvh_motion",

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import os
 import warnings
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -140,6 +141,12 @@ def test_human_training_data_is_canonical_whatever_the_folder_holds(tmp_path):
     assert all(m.morphology is canonical_human() for m in motions)
     assert {human_state_layout(m.morphology).dim for m in motions} == {104}
     np.testing.assert_allclose(motions[2].link_positions(), clip.link_positions(), atol=1e-6)
+    # data.human_mirror: each clip's mirror image follows the clips; its pelvis walks the reflected path
+    mirrored = human_motions(folder, replace(data, human_mirror=True), cache_dir=None)
+    assert [m.name for m in mirrored] == ["a_cmu", "b_mixamo", "c_mine", "a_cmu_mirrored", "b_mixamo_mirrored",
+                                          "c_mine_mirrored"]
+    np.testing.assert_allclose(mirrored[5].link_positions()[:, 0], motions[2].link_positions()[:, 0] * [1, -1, 1],
+                               atol=1e-9)
     raw = evaluation_clips(folder, data, cache_dir=None, canonical=False)
     assert raw[0].morphology.link_names[0] == "root"
     assert evaluation_clips(folder, data, cache_dir=None, limit=1)[0].morphology is canonical_human()
@@ -154,3 +161,4 @@ def test_embedded_default_evaluation_gives_the_clips_asked_for() -> None:
     assert [c.name for c in evaluation_clips(None, data, limit=2)] == [c.name for c in clips[:2]]
     trained = human_motions(None, data)
     assert not any(np.array_equal(c.q[:10], t.q[:10]) for c in clips for t in trained)
+    assert len(human_motions(None, replace(data, human_mirror=True))) == 2 * len(trained)

@@ -218,10 +218,11 @@ PRESETS: dict[str, AceConfig] = {
         prior=replace(_SMOKE_PRIOR, epochs=3, steps_per_epoch=10, batch_size=32, rollout=4),
         retarget=replace(_SMOKE_RET, epochs=3, steps_per_epoch=6, batch_size=8, window=8, tbptt=4),
     ),
-    # The whole main job ≤ 5 min on 2 cores, from a cold cache. Arms that mostly hang and G's weight average:
+    # The whole main job ≤ 5 min on 2 cores, from a cold cache. Arms that mostly hang, G's weight average and the
+    # human clips mirrored:
     # measured on the main job only (docs/guides/train-ace.md), so `quick` alone has them.
     "quick": AceConfig(
-        data=DataConfig(character_frames=12_000, human_frames=3_000, arm_hang_share=0.3),
+        data=DataConfig(character_frames=12_000, human_frames=3_000, arm_hang_share=0.3, human_mirror=True),
         prior=replace(_QUICK_PRIOR, epochs=8, steps_per_epoch=60, batch_size=64),
         retarget=replace(_QUICK_RET, epochs=8, steps_per_epoch=30, batch_size=32, window=24, generator_average=0.95),
     ),
