@@ -153,7 +153,7 @@ def format_summary(rows: Sequence[SummaryRow]) -> str:
 
 
 EXTRA_BETTER = {"fid_all": "↓", "div_all": "→", "follow": "↑", "follow_hand": "↑", "follow_forward": "↑",
-                "follow_yaw": "↑"}
+                "follow_yaw": "↑", "turn_gain": "→ 1"}
 """Which way is better for each extra figure (the rest: lower)."""
 
 
@@ -348,7 +348,9 @@ def write_index(out: str | os.PathLike[str], evaluation: Evaluation, rows: Seque
         "loose: 5 cm / 1 m/s / 2 cm. sliding/foot, penetration/foot: per foot-frame. skating: GMD's ratio. "
         "Penetrate, Float, Skate: PhysDiff's, in mm. floating: frames in a flight longer than the data set's "
         "longest. follow: Pearson correlation of the human's and the creature's end-effector heights, forward "
-        "velocity and yaw rate, per clip, averaged (1 follows exactly, 0 unrelated).</p>",
+        "velocity and yaw rate, per clip, averaged (1 follows exactly, 0 unrelated). turn gain: the creature's "
+        "yaw rate regressed on the human's, every clip's frames together (1 turns through the human's angle, 0 "
+        "does not turn).</p>",
         '<p>Files: <a href="table.md">table.md</a>, <a href="table.csv">table.csv</a>, '
         '<a href="runs.csv">runs.csv</a>, <a href="evaluation.json">evaluation.json</a></p>',
         "<h2>The paper's claims</h2>",

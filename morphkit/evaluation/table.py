@@ -26,6 +26,7 @@ from morphkit.metrics import (
     feature_loss,
     fid,
     floating_frames,
+    follow_gain,
     follow_score,
     foot_contact_figures,
     longest_flight,
@@ -85,6 +86,10 @@ class TableRow:
     """``follow`` of the root's forward velocity only."""
     follow_yaw: float | None = None
     """``follow`` of the yaw rate only."""
+    turn_gain: float | None = None
+    """How far the creature turns when the human does: :func:`~morphkit.metrics.follow_gain` of the yaw rates, the
+    clips' frames pooled (1: through the human's angle; 0: not at all). A correlation misses a creature that turns
+    the right way at a tenth of the rate."""
 
     def as_dict(self) -> dict[str, object]:
         out: dict[str, object] = {"method": self.name, "DIV": self.div, "FID": self.fid, "L_fea": self.feature_loss,
@@ -96,6 +101,7 @@ class TableRow:
 EXTRA_COLUMNS = (
     ("fid_all", "FID (all data)"), ("div_all", "DIV (all data)"), ("follow", "follow"),
     ("follow_hand", "follow hand"), ("follow_forward", "follow forward"), ("follow_yaw", "follow yaw"),
+    ("turn_gain", "turn gain"),
     ("ufr_medium", "UFR medium"), ("ufr_loose", "UFR loose"), ("foot_sliding", "sliding/foot"),
     ("foot_penetration", "penetration/foot"), ("skating", "skating"), ("penetrate_mm", "Penetrate mm"),
     ("float_mm", "Float mm"), ("skate_mm", "Skate mm"), ("floating", "floating"),
@@ -187,11 +193,13 @@ def follow_series(psi: np.ndarray, ees: Sequence[str]) -> dict[str, np.ndarray]:
 
 def follow_figures(humans: Sequence[Motion], retargeted: Sequence[Motion], pairing: Pairing,
                    roles: dict[str, str]) -> dict[str, float | None]:
-    """``follow``, ``follow_hand``, ``follow_forward``, ``follow_yaw`` (see :class:`TableRow`): per clip
-    the Pearson correlations of :func:`follow_series` (:func:`~morphkit.metrics.follow_score`; a
-    constant series scores 0 against a varying one), averaged over clips with equal weight. Clips
-    are compared over their common length; clips shorter than 3 frames are left out."""
+    """``follow``, ``follow_hand``, ``follow_forward``, ``follow_yaw``, ``turn_gain`` (see :class:`TableRow`): per
+    clip the Pearson correlations of :func:`follow_series` (:func:`~morphkit.metrics.follow_score`; a
+    constant series scores 0 against a varying one), averaged over clips with equal weight; the turn gain over
+    the clips' yaw rates pooled. Clips are compared over their common length; clips shorter than 3 frames are
+    left out."""
     per: dict[str, list[float]] = {}
+    yaw: list[tuple[np.ndarray, np.ndarray]] = []
     for h, r in zip(humans, retargeted, strict=True):
         n = min(h.frame_count, r.frame_count)
         if n < 3:
@@ -200,12 +208,14 @@ def follow_figures(humans: Sequence[Motion], retargeted: Sequence[Motion], pairi
         rs = follow_series(pairing.creature_psi(r)[:n], pairing.creature_ees)
         for key, value in follow_score(hs, rs).correlations.items():
             per.setdefault(key, []).append(value)
+        yaw.append((hs["yaw rate"], rs["yaw rate"]))
     if not per:
-        return {"follow": None, "follow_hand": None, "follow_forward": None, "follow_yaw": None}
+        return {"follow": None, "follow_hand": None, "follow_forward": None, "follow_yaw": None, "turn_gain": None}
     mean = {k: float(np.mean(v)) for k, v in per.items()}
     hands = [mean[f"{e} height"] for e in pairing.creature_ees if roles.get(e) in ("hand", "tool")]
+    gain = follow_gain(np.concatenate([h for h, _ in yaw]), np.concatenate([c for _, c in yaw]))
     return {"follow": float(np.mean(list(mean.values()))), "follow_hand": float(np.mean(hands)) if hands else None,
-            "follow_forward": mean["forward velocity"], "follow_yaw": mean["yaw rate"]}
+            "follow_forward": mean["forward velocity"], "follow_yaw": mean["yaw rate"], "turn_gain": gain}
 
 
 def evaluate_clips(

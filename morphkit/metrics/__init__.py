@@ -22,6 +22,8 @@ metric                             what it measures
                                    own :func:`longest_flight`; lower is better
 :func:`follow_score`               Pearson correlation of paired human and creature 1-D series
                                    (:func:`pearson_follow`), per pair and mean; higher is better
+:func:`follow_gain`                how much of a human series the creature's does (least-squares
+                                   slope through the origin); 1 is best
 :func:`matched_reference`          the creature's Ψ rows resampled so that root speed and yaw rate
                                    (:func:`motion_content`) match the evaluated clips'
                                    (:func:`matched_indices`): a content-matched reference for FID, DIV
@@ -52,6 +54,7 @@ from morphkit.metrics._distribution import gaussian_statistics as gaussian_stati
 from morphkit.metrics._feature_loss import feature_loss as feature_loss
 from morphkit.metrics._follow import CONSTANT_SERIES_RTOL as CONSTANT_SERIES_RTOL
 from morphkit.metrics._follow import FollowScore as FollowScore
+from morphkit.metrics._follow import follow_gain as follow_gain
 from morphkit.metrics._follow import follow_score as follow_score
 from morphkit.metrics._follow import pearson_follow as pearson_follow
 from morphkit.metrics._matched import MatchedSample as MatchedSample
@@ -79,6 +82,7 @@ __all__ = [
     "feature_loss",
     "fid",
     "floating_frames",
+    "follow_gain",
     "follow_score",
     "foot_contact_figures",
     "frechet_distance",

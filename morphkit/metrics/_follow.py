@@ -14,7 +14,7 @@ import numpy as np
 
 from morphkit.errors import ConfigError
 
-__all__ = ["CONSTANT_SERIES_RTOL", "FollowScore", "follow_score", "pearson_follow"]
+__all__ = ["CONSTANT_SERIES_RTOL", "FollowScore", "follow_gain", "follow_score", "pearson_follow"]
 
 CONSTANT_SERIES_RTOL = 1e-9
 """A series is constant when its standard deviation is at most this times its largest magnitude."""
@@ -65,6 +65,31 @@ def pearson_follow(a: np.ndarray, b: np.ndarray) -> float:
     dx, dy = x - x.mean(), y - y.mean()
     r = float(dx @ dy / np.sqrt((dx @ dx) * (dy @ dy)))
     return min(1.0, max(-1.0, r))
+
+
+def follow_gain(a: np.ndarray, b: np.ndarray) -> float | None:
+    """How much of ``a`` ``b`` does: the least-squares slope of ``b`` on ``a`` through the origin.
+
+    $g = \\sum_t a_t b_t / \\sum_t a_t^2$. A correlation does not see amplitude: a creature that turns a tenth
+    as fast as the human, the same way, correlates as well as one that turns as fast. For a yaw rate (the same
+    unit for any two bodies) 1 turns through the human's angle, 0 not at all, a negative gain the other way.
+
+    Args:
+        a: Series [T] (e.g. the human's yaw rate, clips concatenated).
+        b: Series [T] (the creature's), the same frames.
+
+    Returns:
+        The gain, or ``None`` when ``a`` is zero throughout (nothing to follow).
+
+    Raises:
+        ConfigError: not 1-D, empty, different lengths, or a non-finite value.
+    """
+    x = _series(a, "follow_gain", "a")
+    y = _series(b, "follow_gain", "b")
+    if x.shape != y.shape:
+        raise ConfigError(f"follow_gain: series of different lengths {x.size} and {y.size}")
+    power = float(x @ x)
+    return None if power == 0.0 else float(x @ y) / power
 
 
 @dataclass(frozen=True, eq=False)

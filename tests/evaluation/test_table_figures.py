@@ -6,7 +6,14 @@ import numpy as np
 import pytest
 
 from morphkit.evaluation.table import dataset_row, evaluate_clips, follow_figures, follow_series, reference_data
-from morphkit.motion import ROOT_FEATURE_DIM, Pairing, features, human_state_from_motion, human_state_layout
+from morphkit.motion import (
+    ROOT_FEATURE_DIM,
+    Pairing,
+    features,
+    human_state_from_motion,
+    human_state_layout,
+    mirror_motion,
+)
 
 
 @pytest.fixture(scope="module")
@@ -40,6 +47,17 @@ def test_a_clip_played_backwards_does_not_follow(clips):
     backwards = [c.replace(q=c.q[::-1].copy()) for c in clips]
     follow = follow_figures(clips, backwards, pairing, roles)
     assert follow["follow"] < 0.5
+
+
+def test_a_mirrored_clip_turns_the_other_way_as_far(clips):
+    """Each clip's mirror image turns through the same angle the other way: turn gain −1, yaw follow −1."""
+    pairing = _identity(clips)
+    roles = {e.name: e.role.name.lower() for e in clips[0].morphology.end_effectors}
+    mirrored = [mirror_motion(c) for c in clips]
+    follow = follow_figures(clips, mirrored, pairing, roles)
+    assert follow["turn_gain"] == pytest.approx(-1.0, abs=1e-9)
+    assert follow["follow_yaw"] == pytest.approx(-1.0, abs=1e-9)
+    assert follow_figures(clips, clips, pairing, roles)["turn_gain"] == pytest.approx(1.0, abs=1e-12)
 
 
 def test_follow_series_are_heights_above_the_ground_and_root_velocities(clips):

@@ -19,6 +19,7 @@ from morphkit.metrics import (
     PhysDiffFigures,
     UnrealisticFrameThresholds,
     floating_frames,
+    follow_gain,
     follow_score,
     foot_contact_figures,
     longest_flight,
@@ -366,6 +367,18 @@ def test_pearson_follow_cases():
         pearson_follow(a.reshape(20, 10), a.reshape(20, 10))
     with pytest.raises(ConfigError, match="non-finite"):
         pearson_follow(a, np.full(200, np.nan))
+
+
+def test_follow_gain_sees_amplitude_where_the_correlation_does_not():
+    rng = np.random.default_rng(2)
+    a = rng.normal(size=500)
+    assert pearson_follow(a, 0.1 * a) == pytest.approx(1.0) and follow_gain(a, 0.1 * a) == pytest.approx(0.1)
+    assert follow_gain(a, -2.0 * a) == pytest.approx(-2.0)
+    # the slope of a noisy follower: what it does of a, its noise averaged out
+    assert follow_gain(a, 0.5 * a + 0.01 * rng.normal(size=500)) == pytest.approx(0.5, abs=0.01)
+    assert follow_gain(np.zeros(5), np.ones(5)) is None
+    with pytest.raises(ConfigError, match="different lengths"):
+        follow_gain(a, a[:-1])
 
 
 def test_follow_score_per_pair_and_mean():
