@@ -167,8 +167,10 @@ class RetargetConfig:
     the main job (``quick``, seeds 0 / 1) and 0.98 at ``default`` (a quadruped with an arm, seeds 0–2): at ``quick``
     raw UFR 68 / 49 % → 27 / 20 % and forward follow up, but DIV 0.69 / 0.88 → 0.64 / 0.54; at ``default`` the same
     follow, DIV 1.20 → 1.42 (data 1.85), shipped FID 1.016 → 1.111 and 7.8 % self-collision on one seed
-    (docs/guides/train-ace.md). So off by default; ``quick`` uses 0.95 with arms that mostly hang
-    (``data.arm_hang_share``), where the last-step G fell off its best point on one of two seeds."""
+    (docs/guides/train-ace.md). So off in the dataclass; ``quick`` and ``default`` use 0.95 with arms that mostly
+    hang (``data.arm_hang_share``) and mirrored human clips, measured together: at ``quick`` the last-step G fell off
+    its best point on one of two seeds, at ``default`` (three seeds) shipped FID 1.016 → 0.776 and DIV 1.197 → 1.509
+    (data 1.854 → 1.936)."""
     betas: tuple[float, float] = (0.5, 0.999)
     discriminator_steps: int = 1
     """Discriminator updates per generator update."""
@@ -219,18 +221,18 @@ PRESETS: dict[str, AceConfig] = {
         retarget=replace(_SMOKE_RET, epochs=3, steps_per_epoch=6, batch_size=8, window=8, tbptt=4),
     ),
     # The whole main job ≤ 5 min on 2 cores, from a cold cache. Arms that mostly hang, G's weight average and the
-    # human clips mirrored:
-    # measured on the main job only (docs/guides/train-ace.md), so `quick` alone has them.
+    # human clips mirrored (docs/guides/train-ace.md), as `default`.
     "quick": AceConfig(
         data=DataConfig(character_frames=12_000, human_frames=3_000, arm_hang_share=0.3, human_mirror=True),
         prior=replace(_QUICK_PRIOR, epochs=8, steps_per_epoch=60, batch_size=64),
         retarget=replace(_QUICK_RET, epochs=8, steps_per_epoch=30, batch_size=32, window=24, generator_average=0.95),
     ),
-    # Quality runs: prior + one retargeter ≤ 20 min on 2 cores.
+    # Quality runs: prior + one retargeter ≤ 20 min on 2 cores. Arms that mostly hang, G's weight average and the
+    # human clips mirrored: Spot's Table 1 over three seeds (docs/guides/evaluate.md).
     "default": AceConfig(
-        data=DataConfig(character_frames=60_000),
+        data=DataConfig(character_frames=60_000, arm_hang_share=0.3, human_mirror=True),
         prior=replace(_DEFAULT_PRIOR, epochs=16, steps_per_epoch=100, batch_size=128),
-        retarget=replace(_DEFAULT_RET, epochs=20, steps_per_epoch=40, batch_size=64),
+        retarget=replace(_DEFAULT_RET, epochs=20, steps_per_epoch=40, batch_size=64, generator_average=0.95),
     ),
     # The paper's sizes (§6.4, §7.1).
     "paper": AceConfig(prior=PriorConfig(lr=1e-4, lr_final=1e-7), retarget=RetargetConfig(w_gp=0.1)),

@@ -121,6 +121,7 @@ def prepare(
     if not human_m.end_effectors:
         raise ConfigError(f"human skeleton {human_m.name!r} has no end-effectors")
     log(f"human data: {len(human)} clips, {sum(m.frame_count for m in human)} frames"
+        f"{' (half of them mirror images)' if cfg.data.human_mirror else ''}"
         f" ({'embedded default' if human_data is None else human_data})")
     flags = cfg.prior.contact_flags
     c_states = [character_state_from_motion(m, contacts=c if flags else None) for m, c in zip(character, stance,
