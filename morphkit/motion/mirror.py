@@ -52,6 +52,8 @@ def mirror_partners(morphology: Morphology) -> tuple[tuple[int, float], ...]:
 
     Raises:
         ConfigError: a joint without a partner (the description is not left-right symmetric), naming it.
+
+    End-effector offsets and collision shapes are not compared: a motion holds joint coordinates only.
     """
     link_partner = {morphology.root: morphology.root}
     out: list[tuple[int, float]] = []
@@ -77,7 +79,7 @@ def mirror_partners(morphology: Morphology) -> tuple[tuple[int, float], ...]:
                 break
         if found is None:
             raise ConfigError(
-                f"mirror: {morphology.name!r} is not left-right symmetric: joint {j.name!r} (origin {tuple(t)}) has "
+                f"mirror: {morphology.name!r} is not left-right symmetric: joint {j.name!r} (origin {j.origin.xyz}) has "
                 "no partner whose origin and axis are its reflection across the x-z plane")
         out.append(found)
         link_partner[j.child] = morphology.joints[found[0]].child
