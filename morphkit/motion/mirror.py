@@ -79,8 +79,8 @@ def mirror_partners(morphology: Morphology) -> tuple[tuple[int, float], ...]:
                 break
         if found is None:
             raise ConfigError(
-                f"mirror: {morphology.name!r} is not left-right symmetric: joint {j.name!r} (origin {j.origin.xyz}) has "
-                "no partner whose origin and axis are its reflection across the x-z plane")
+                f"mirror: {morphology.name!r} is not left-right symmetric: joint {j.name!r} (origin {j.origin.xyz}) "
+                "has no partner whose origin and axis are its reflection across the x-z plane")
         out.append(found)
         link_partner[j.child] = morphology.joints[found[0]].child
     return tuple(out)

@@ -90,7 +90,7 @@ class DataConfig:
     """Add each human training clip's left-right mirror image (:func:`morphkit.motion.mirror_motion`), so the
     human data turn, step and reach to both sides alike. Ours (PFNN and MANN mirror their mocap the same way):
     the embedded default human of ``quick`` (10 clips) walks in left turns three times as often as in right
-    ones, and G learnt to turn Spot left whichever way the human turned (see the docs)."""
+    ones, and G learnt to turn the quadruped with an arm left whichever way the human turned (see the docs)."""
 
 
 def evaluation_split() -> tuple[str, ...]:

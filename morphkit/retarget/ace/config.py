@@ -230,7 +230,7 @@ PRESETS: dict[str, AceConfig] = {
                          lr_generator=2e-4),
     ),
     # Quality runs: prior + one retargeter ≤ 20 min on 2 cores. Arms that mostly hang, G's weight average and the
-    # human clips mirrored: Spot's Table 1 over three seeds (docs/guides/evaluate.md).
+    # human clips mirrored: Table 1 on the quadruped with an arm over three seeds (docs/guides/evaluate.md).
     "default": AceConfig(
         data=DataConfig(character_frames=60_000, arm_hang_share=0.3, human_mirror=True),
         prior=replace(_DEFAULT_PRIOR, epochs=16, steps_per_epoch=100, batch_size=128),
