@@ -29,6 +29,13 @@ def _series(x: object, who: str, name: str) -> np.ndarray:
     return a
 
 
+def _pair(a: object, b: object, who: str) -> tuple[np.ndarray, np.ndarray]:
+    x, y = _series(a, who, "a"), _series(b, who, "b")
+    if x.shape != y.shape:
+        raise ConfigError(f"{who}: series of different lengths {x.size} and {y.size}")
+    return x, y
+
+
 def _is_constant(a: np.ndarray) -> bool:
     return bool(a.std() <= CONSTANT_SERIES_RTOL * np.abs(a).max())
 
@@ -52,10 +59,7 @@ def pearson_follow(a: np.ndarray, b: np.ndarray) -> float:
     Raises:
         ConfigError: not 1-D, empty, different lengths, or a non-finite value.
     """
-    x = _series(a, "pearson_follow", "a")
-    y = _series(b, "pearson_follow", "b")
-    if x.shape != y.shape:
-        raise ConfigError(f"pearson_follow: series of different lengths {x.size} and {y.size}")
+    x, y = _pair(a, b, "pearson_follow")
     cx, cy = _is_constant(x), _is_constant(y)
     if cx and cy:
         mx, my = x.mean(), y.mean()
@@ -84,10 +88,7 @@ def follow_gain(a: np.ndarray, b: np.ndarray) -> float | None:
     Raises:
         ConfigError: not 1-D, empty, different lengths, or a non-finite value.
     """
-    x = _series(a, "follow_gain", "a")
-    y = _series(b, "follow_gain", "b")
-    if x.shape != y.shape:
-        raise ConfigError(f"follow_gain: series of different lengths {x.size} and {y.size}")
+    x, y = _pair(a, b, "follow_gain")
     power = float(x @ x)
     return None if power == 0.0 else float(x @ y) / power
 

@@ -31,7 +31,15 @@ from morphkit._atomic import atomic_path
 from morphkit._version import __version__
 from morphkit.errors import ConfigError, MotionFormatError, SourceLocation
 from morphkit.graph import Morphology
-from morphkit.motion import Motion, NormStats, SkeletonMap, load_motions, read_skeleton_map, to_canonical
+from morphkit.motion import (
+    Motion,
+    NormStats,
+    SkeletonMap,
+    load_motions,
+    mirror_motion,
+    read_skeleton_map,
+    to_canonical,
+)
 from morphkit.motion.datasets import default_cache_dir
 
 __all__ = [
@@ -276,8 +284,6 @@ def human_motions(
 def _with_mirrored(motions: list[Motion], data: DataConfig) -> list[Motion]:
     if not data.human_mirror:
         return motions
-    from morphkit.motion import mirror_motion
-
     return motions + [mirror_motion(m) for m in motions]
 
 
