@@ -11,7 +11,8 @@ from morphkit.errors import ConfigError
 __all__ = ["feature_loss"]
 
 
-def feature_loss(psi_human: Any, psi_creature: Any, *, reduction: Literal["mean", "none"] = "mean") -> Any:
+def feature_loss(psi_human: Any, psi_creature: Any, *, reduction: Literal["mean", "none"] = "mean",
+                 weights: Any = None) -> Any:
     """ACE's feature loss, Eq. 9: the Euclidean distance between the human's and the creature's Ψ.
 
     $$L_{fea} = \\lVert \\Psi(\\mathbf{x}_t^h) - \\Psi(\\hat{\\mathbf{x}}_t^r) \\rVert_2$$
@@ -32,6 +33,8 @@ def feature_loss(psi_human: Any, psi_creature: Any, *, reduction: Literal["mean"
         psi_creature: Ψ of the retargeted creature states, the same shape and type.
         reduction: ``"mean"``: the mean over every frame (all leading dims); ``"none"``: the
             per-frame distances [...].
+        weights: Per-column factors [D] on the difference, ‖w ⊙ (Ψ^h − Ψ^r)‖ (a training choice beyond
+            Eq. 9; ``None``: Eq. 9, as the metric). The input's type.
 
     Returns:
         A float (NumPy, ``"mean"``), a 0-d tensor (torch, ``"mean"``), or per-frame distances [...]
@@ -57,8 +60,15 @@ def feature_loss(psi_human: Any, psi_creature: Any, *, reduction: Literal["mean"
         raise ConfigError(f"feature_loss: Ψ shapes differ: {list(shape_h)} (human) and {list(shape_c)} (creature)")
     if len(shape_h) < 1:
         raise ConfigError("feature_loss: expected Ψ of shape [..., D], got a scalar")
+    diff = psi_human - psi_creature
+    if weights is not None:
+        if not is_torch[0]:
+            weights = np.asarray(weights, dtype=np.float64)
+        if tuple(weights.shape) != shape_h[-1:]:
+            raise ConfigError(f"feature_loss: weights of shape {list(weights.shape)}, expected [{shape_h[-1]}]")
+        diff = diff * weights
     if not is_torch[0]:
-        dist = np.linalg.norm(psi_human - psi_creature, axis=-1)  # [...]
+        dist = np.linalg.norm(diff, axis=-1)  # [...]
         if reduction == "none":
             return dist
         if dist.size == 0:
@@ -66,7 +76,7 @@ def feature_loss(psi_human: Any, psi_creature: Any, *, reduction: Literal["mean"
         return float(dist.mean())
     import torch
 
-    dist = torch.linalg.vector_norm(psi_human - psi_creature, dim=-1)  # [...]
+    dist = torch.linalg.vector_norm(diff, dim=-1)  # [...]
     if reduction == "none":
         return dist
     if dist.numel() == 0:

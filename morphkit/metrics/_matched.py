@@ -17,14 +17,11 @@ import numpy as np
 
 from morphkit.errors import ConfigError
 from morphkit.metrics._distribution import as_matrix
-from morphkit.motion import ROOT_FEATURE_DIM
+from morphkit.motion import ROOT_FEATURE_DIM, ROOT_VELOCITY_FEATURES
 
 __all__ = ["MatchedSample", "matched_indices", "matched_reference", "motion_content"]
 
-# Ψ's root blocks (morphkit.motion.features): root_height [0:1], root_orientation [1:5],
-# root_linear_velocity [5:8] (heading frame x, y, z; body lengths/s), root_angular_velocity [8:11]
-# (heading frame x, y, z; rad/s). features.py exports only their total, ROOT_FEATURE_DIM = 11.
-_LINEAR_VELOCITY_START = 5
+_LINEAR_VELOCITY_START = ROOT_VELOCITY_FEATURES.start
 _HORIZONTAL_VELOCITY = slice(_LINEAR_VELOCITY_START, _LINEAR_VELOCITY_START + 2)
 """Ψ's root linear velocity along the heading frame's x and y (ground plane) [body lengths/s]."""
 _YAW_RATE = _LINEAR_VELOCITY_START + 3 + 2

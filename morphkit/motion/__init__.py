@@ -41,7 +41,9 @@ from morphkit.motion.ee_mapping import kl_divergence as kl_divergence
 from morphkit.motion.ee_mapping import map_end_effectors as map_end_effectors
 from morphkit.motion.ee_mapping import read_override as read_override
 from morphkit.motion.features import ACTIVE_HAND as ACTIVE_HAND
+from morphkit.motion.features import GROUND_MOTION_FEATURES as GROUND_MOTION_FEATURES
 from morphkit.motion.features import ROOT_FEATURE_DIM as ROOT_FEATURE_DIM
+from morphkit.motion.features import ROOT_VELOCITY_FEATURES as ROOT_VELOCITY_FEATURES
 from morphkit.motion.features import ActiveHand as ActiveHand
 from morphkit.motion.features import Pairing as Pairing
 from morphkit.motion.features import feature_dim as feature_dim
@@ -76,9 +78,11 @@ from morphkit.motion.states import human_state_layout as human_state_layout
 __all__ = [
     "ACTIVE_HAND",
     "CANONICAL_HUMAN",
+    "GROUND_MOTION_FEATURES",
     "MOTION_READ_SUFFIXES",
     "MOTION_WRITE_SUFFIXES",
     "ROOT_FEATURE_DIM",
+    "ROOT_VELOCITY_FEATURES",
     "ActiveHand",
     "ClampReport",
     "EndEffectorMapping",

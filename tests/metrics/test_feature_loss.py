@@ -44,6 +44,26 @@ def test_feature_loss_on_torch_matches_numpy_and_is_differentiable():
     assert torch.autograd.gradcheck(lambda x: feature_loss(th, x), (tc.detach().clone().requires_grad_(),))
 
 
+def test_weighted_feature_loss_scales_each_column_of_the_difference():
+    torch = pytest.importorskip("torch")
+    rng = np.random.default_rng(2)
+    h, c = rng.normal(size=(6, 14)), rng.normal(size=(6, 14))
+    w = np.ones(14)
+    w[5:11] = 3.0  # the root velocity rows, as G's term weighs them
+    naive = np.mean([np.sqrt(sum((w[i] * (h[t, i] - c[t, i])) ** 2 for i in range(14))) for t in range(6)])
+    assert feature_loss(h, c, weights=w) == pytest.approx(naive, rel=1e-12)
+    assert feature_loss(h, c, weights=np.ones(14)) == pytest.approx(feature_loss(h, c), rel=1e-12)
+    zero = w.copy()
+    zero[5:11] = 0.0  # columns weighed 0 no longer count
+    c2 = c.copy()
+    c2[:, 5:11] += 7.0
+    assert feature_loss(h, c2, weights=zero) == pytest.approx(feature_loss(h, c, weights=zero), rel=1e-12)
+    assert feature_loss(torch.tensor(h), torch.tensor(c), weights=torch.tensor(w)).item() == pytest.approx(naive,
+                                                                                                        rel=1e-12)
+    with pytest.raises(ConfigError, match="weights"):
+        feature_loss(h, c, weights=np.ones(13))
+
+
 def test_feature_loss_rejects_bad_input():
     torch = pytest.importorskip("torch")
     with pytest.raises(ConfigError, match="shapes differ"):

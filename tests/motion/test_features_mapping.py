@@ -14,6 +14,8 @@ from morphkit.motion import (
     body_length,
     character_state_from_motion,
     character_state_layout,
+    GROUND_MOTION_FEATURES,
+    canonical_human,
     ee_distributions,
     feature_dim,
     features,
@@ -57,6 +59,25 @@ def test_features_pick_shared_fields_and_normalise_lengths() -> None:
         features(xh, hl, length=L, ee_names=["tail"])
     with pytest.raises(ConfigError, match="length"):
         features(xh, hl, length=0.0)
+
+
+def test_ground_motion_columns_are_where_the_root_goes_and_turns() -> None:
+    # A root that steps forward along its own heading at 0.9 m/s while turning left at 0.6 rad/s: the
+    # ground-motion columns read the step / length in the heading frame of the frame it arrives at (turned
+    # by w / fps since the step began, so it points a little right) and the yaw rate.
+    m = canonical_human()
+    fps, T, v, w = 30.0, 12, 0.9, 0.6
+    yaw = w * np.arange(T) / fps
+    q = np.tile(m.rest_q(), (T, 1))
+    step = v / fps * np.stack([np.cos(yaw), np.sin(yaw)], axis=1)
+    q[1:, 0:2] = np.cumsum(step[:-1], axis=0)
+    q[:, 3:7] = np.stack([np.zeros(T), np.zeros(T), np.sin(yaw / 2), np.cos(yaw / 2)], axis=1)
+    motion = Motion(m, fps, q)
+    L = 1.3
+    psi = motion_features(motion, length=L)[1:, list(GROUND_MOTION_FEATURES)]
+    np.testing.assert_allclose(psi[:, 0], v * np.cos(w / fps) / L, rtol=1e-9)
+    np.testing.assert_allclose(psi[:, 1], -v * np.sin(w / fps) / L, rtol=1e-9)
+    np.testing.assert_allclose(psi[:, 2], w, rtol=1e-9)
 
 
 def test_features_run_on_torch_and_carry_gradients() -> None:

@@ -24,6 +24,8 @@ from morphkit.errors import ConfigError, RunError, SourceLocation
 from morphkit.graph import EndEffectorRole, Morphology
 from morphkit.metrics import feature_loss
 from morphkit.motion import (
+    GROUND_MOTION_FEATURES,
+    ROOT_VELOCITY_FEATURES,
     EndEffectorMapping,
     Motion,
     NormStats,
@@ -32,6 +34,7 @@ from morphkit.motion import (
     character_state_from_motion,
     character_state_layout,
     ee_distributions,
+    feature_dim,
     features,
     human_state_from_motion,
     human_state_layout,
@@ -399,6 +402,11 @@ def train_retargeter(
         feet = foot_indices(data.creature) if rc.discriminator_feet else []
         disc = Discriminator(sr, rc, len(feet)).to(dev)
         stats, lay = fmap.creature_stats, fmap.creature_layout
+        psi_weight = None
+        if rc.root_velocity_weight != 1.0 or rc.ground_motion_weight != 1.0:
+            psi_weight = torch.ones(feature_dim(len(fmap.creature_ees)), device=dev)
+            psi_weight[ROOT_VELOCITY_FEATURES] = rc.root_velocity_weight
+            psi_weight[list(GROUND_MOTION_FEATURES)] = rc.ground_motion_weight
         # Not DDP: its hooks miss the gradient penalty's double backward; gradients are averaged by hand.
         for module in (gen, disc):
             broadcast_parameters(module, run.context)
@@ -453,9 +461,10 @@ def train_retargeter(
                 psi_h = fmap.human_psi(x_h)
                 psi_r = fmap.psi_of_fixed(fixed)
                 fea = feature_loss(psi_h, psi_r)
+                fea_g = fea if psi_weight is None else feature_loss(psi_h, psi_r, weights=psi_weight)
                 g_adv = rc.w_adv * F.softplus(-disc_logits(d_model, disc, fake_t)).mean() if use_adversarial \
                     else fea.new_zeros(())
-                g_fea = rc.w_fea * fea if use_feature_loss else fea.new_zeros(())
+                g_fea = rc.w_fea * fea_g if use_feature_loss else fea.new_zeros(())
                 g_contact = fea.new_zeros(())
                 if rc.w_contact > 0:
                     g_contact = rc.w_contact * _contact_terms(data, fixed, cfg.data.fps)
