@@ -17,14 +17,13 @@ import numpy as np
 
 from morphkit.errors import ConfigError
 from morphkit.metrics._distribution import as_matrix
-from morphkit.motion import ROOT_FEATURE_DIM, ROOT_VELOCITY_FEATURES
+from morphkit.motion import GROUND_MOTION_FEATURES, ROOT_FEATURE_DIM
 
 __all__ = ["MatchedSample", "matched_indices", "matched_reference", "motion_content"]
 
-_LINEAR_VELOCITY_START = ROOT_VELOCITY_FEATURES.start
-_HORIZONTAL_VELOCITY = slice(_LINEAR_VELOCITY_START, _LINEAR_VELOCITY_START + 2)
+_HORIZONTAL_VELOCITY = slice(GROUND_MOTION_FEATURES[0], GROUND_MOTION_FEATURES[1] + 1)
 """Ψ's root linear velocity along the heading frame's x and y (ground plane) [body lengths/s]."""
-_YAW_RATE = _LINEAR_VELOCITY_START + 3 + 2
+_YAW_RATE = GROUND_MOTION_FEATURES[2]
 """Ψ's root angular velocity about the heading frame's z (world up) [rad/s]."""
 
 

@@ -43,7 +43,6 @@ from morphkit.motion.ee_mapping import read_override as read_override
 from morphkit.motion.features import ACTIVE_HAND as ACTIVE_HAND
 from morphkit.motion.features import GROUND_MOTION_FEATURES as GROUND_MOTION_FEATURES
 from morphkit.motion.features import ROOT_FEATURE_DIM as ROOT_FEATURE_DIM
-from morphkit.motion.features import ROOT_VELOCITY_FEATURES as ROOT_VELOCITY_FEATURES
 from morphkit.motion.features import ActiveHand as ActiveHand
 from morphkit.motion.features import Pairing as Pairing
 from morphkit.motion.features import feature_dim as feature_dim
@@ -82,7 +81,6 @@ __all__ = [
     "MOTION_READ_SUFFIXES",
     "MOTION_WRITE_SUFFIXES",
     "ROOT_FEATURE_DIM",
-    "ROOT_VELOCITY_FEATURES",
     "ActiveHand",
     "ClampReport",
     "EndEffectorMapping",

@@ -42,14 +42,11 @@ from morphkit.motion.states import (
 if TYPE_CHECKING:
     from morphkit.motion.motion import Motion
 
-__all__ = ["ACTIVE_HAND", "ACTIVE_HAND_SOFTNESS", "GROUND_MOTION_FEATURES", "ROOT_FEATURE_DIM",
-           "ROOT_VELOCITY_FEATURES", "ActiveHand", "Pairing", "feature_dim", "features", "motion_features"]
+__all__ = ["ACTIVE_HAND", "ACTIVE_HAND_SOFTNESS", "GROUND_MOTION_FEATURES", "ROOT_FEATURE_DIM", "ActiveHand", "Pairing",
+           "feature_dim", "features", "motion_features"]
 
 ROOT_FEATURE_DIM = 11
 """Dimensions of Ψ before the end-effector block (height 1, orientation 4, velocities 6)."""
-ROOT_VELOCITY_FEATURES = slice(5, 11)
-"""Ψ's root linear velocity [5:8] (heading frame x, y, z; body lengths/s) and angular velocity [8:11] (heading frame
-x, y, z; rad/s)."""
 GROUND_MOTION_FEATURES = (5, 6, 10)
 """Ψ's root motion over the ground: heading-frame forward and sideways velocity [body lengths/s] and yaw rate
 [rad/s] — where the character goes and where it turns."""

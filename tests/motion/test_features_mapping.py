@@ -10,12 +10,12 @@ from morphkit_testing import human_like, random_q
 
 from morphkit.errors import ConfigError
 from morphkit.motion import (
+    GROUND_MOTION_FEATURES,
     Motion,
     body_length,
+    canonical_human,
     character_state_from_motion,
     character_state_layout,
-    GROUND_MOTION_FEATURES,
-    canonical_human,
     ee_distributions,
     feature_dim,
     features,

@@ -648,7 +648,7 @@ def test_generator_average_is_the_moving_average_of_gs_weights_and_the_g_that_re
     # A run trained with it retargets with the average, not the last step's G; the run keeps its synthesis
     # options, so an evaluation rebuilds the data set it trained on.
     cfg = replace_config(preset("smoke"), [*TINY, "retarget.generator_average=0.5", "data.arm_hang_share=0.4",
-                                           "retarget.root_velocity_weight=3",
+                                           "retarget.ground_motion_weight=3",
                                            "data.forward_speed=[-0.5, 3.0]", "data.stand_probability=0.2",
                                            "data.human_mirror=true"])
     train_ace(tmp_path / "run", read_morphology(dog), cfg, human_data=human_dir, progress=False, log=lambda s: None)
@@ -658,7 +658,7 @@ def test_generator_average_is_the_moving_average_of_gs_weights_and_the_g_that_re
     assert (data.arm_hang_share, tuple(data.forward_speed), data.stand_probability, data.human_mirror) == (
         0.4, (-0.5, 3.0), 0.2, True)
     assert replace(data, forward_speed=None) == replace(cfg.data, forward_speed=None)
-    assert "root_velocity_weight: 3.0" in (tmp_path / "run" / "retarget" / "config.yaml").read_text()
+    assert "ground_motion_weight: 3.0" in (tmp_path / "run" / "retarget" / "config.yaml").read_text()
     states = torch.load(tmp_path / "run" / "retarget" / "checkpoint.pt", weights_only=True)["states"]
     kept = retargeting_generator_state(states)
     assert AVERAGE_STATE in states and set(kept) == set(states["generator"])

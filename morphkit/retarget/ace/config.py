@@ -111,9 +111,6 @@ class RetargetConfig:
     w_adv: float = 0.3
     """Weight of G's adversarial term (the paper gives none; ours, with ``w_gp`` below: see there)."""
     w_fea: float = 1.0
-    root_velocity_weight: float = 1.0
-    """Factor on Ψ's root linear and angular velocity rows (``morphkit.motion.ROOT_VELOCITY_FEATURES``) in G's
-    feature term (ours; 1: Eq. 9 as written). The logged and evaluated L_fea stay Eq. 9."""
     ground_motion_weight: float = 1.0
     """Factor on Ψ's root motion over the ground — heading-frame forward and sideways velocity and yaw rate,
     ``morphkit.motion.GROUND_MOTION_FEATURES`` — in G's feature term, ‖w ⊙ (Ψ^h − Ψ^r)‖ (ours; 1: Eq. 9 as
@@ -251,7 +248,8 @@ PRESETS: dict[str, AceConfig] = {
     "default": AceConfig(
         data=DataConfig(character_frames=60_000, arm_hang_share=0.3, human_mirror=True),
         prior=replace(_DEFAULT_PRIOR, epochs=16, steps_per_epoch=100, batch_size=128),
-        retarget=replace(_DEFAULT_RET, epochs=20, steps_per_epoch=40, batch_size=64, generator_average=0.95),
+        retarget=replace(_DEFAULT_RET, epochs=20, steps_per_epoch=40, batch_size=64, generator_average=0.95,
+                         ground_motion_weight=3.0),
     ),
     # The paper's sizes (§6.4, §7.1).
     "paper": AceConfig(prior=PriorConfig(lr=1e-4, lr_final=1e-7), retarget=RetargetConfig(w_gp=0.1)),

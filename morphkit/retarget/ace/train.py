@@ -25,7 +25,6 @@ from morphkit.graph import EndEffectorRole, Morphology
 from morphkit.metrics import feature_loss
 from morphkit.motion import (
     GROUND_MOTION_FEATURES,
-    ROOT_VELOCITY_FEATURES,
     EndEffectorMapping,
     Motion,
     NormStats,
@@ -403,9 +402,8 @@ def train_retargeter(
         disc = Discriminator(sr, rc, len(feet)).to(dev)
         stats, lay = fmap.creature_stats, fmap.creature_layout
         psi_weight = None
-        if rc.root_velocity_weight != 1.0 or rc.ground_motion_weight != 1.0:
+        if rc.ground_motion_weight != 1.0:
             psi_weight = torch.ones(feature_dim(len(fmap.creature_ees)), device=dev)
-            psi_weight[ROOT_VELOCITY_FEATURES] = rc.root_velocity_weight
             psi_weight[list(GROUND_MOTION_FEATURES)] = rc.ground_motion_weight
         # Not DDP: its hooks miss the gradient penalty's double backward; gradients are averaged by hand.
         for module in (gen, disc):
