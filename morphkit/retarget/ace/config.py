@@ -124,7 +124,7 @@ class RetargetConfig:
     0.42, 0.33), and on a quadruped with an arm at ``default`` drove the arm into the body (14.7 % of frames
     self-colliding); 10 on the six rows lost the hand (follow 0.55 / 0.06). At ``default``, seed 0, the same
     priors (CMU, 23 held-out clips), forward / yaw follow and shipped FID against 1: a quadruped with an arm
-    0.57 / 0.93 → 0.71 / 0.97, 0.826 → 0.948; a six-legged crab 0.62 / 0.87 → 0.69 / 0.93, 1.138 → 0.883; a wheeled
+    0.57 / 0.93 → 0.71 / 0.97, 0.826 → 0.948; six legs and two claws 0.62 / 0.87 → 0.69 / 0.93, 1.138 → 0.883; a wheeled
     robot with a lift 0.54 / 0.76 → 0.62 / 0.86, 0.174 → 0.119; but the hand or tool follows less (0.86 → 0.78,
     0.76 → 0.58, 0.88 → 0.66), and over three seeds on the quadruped the shipped FID rises 0.776 → 0.901, above
     ACE+contact's 0.883. ``quick`` uses 3, ``default`` 1 (docs/guides/train-ace.md, evaluate.md)."""
