@@ -113,20 +113,20 @@ class RetargetConfig:
     w_fea: float = 1.0
     ground_motion_weight: float = 1.0
     """Factor on Ψ's root motion over the ground — heading-frame forward and sideways velocity and yaw rate,
-    ``morphkit.motion.GROUND_MOTION_FEATURES`` — in G's feature term, ‖w ⊙ (Ψ^h − Ψ^r)‖ (ours; 1: Eq. 9 as
-    written; the logged and evaluated L_fea stay Eq. 9). Why: a one-armed creature's tool dominates Eq. 9 (the
-    gripper was 83 % of the squared Ψ error of the main job's G, the yaw rate 8 %), and G learnt to follow the
-    hand and to walk but hardly to turn. Measured with 3 on the main job (``quick``, seeds 0–3, shipped rows,
-    against 1): yaw follow 0.53 / 0.26 / 0.47 / 0.35 → 0.91 / 0.72 / 0.78 / 0.89, turn gain 0.18 / 0.10 / 0.09 /
-    0.28 → 0.72 / 0.75 / 0.72 / 0.71, FID 0.73 / 0.93 / 0.95 / 1.20 → 0.96 / 1.04 / 0.90 / 0.73, hand follow
-    within ±0.04, forward −0.06 to +0.11, UFR ≤ 2.5 % (11 % on seed 2 before). All six root-velocity rows
-    weighed 3 (vertical speed and roll and pitch rates too, a biped's gait bob) turned seeds 0 and 1 as much but
-    not seeds 2 and 3 (yaw 0.42, 0.33), and on a quadruped with an arm at ``default`` drove the arm into the body (14.7 % of frames
-    self-colliding); 10 on the six rows lost the hand (follow 0.55 / 0.06). At ``default``, seed 0, the same
-    priors (CMU, 23 held-out clips), forward / yaw follow and shipped FID against 1: a quadruped with an arm
-    0.57 / 0.93 → 0.71 / 0.97, 0.826 → 0.948; six legs and two claws 0.62 / 0.87 → 0.69 / 0.93, 1.138 → 0.883; a wheeled
-    robot with a lift 0.54 / 0.76 → 0.62 / 0.86, 0.174 → 0.119; but the hand or tool follows less (0.86 → 0.78,
-    0.76 → 0.58, 0.88 → 0.66), and over three seeds on the quadruped the shipped FID rises 0.776 → 0.901, above
+    ``morphkit.motion.GROUND_MOTION_FEATURES`` — in G's feature term, ‖w ⊙ (Ψ^h − Ψ^r)‖ (ours; 1: Eq. 9 as written;
+    the logged and evaluated L_fea stay Eq. 9). Why: a one-armed creature's tool dominates Eq. 9 (the gripper was
+    83 % of the squared Ψ error of the main job's G, the yaw rate 8 %), and G learnt to follow the hand and to walk
+    but hardly to turn. Measured with 3 on the main job (``quick``, seeds 0–3, shipped rows, against 1): yaw follow
+    0.53 / 0.26 / 0.47 / 0.35 → 0.91 / 0.72 / 0.78 / 0.89, turn gain 0.18 / 0.10 / 0.09 / 0.28 →
+    0.72 / 0.75 / 0.72 / 0.71, FID 0.73 / 0.93 / 0.95 / 1.20 → 0.96 / 1.04 / 0.90 / 0.73, hand follow within ±0.04,
+    forward −0.06 to +0.11, UFR ≤ 2.5 % (11 % on seed 2 before). All six root-velocity rows weighed 3 (vertical
+    speed and roll and pitch rates too, a biped's gait bob) turned seeds 0 and 1 as much but not seeds 2 and 3 (yaw
+    0.42, 0.33), and on a quadruped with an arm at ``default`` drove the arm into the body (14.7 % of frames
+    self-colliding); 10 on the six rows lost the hand (follow 0.55 / 0.06). At ``default``, seed 0, the same priors
+    (CMU, 23 held-out clips), forward / yaw follow and shipped FID against 1: a quadruped with an arm 0.57 / 0.93 →
+    0.71 / 0.97, 0.826 → 0.948; six legs and two claws 0.62 / 0.87 → 0.69 / 0.93, 1.138 → 0.883; a wheeled robot
+    with a lift 0.54 / 0.76 → 0.62 / 0.86, 0.174 → 0.119; but the hand or tool follows less (0.86 → 0.78, 0.76 →
+    0.58, 0.88 → 0.66), and over three seeds on the quadruped the shipped FID rises 0.776 → 0.901, above
     ACE+contact's 0.883. ``quick`` uses 3, ``default`` 1 (docs/guides/train-ace.md, evaluate.md)."""
     w_gp: float = 1.0
     """Gradient-penalty weight on real transitions (Eq. 5 gives 0.1; ``paper`` keeps it). Ours with ``w_adv`` = 0.3:
