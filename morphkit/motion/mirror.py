@@ -45,6 +45,8 @@ def _close(a: np.ndarray, b: np.ndarray) -> bool:
 def mirror_partners(morphology: Morphology) -> tuple[tuple[int, float], ...]:
     """Each joint's mirror partner and the sign its coordinate takes.
 
+    End-effector offsets and collision shapes are not compared: a motion holds joint coordinates only.
+
     Returns:
         Per joint (in the morphology's joint order), ``(partner joint index, sign)``: a revolute,
         continuous or prismatic joint's mirrored value is ``sign`` times its partner's value;
@@ -52,8 +54,6 @@ def mirror_partners(morphology: Morphology) -> tuple[tuple[int, float], ...]:
 
     Raises:
         ConfigError: a joint without a partner (the description is not left-right symmetric), naming it.
-
-    End-effector offsets and collision shapes are not compared: a motion holds joint coordinates only.
     """
     link_partner = {morphology.root: morphology.root}
     out: list[tuple[int, float]] = []
