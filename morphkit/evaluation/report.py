@@ -350,7 +350,8 @@ def write_index(out: str | os.PathLike[str], evaluation: Evaluation, rows: Seque
         "longest. follow: Pearson correlation of the human's and the creature's end-effector heights, forward "
         "velocity and yaw rate, per clip, averaged (1 follows exactly, 0 unrelated). turn gain: the creature's "
         "yaw rate regressed on the human's, every clip's frames together (1 turns through the human's angle, 0 "
-        "does not turn).</p>",
+        "does not turn). drift: how fast the creature goes where the human does not, per clip, averaged (body "
+        "lengths/s; e.g. walking backwards while the human stands).</p>",
         '<p>Files: <a href="table.md">table.md</a>, <a href="table.csv">table.csv</a>, '
         '<a href="runs.csv">runs.csv</a>, <a href="evaluation.json">evaluation.json</a></p>',
         "<h2>The paper's claims</h2>",

@@ -35,7 +35,7 @@ from morphkit.metrics import (
     skating_ratio,
     unrealistic_frame_ratio,
 )
-from morphkit.motion import ROOT_FEATURE_DIM, Motion, Pairing
+from morphkit.motion import GROUND_MOTION_FEATURES, ROOT_FEATURE_DIM, Motion, Pairing
 from morphkit.retarget.tables import write_table_files
 
 __all__ = ["EXTRA_COLUMNS", "PERCENT_FIGURES", "ReferenceData", "TableRow", "dataset_row", "evaluate_clips",
@@ -91,6 +91,11 @@ class TableRow:
     clips' frames pooled (1: through the human's angle; 0: not at all). A correlation misses a creature that turns
     the right way at a tenth of the rate."""
 
+    drift: float | None = None
+    """Where the creature goes that the human does not: mean over clips of the distance between the two roots' mean
+    heading-frame (forward, sideways) velocities [body lengths/s]. A creature that walks backwards at 0.1 body
+    lengths/s while the human stands scores 0.1; a correlation does not see it (it ignores a constant)."""
+
     def as_dict(self) -> dict[str, object]:
         out: dict[str, object] = {"method": self.name, "DIV": self.div, "FID": self.fid, "L_fea": self.feature_loss,
                                   "UFR": self.ufr, "frames": self.frames}
@@ -101,7 +106,7 @@ class TableRow:
 EXTRA_COLUMNS = (
     ("fid_all", "FID (all data)"), ("div_all", "DIV (all data)"), ("follow", "follow"),
     ("follow_hand", "follow hand"), ("follow_forward", "follow forward"), ("follow_yaw", "follow yaw"),
-    ("turn_gain", "turn gain"),
+    ("turn_gain", "turn gain"), ("drift", "drift"),
     ("ufr_medium", "UFR medium"), ("ufr_loose", "UFR loose"), ("foot_sliding", "sliding/foot"),
     ("foot_penetration", "penetration/foot"), ("skating", "skating"), ("penetrate_mm", "Penetrate mm"),
     ("float_mm", "Float mm"), ("skate_mm", "Skate mm"), ("floating", "floating"),
@@ -176,9 +181,10 @@ def pooled_skating(motions: Sequence[Motion]) -> float:
     return float(np.dot(skating, transitions) / max(transitions.sum(), 1.0))
 
 
-_HEIGHT, _FORWARD, _YAW = 0, 5, 10
-"""Ψ columns: root height / body length, heading-frame forward velocity [body lengths/s], yaw rate [rad/s]
-(:mod:`morphkit.motion.features`); an end-effector's block starts at ``ROOT_FEATURE_DIM + 3 i``."""
+_HEIGHT = 0
+_FORWARD, _SIDEWAYS, _YAW = GROUND_MOTION_FEATURES
+"""Ψ columns: root height / body length, heading-frame forward and sideways velocity [body lengths/s], yaw rate
+[rad/s] (:mod:`morphkit.motion.features`); an end-effector's block starts at ``ROOT_FEATURE_DIM + 3 i``."""
 
 
 def follow_series(psi: np.ndarray, ees: Sequence[str]) -> dict[str, np.ndarray]:
@@ -193,29 +199,35 @@ def follow_series(psi: np.ndarray, ees: Sequence[str]) -> dict[str, np.ndarray]:
 
 def follow_figures(humans: Sequence[Motion], retargeted: Sequence[Motion], pairing: Pairing,
                    roles: dict[str, str]) -> dict[str, float | None]:
-    """``follow``, ``follow_hand``, ``follow_forward``, ``follow_yaw``, ``turn_gain`` (see :class:`TableRow`): per
-    clip the Pearson correlations of :func:`follow_series` (:func:`~morphkit.metrics.follow_score`; a
-    constant series scores 0 against a varying one), averaged over clips with equal weight; the turn gain over
-    the clips' yaw rates pooled. Clips are compared over their common length; clips shorter than 3 frames are
-    left out."""
+    """``follow``, ``follow_hand``, ``follow_forward``, ``follow_yaw``, ``turn_gain``, ``drift`` (see
+    :class:`TableRow`): per clip the Pearson correlations of :func:`follow_series`
+    (:func:`~morphkit.metrics.follow_score`; a constant series scores 0 against a varying one), averaged over clips
+    with equal weight; the turn gain over the clips' yaw rates pooled; the drift per clip, averaged. Clips are
+    compared over their common length; clips shorter than 3 frames are left out."""
     per: dict[str, list[float]] = {}
     yaw: list[tuple[np.ndarray, np.ndarray]] = []
+    drift: list[float] = []
     for h, r in zip(humans, retargeted, strict=True):
         n = min(h.frame_count, r.frame_count)
         if n < 3:
             continue
-        hs = follow_series(pairing.human_psi(h)[:n], pairing.creature_ees)
-        rs = follow_series(pairing.creature_psi(r)[:n], pairing.creature_ees)
+        psi_h, psi_r = pairing.human_psi(h)[:n], pairing.creature_psi(r)[:n]
+        hs = follow_series(psi_h, pairing.creature_ees)
+        rs = follow_series(psi_r, pairing.creature_ees)
         for key, value in follow_score(hs, rs).correlations.items():
             per.setdefault(key, []).append(value)
         yaw.append((hs["yaw rate"], rs["yaw rate"]))
+        ground = [_FORWARD, _SIDEWAYS]  # where the root goes; a turn on the spot is the yaw's, not drift
+        drift.append(float(np.linalg.norm(psi_r[:, ground].mean(axis=0) - psi_h[:, ground].mean(axis=0))))
     if not per:
-        return {"follow": None, "follow_hand": None, "follow_forward": None, "follow_yaw": None, "turn_gain": None}
+        return {"follow": None, "follow_hand": None, "follow_forward": None, "follow_yaw": None, "turn_gain": None,
+                "drift": None}
     mean = {k: float(np.mean(v)) for k, v in per.items()}
     hands = [mean[f"{e} height"] for e in pairing.creature_ees if roles.get(e) in ("hand", "tool")]
     gain = follow_gain(np.concatenate([h for h, _ in yaw]), np.concatenate([c for _, c in yaw]))
     return {"follow": float(np.mean(list(mean.values()))), "follow_hand": float(np.mean(hands)) if hands else None,
-            "follow_forward": mean["forward velocity"], "follow_yaw": mean["yaw rate"], "turn_gain": gain}
+            "follow_forward": mean["forward velocity"], "follow_yaw": mean["yaw rate"], "turn_gain": gain,
+            "drift": float(np.mean(drift))}
 
 
 def evaluate_clips(

@@ -60,6 +60,27 @@ def test_a_mirrored_clip_turns_the_other_way_as_far(clips):
     assert follow_figures(clips, clips, pairing, roles)["turn_gain"] == pytest.approx(1.0, abs=1e-12)
 
 
+def test_drift_is_the_speed_at_which_the_creature_leaves_the_humans_path(clips):
+    """The same clips with the root pushed along world x at 0.2 m/s: each frame's heading-frame velocity gains
+    R(−yaw_t)·(0.2, 0), so the drift is ‖mean_t R(−yaw_t)·(0.2, 0)‖ / body length — the yaw read from the root
+    quaternion here, not through Ψ."""
+    pairing = _identity(clips)
+    roles = {e.name: e.role.name.lower() for e in clips[0].morphology.end_effectors}
+    assert follow_figures(clips, clips, pairing, roles)["drift"] == pytest.approx(0.0, abs=1e-12)
+    pushed, expected = [], []
+    for c in clips:
+        q = c.q.copy()
+        q[:, 0] += 0.2 * np.arange(c.frame_count) / c.fps
+        pushed.append(c.replace(q=q))
+        x, y, z, w = c.q[:, 3:7].T
+        yaw = np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+        added = 0.2 * np.stack([np.cos(yaw), -np.sin(yaw)], axis=-1)  # R(−yaw)·(0.2, 0)
+        expected.append(np.linalg.norm(added.mean(axis=0)) / pairing.creature_length)
+    got = follow_figures(clips, pushed, pairing, roles)["drift"]
+    assert got == pytest.approx(np.mean(expected), rel=1e-6)
+    assert got > 0.01
+
+
 def test_follow_series_are_heights_above_the_ground_and_root_velocities(clips):
     """An end-effector's series is root height + its heading-frame z (Ψ divides both by the body length)."""
     clip = clips[0]
