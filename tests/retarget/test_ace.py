@@ -648,7 +648,7 @@ def test_generator_average_is_the_moving_average_of_gs_weights_and_the_g_that_re
     # A run trained with it retargets with the average, not the last step's G; the run keeps its synthesis
     # options, so an evaluation rebuilds the data set it trained on.
     cfg = replace_config(preset("smoke"), [*TINY, "retarget.generator_average=0.5", "data.arm_hang_share=0.4",
-                                           "retarget.ground_motion_weight=3",
+                                           "retarget.ground_motion_weight=3", "retarget.ground_drift_weight=0.5",
                                            "data.forward_speed=[-0.5, 3.0]", "data.stand_probability=0.2",
                                            "data.human_mirror=true"])
     train_ace(tmp_path / "run", read_morphology(dog), cfg, human_data=human_dir, progress=False, log=lambda s: None)
@@ -659,6 +659,8 @@ def test_generator_average_is_the_moving_average_of_gs_weights_and_the_g_that_re
         0.4, (-0.5, 3.0), 0.2, True)
     assert replace(data, forward_speed=None) == replace(cfg.data, forward_speed=None)
     assert "ground_motion_weight: 3.0" in (tmp_path / "run" / "retarget" / "config.yaml").read_text()
+    assert "ground_drift_weight: 0.5" in (tmp_path / "run" / "retarget" / "config.yaml").read_text()
+    assert "ground_drift" in (tmp_path / "run" / "retarget" / "metrics.csv").read_text().splitlines()[0]
     states = torch.load(tmp_path / "run" / "retarget" / "checkpoint.pt", weights_only=True)["states"]
     kept = retargeting_generator_state(states)
     assert AVERAGE_STATE in states and set(kept) == set(states["generator"])
@@ -666,3 +668,26 @@ def test_generator_average_is_the_moving_average_of_gs_weights_and_the_g_that_re
     loaded = AceRetargeter(tmp_path / "run").generator.state_dict()
     for k, v in kept.items():
         torch.testing.assert_close(loaded[k].cpu(), v)
+
+
+def test_ground_drift_compares_window_means_of_the_ground_motion_columns():
+    """Against a naive loop over windows; a difference that averages out over the window is no drift."""
+    from morphkit.motion import GROUND_MOTION_FEATURES
+    from morphkit.retarget.ace.train import ground_drift
+
+    g = torch.Generator().manual_seed(0)
+    h, r = torch.randn(4, 12, 17, generator=g), torch.randn(4, 12, 17, generator=g)
+    naive = []
+    for b in range(4):
+        d = [float(h[b, :, c].mean() - r[b, :, c].mean()) for c in GROUND_MOTION_FEATURES]
+        naive.append(np.sqrt(np.sum(np.square(d))))
+    assert float(ground_drift(h, r)) == pytest.approx(np.mean(naive), rel=1e-6)
+    wobble = h.clone()
+    wobble[:, :, list(GROUND_MOTION_FEATURES)] += torch.tensor([0.3, -0.3]).repeat(6)[:, None]  # ± per frame
+    assert float(ground_drift(h, wobble)) == pytest.approx(0.0, abs=1e-6)
+    others = [c for c in range(17) if c not in GROUND_MOTION_FEATURES]
+    shifted = h.clone()
+    shifted[:, :, others] += 1.0  # only the ground-motion columns count
+    assert float(ground_drift(h, shifted)) == pytest.approx(0.0, abs=1e-6)
+    shifted[:, :, GROUND_MOTION_FEATURES[0]] += 0.25
+    assert float(ground_drift(h, shifted)) == pytest.approx(0.25, rel=1e-5)

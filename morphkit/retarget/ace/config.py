@@ -128,6 +128,16 @@ class RetargetConfig:
     with a lift 0.54 / 0.76 → 0.62 / 0.86, 0.174 → 0.119; but the hand or tool follows less (0.86 → 0.78, 0.76 →
     0.58, 0.88 → 0.66), and over three seeds on the quadruped the shipped FID rises 0.776 → 0.901, above
     ACE+contact's 0.883. ``quick`` uses 3, ``default`` 1 (docs/guides/train-ace.md, evaluate.md)."""
+    ground_drift_weight: float = 0.0
+    """Weight (times ``w_fea``) of a term on the root's motion over the ground averaged over each training window,
+    ‖mean_t Ψ^h_g − mean_t Ψ^r_g‖ over ``morphkit.motion.GROUND_MOTION_FEATURES`` (ours; 0: off): where the
+    character goes over the window, not the human gait's sway frame by frame. Measured on a quadruped with an arm
+    (``default``, seed 0, the same prior, CMU, 23 held-out clips), 1 against 0: drift 0.131 → 0.052 body
+    lengths/s (it no longer walks backwards where the human stands), raw UFR 67.5 → 45.4 %, but shipped FID
+    0.826 → 0.904, hand / forward / yaw follow 0.83 / 0.57 / 0.94 → 0.80 / 0.56 / 0.87 and 2.9 % of frames
+    self-colliding; ``ground_motion_weight`` 2 alone drifts 0.061 on three seeds at FID 0.840. On the main job
+    (``quick``, seeds 0–3) raw UFR 70 / 41 / 33 / 52 → 39 / 37 / 37 / 34 % and FID lower on three seeds, but
+    seed 2's shipped UFR 2.5 → 6.0 % (self-collision). Off (docs/guides/evaluate.md)."""
     w_gp: float = 1.0
     """Gradient-penalty weight on real transitions (Eq. 5 gives 0.1; ``paper`` keeps it). Ours with ``w_adv`` = 0.3:
     with the paper's 0.1 and ``w_adv`` = 1, G's two gradients (adversarial, feature) on its parameters pointed

@@ -463,6 +463,10 @@ def train_retargeter(
                 g_adv = rc.w_adv * F.softplus(-disc_logits(d_model, disc, fake_t)).mean() if use_adversarial \
                     else fea.new_zeros(())
                 g_fea = rc.w_fea * fea_g if use_feature_loss else fea.new_zeros(())
+                if rc.ground_drift_weight > 0 and use_feature_loss:
+                    drift = ground_drift(psi_h, psi_r)
+                    g_fea = g_fea + rc.w_fea * rc.ground_drift_weight * drift
+                    row["ground_drift"] = drift.detach()
                 g_contact = fea.new_zeros(())
                 if rc.w_contact > 0:
                     g_contact = rc.w_contact * _contact_terms(data, fixed, cfg.data.fps)
@@ -481,6 +485,14 @@ def train_retargeter(
     final = gen if average is None else average.module
     final.eval()
     return final
+
+
+def ground_drift(psi_h: torch.Tensor, psi_r: torch.Tensor) -> torch.Tensor:
+    """Mean over a batch of windows [B, T, D] of ‖mean_t Ψ^h_g − mean_t Ψ^r_g‖, g the ground-motion columns
+    (:data:`~morphkit.motion.GROUND_MOTION_FEATURES`): how far the root's motion over the ground, averaged over each
+    window, is from the human's [body lengths/s and rad/s together]."""
+    cols = list(GROUND_MOTION_FEATURES)
+    return (psi_h[..., cols].mean(dim=-2) - psi_r[..., cols].mean(dim=-2)).norm(dim=-1).mean()
 
 
 def generator_average(gen: torch.nn.Module, decay: float) -> AveragedModel | None:
