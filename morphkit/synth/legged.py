@@ -898,10 +898,15 @@ class LeggedController:
         fps: Frames per second.
         xy0: Initial root positions [R, 2].
         yaw0: Initial root yaw [R].
+        min_support: Feet that stay on the ground whatever the gait says: a lift that would leave fewer
+            in stance waits (the feet deepest inside their ellipses wait first) until another foot
+            touches down. 0 (the synthesis) lets the gait's own flights happen.
     """
 
-    def __init__(self, rig: LegRig, cfg: LegConfig, fps: float, xy0: np.ndarray, yaw0: np.ndarray) -> None:
+    def __init__(self, rig: LegRig, cfg: LegConfig, fps: float, xy0: np.ndarray, yaw0: np.ndarray,
+                 *, min_support: int = 0) -> None:
         self.rig = rig
+        self.min_support = int(min_support)
         self.cfg = cfg
         self.fps = fps
         self.dt = 1.0 / fps
@@ -969,7 +974,9 @@ class LeggedController:
         self.armed |= self.stance & in_stance_phase
         emergency = self.stance & (rho > cfg.emergency_limit - frame_step)
         lift = self.stance & ((self.armed & ~in_stance_phase & (moving[:, None] | (rho > 0.12))) | emergency)
-        self.emergencies += int(emergency.sum())
+        if self.min_support > 0:
+            lift = self._keep_support(lift, rho)
+        self.emergencies += int((emergency & lift).sum())
         if lift.any():
             rows = np.nonzero(lift)[0]
             n = np.maximum(self.n_swing_min, np.round((1.0 - duty) / f * self.fps)).astype(np.int64)
@@ -1022,6 +1029,18 @@ class LeggedController:
             self.foot_xy[dr, dl] = self.td_xy[dr, dl]
             self.foot_yaw[dr, dl] = self.td_yaw[dr, dl]
             self.stance[dr, dl] = True
+
+    def _keep_support(self, lift: np.ndarray, rho: np.ndarray) -> np.ndarray:
+        """``lift`` [R, NL] less the lifting feet that must stay down for ``min_support`` stance feet."""
+        short = self.min_support - (self.stance & ~lift).sum(axis=1)  # [R] feet still to keep down
+        if not (short > 0).any():
+            return lift
+        lift = lift.copy()
+        for r in np.nonzero(short > 0)[0]:
+            candidates = np.nonzero(lift[r])[0]
+            keep = candidates[np.argsort(rho[r, candidates], kind="stable")][: short[r]]
+            lift[r, keep] = False
+        return lift
 
     def feet(self) -> np.ndarray:
         """Foot targets in world [R, NL, 3]."""

@@ -13,6 +13,10 @@ Choices that are ours (named here and in the docs):
   frame holds still (the planner looks ahead to place touchdowns);
 * a leg IK warm-starts from the previous frame's solution (the first frame: the creature's stance
   pose), never from the retargeter's leg angles, which are what is being replaced;
+* at least ``min_support`` (1) foot stays on the ground: a path that twists fast (a human spinning,
+  ±3 rad/s) sends three or four feet to the edges of their ellipses in one frame, and lifting them all
+  makes a flight the creature's data never has; the foot deepest inside its ellipse waits instead
+  until another touches down (the synthesis keeps its gaits' own flights);
 * nothing but the legs moves: an arm or head the retargeter put through the ground stays there
   (the upper body is the retargeter's to answer for).
 
@@ -43,13 +47,15 @@ def _smooth(x: np.ndarray, frames: int) -> np.ndarray:
     return (c[hi] - c[lo]) / (hi - lo).reshape(-1, *([1] * (x.ndim - 1)))
 
 
-def replan_legs(motion: Motion, *, config: SynthConfig | None = None, smoothing_seconds: float = 0.1) -> Motion:
+def replan_legs(motion: Motion, *, config: SynthConfig | None = None, smoothing_seconds: float = 0.1,
+                min_support: int = 1) -> Motion:
     """``motion`` with its legs re-planned along its own root path (see the module docstring).
 
     Args:
         motion: A motion of a legged creature (floating base).
         config: Synthesis configuration (leg parameters, IK iterations; default :class:`SynthConfig`).
         smoothing_seconds: Half-width of the moving average on the velocities fed to the planner [s].
+        min_support: Feet kept on the ground whatever the gait and the path ask (``LeggedController``).
 
     Returns:
         A motion of the same creature, frame rate and length: base coordinates and non-leg joints
@@ -76,7 +82,7 @@ def replan_legs(motion: Motion, *, config: SynthConfig | None = None, smoothing_
     path_xy = np.concatenate([xy, np.repeat(xy[-1:], pad, axis=0)])[None]
     path_yaw = np.concatenate([yaw, np.repeat(yaw[-1:], pad)])[None]
     solver = rig.solver
-    legs = LeggedController(rig.legs, cfg.legs, fps, path_xy[:, 0], path_yaw[:, 0])
+    legs = LeggedController(rig.legs, cfg.legs, fps, path_xy[:, 0], path_yaw[:, 0], min_support=min_support)
     leg_mask = solver.leg_mask
     nb = m.base_coordinate_count
     leg_coords = np.zeros(m.coordinate_count, dtype=bool)

@@ -10,6 +10,7 @@ from morphkit_testing import spot_like, wheeled
 
 from morphkit.errors import ConfigError
 from morphkit.metrics import foot_contact_figures, unrealistic_frame_ratio
+from morphkit.rotations import quat_from_yaw
 from morphkit.synth import SynthConfig, apply_contacts, replan_legs, synthesize
 
 
@@ -47,6 +48,24 @@ def test_replan_keeps_root_path_and_arm_bit_identical_and_plants_sliding_feet(wa
     low = feet[1:, :, 2] < 0.005
     steps = np.linalg.norm(np.diff(feet[..., :2], axis=0), axis=-1)
     assert np.median(steps[low & (feet[:-1, :, 2] < 0.005)]) < 1e-3
+
+
+def test_replan_keeps_a_foot_down_when_the_path_twists_faster_than_the_legs_step(walking):
+    m = walking.morphology
+    t = np.arange(150) / walking.fps
+    q = np.repeat(walking.q[:1], 150, axis=0)
+    q[:, 3:7] = quat_from_yaw(0.35 * np.sin(2 * np.pi * 1.5 * t))  # a human twisting in place, up to 3.3 rad/s
+    twisting = walking.replace(q=q)
+    feet = [e.role.name == "FOOT" for e in m.end_effectors]
+
+    def flight_frames(motion):  # frames with every foot above the contact height of UFR and floating
+        return int((motion.end_effector_positions()[:, feet, 2].min(axis=1) >= 0.02).sum())
+
+    assert flight_frames(replan_legs(twisting, min_support=0)) > 0  # the planner alone would leap
+    out = replan_legs(twisting)
+    assert flight_frames(out) == 0
+    np.testing.assert_array_equal(out.q[:, ~_leg_coords(m)], twisting.q[:, ~_leg_coords(m)])
+    assert foot_contact_figures(out).sliding_rate == 0.0 and unrealistic_frame_ratio(out).ratio == 0.0
 
 
 def test_replan_leaves_creatures_without_legs_and_none_alone(walking):
