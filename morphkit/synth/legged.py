@@ -906,8 +906,8 @@ class LeggedController:
     def __init__(self, rig: LegRig, cfg: LegConfig, fps: float, xy0: np.ndarray, yaw0: np.ndarray,
                  *, min_support: int = 0) -> None:
         self.rig = rig
-        self.min_support = int(min_support)
         self.cfg = cfg
+        self.min_support = int(min_support)
         self.fps = fps
         self.dt = 1.0 / fps
         R, NL = len(xy0), rig.leg_count

@@ -15,7 +15,7 @@ Choices that are ours (named here and in the docs):
   pose), never from the retargeter's leg angles, which are what is being replaced;
 * at least ``min_support`` (1) foot stays on the ground: a path that twists fast (a human spinning,
   ±3 rad/s) sends three or four feet to the edges of their ellipses in one frame, and lifting them all
-  makes a flight the creature's data never has; the foot deepest inside its ellipse waits instead
+  makes a flight longer than any in the creature's data; the foot deepest inside its ellipse waits instead
   until another touches down (the synthesis keeps its gaits' own flights);
 * nothing but the legs moves: an arm or head the retargeter put through the ground stays there
   (the upper body is the retargeter's to answer for).
