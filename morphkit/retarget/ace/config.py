@@ -130,7 +130,8 @@ class RetargetConfig:
     ACE+contact's 0.883. With 2 (three seeds on the quadruped, one on the others): shipped FID 0.776 → 0.840 (still
     the lowest row), 1.138 → 1.084, 0.174 → 0.163; hand or tool 0.86 → 0.83, 0.76 → 0.70, 0.88 → 0.85; forward
     0.57 → 0.66, 0.62 → 0.69, 0.54 → 0.60; drift (where the creature goes that the human does not) 0.159 → 0.061,
-    0.409 → 0.139, 0.075 → 0.051 body lengths/s; six floating frames on the quadruped (seed 0, of 29,046).
+    0.409 → 0.139, 0.075 → 0.051 body lengths/s; six floating frames on the quadruped (seed 0, of 29,046;
+    none since the re-planned legs keep a foot on the ground).
     ``quick`` uses 3, ``default`` 2 (docs/guides/train-ace.md, evaluate.md)."""
     ground_drift_weight: float = 0.0
     """Weight (times ``w_fea``) of a term on the root's motion over the ground averaged over each training window,
