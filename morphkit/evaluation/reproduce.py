@@ -52,7 +52,7 @@ from morphkit.retarget.ace.train import prepare, train_ace, train_prior
 from morphkit.retarget.config import config_to_dict, replace_config
 from morphkit.retarget.nkn import NknConfig, train_nkn
 from morphkit.retarget.nkn import preset as nkn_preset
-from morphkit.retarget.training_data import character_motions
+from morphkit.retarget.training_data import character_motions, synthesis_options
 
 __all__ = ["NKN_BUDGET", "ReproduceConfig", "evaluate_runs", "plan_stages", "reproduce_table1"]
 
@@ -111,7 +111,7 @@ def _nkn_config(cfg: ReproduceConfig, ace: AceConfig, seed: int) -> NknConfig:
         "data.fps": ace.data.fps,
         "data.character_frames": ace.data.character_frames,
         "data.synth_seed": ace.data.synth_seed,
-        "data.arm_hang_share": ace.data.arm_hang_share,
+        **{f"data.{name}": value for name, value in synthesis_options(ace.data).items()},
         **NKN_BUDGET.get(cfg.preset, {}),
     }
     base = replace_config(nkn_preset(cfg.preset), shared)

@@ -45,6 +45,7 @@ from morphkit.motion.datasets import default_cache_dir
 __all__ = [
     "CONVENTION_FILE",
     "EMBEDDED_EVALUATION_CLIPS",
+    "SYNTHESIS_OPTIONS",
     "DataConfig",
     "StateWindows",
     "character_data",
@@ -99,6 +100,17 @@ class DataConfig:
     human data turn, step and reach to both sides alike. Ours (PFNN and MANN mirror their mocap the same way):
     the embedded default human of ``quick`` (10 clips) walks in left turns three times as often as in right
     ones, and G learnt to turn the quadruped with an arm left whichever way the human turned (see the docs)."""
+
+
+SYNTHESIS_OPTIONS: tuple[str, ...] = ("stand_probability", "forward_speed", "arm_hang_share", "full_arm_travel")
+"""The :class:`DataConfig` fields that shape the creature's synthesised data besides its length, frame rate and
+seed. Another trainer that synthesises the creature (NKN's cross-morphology mode) carries the same fields and
+copies them from ACE's config (:func:`synthesis_options`) when a table compares both, so both see one data set."""
+
+
+def synthesis_options(data: Any) -> dict[str, Any]:
+    """``data``'s :data:`SYNTHESIS_OPTIONS` by name (any config with those fields)."""
+    return {name: getattr(data, name) for name in SYNTHESIS_OPTIONS}
 
 
 def evaluation_split() -> tuple[str, ...]:

@@ -376,3 +376,30 @@ def test_an_evaluation_survives_one_failing_method(smoke, tmp_path, monkeypatch)
     assert "FAILED NKN (seed 0)" in (tmp_path / "eval" / "table.md").read_text()
     assert "non-finite output at frame 3" in json.loads((tmp_path / "eval" / "evaluation.json").read_text())[
         "failed"]["NKN (seed 0)"]
+
+
+def test_table_nkn_sees_the_creature_data_ace_sees(tmp_path):
+    """Every option that shapes the creature's synthesised data reaches NKN's config from ACE's, and NKN builds the
+    same data config from it; a new DataConfig field must be declared a synthesis option or not."""
+    import dataclasses
+
+    from morphkit.evaluation.reproduce import plan_stages
+    from morphkit.retarget.config import config_from_dict
+    from morphkit.retarget.nkn import NknConfig
+    from morphkit.retarget.nkn.config import NknDataConfig
+    from morphkit.retarget.training_data import SYNTHESIS_OPTIONS, DataConfig, synthesis_options
+
+    not_synthesis = {"character_frames", "fps", "synth_seed", "human_frames", "human_mirror"}
+    fields = {f.name for f in dataclasses.fields(DataConfig)}
+    assert fields == not_synthesis | set(SYNTHESIS_OPTIONS)
+    assert set(SYNTHESIS_OPTIONS) <= {f.name for f in dataclasses.fields(NknDataConfig)}
+
+    chosen = {"stand_probability": 0.2, "forward_speed": (-0.5, 3.0), "arm_hang_share": 0.4, "full_arm_travel": False}
+    assert set(chosen) == set(SYNTHESIS_OPTIONS)
+    for name, value in chosen.items():  # none is its default, so a field left uncopied would show
+        assert getattr(DataConfig(), name) != value
+    overrides = tuple(f"data.{k}={list(v) if isinstance(v, tuple) else v}" for k, v in chosen.items())
+    cfg = ReproduceConfig(preset="smoke", ace_overrides=overrides)
+    stage = next(s for s in plan_stages(spot_like(), tmp_path, cfg, log=lambda s: None) if s.name.startswith("NKN"))
+    nkn = config_from_dict(NknConfig, stage.key["config"])
+    assert synthesis_options(nkn.data) == chosen

@@ -54,9 +54,16 @@ class NknDataConfig:
     """Seed of the training variants (the unseen evaluation variants use other seeds)."""
     character_frames: int = 12_000
     """Cross-morphology mode: synthesised frames of the target creature (its real motion for D)."""
+    stand_probability: float | None = None
+    """Cross-morphology mode, the creature's synthesis: ACE's ``data.stand_probability``. This and the next three
+    are :data:`morphkit.retarget.training_data.SYNTHESIS_OPTIONS`; Table 1 sets them to ACE's, so both methods see
+    the same creature data."""
+    forward_speed: tuple[float, float] | None = None
+    """Cross-morphology mode: ACE's ``data.forward_speed``."""
     arm_hang_share: float | None = None
-    """Cross-morphology mode: share of the creature's synthesised arm moves that go to the lowest-hanging pose
-    (ACE's ``data.arm_hang_share``; Table 1 sets it to ACE's, so both see the same creature data)."""
+    """Cross-morphology mode: ACE's ``data.arm_hang_share``."""
+    full_arm_travel: bool = True
+    """Cross-morphology mode: ACE's ``data.full_arm_travel``."""
     test_frames: int = 120
     """Frames per evaluation clip (§5: 4-second test clips at 30 fps)."""
     held_out: tuple[str, ...] = ()

@@ -49,7 +49,7 @@ from morphkit.retarget.nkn.losses import (
 )
 from morphkit.retarget.nkn.model import NknDiscriminator, NknGenerator, Side, motion_differences
 from morphkit.retarget.run import Run
-from morphkit.retarget.training_data import DataConfig, character_motions
+from morphkit.retarget.training_data import DataConfig, character_motions, synthesis_options
 
 __all__ = ["TRAINERS", "NknSetup", "build_networks", "cpu_threads", "prepare", "train_nkn"]
 
@@ -136,7 +136,7 @@ def prepare(
     setup = NknSetup(mode, template, characters, source, feats, offs)
     if creature is not None:
         synth = DataConfig(character_frames=cfg.data.character_frames, fps=cfg.data.fps,
-                           synth_seed=cfg.data.synth_seed, arm_hang_share=cfg.data.arm_hang_share)
+                           synth_seed=cfg.data.synth_seed, **synthesis_options(cfg.data))
         target = Character(creature, character_motions(creature, synth, cache_dir=cache_dir, progress=progress,
                                                        log=log),
                            "creature")
