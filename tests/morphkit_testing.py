@@ -9,6 +9,7 @@ files exist, and importing "conftest" by name picks whichever pytest loaded last
 from __future__ import annotations
 
 import math
+import socket
 from collections.abc import Callable
 
 import numpy as np
@@ -209,3 +210,11 @@ def random_q(model, batch: tuple[int, ...] | int, *, seed: int = 0, dtype=np.flo
         v = rng.normal(size=(*shape, 4))
         q[..., s : s + 4] = v / np.linalg.norm(v, axis=-1, keepdims=True)
     return q.astype(dtype)
+
+
+def free_port() -> int:
+    """A loopback TCP port free at the time of the call (for torchrun's static rendezvous: two test runs at once
+    on one machine must not share a fixed port)."""
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]

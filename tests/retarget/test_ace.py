@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 import torch
 from _ace_fixtures import write_human_clips, write_quadruped
+from morphkit_testing import free_port
 
 from morphkit.errors import ConfigError, MotionFormatError, RunError
 from morphkit.io import read_morphology
@@ -258,8 +259,8 @@ def test_torchrun_two_ranks_end_with_identical_parameters(tmp_path, human_dir, d
     script = tmp_path / "ddp.py"
     script.write_text(_DDP_SCRIPT.format(sets=TINY, dog=str(dog), human=str(human_dir)))
     env = {**os.environ, "MORPHKIT_CACHE_DIR": str(tmp_path.parent / "ace_cache"), "OMP_NUM_THREADS": "1"}
-    cmd = [sys.executable, "-m", "torch.distributed.run", "--nproc_per_node", "2", "--master_port", "29613",
-           str(script), str(tmp_path / "run"), str(tmp_path)]
+    cmd = [sys.executable, "-m", "torch.distributed.run", "--nproc_per_node", "2", "--master_addr", "127.0.0.1",
+           "--master_port", str(free_port()), str(script), str(tmp_path / "run"), str(tmp_path)]
     proc = subprocess.run(cmd, env=env, capture_output=True, check=False, text=True, timeout=900)
     assert proc.returncode == 0, proc.stderr[-3000:]
     a, b = (tmp_path / "rank0").read_text(), (tmp_path / "rank1").read_text()

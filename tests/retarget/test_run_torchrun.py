@@ -5,7 +5,6 @@ from __future__ import annotations
 import os
 import shutil
 import signal
-import socket
 import subprocess
 import sys
 import warnings
@@ -13,6 +12,7 @@ from pathlib import Path
 
 import pytest
 import torch
+from morphkit_testing import free_port
 
 SCRIPT = Path(__file__).with_name("_toy_train.py")
 ROOT = Path(__file__).resolve().parents[2]
@@ -21,17 +21,11 @@ ROOT = Path(__file__).resolve().parents[2]
 WATCHDOG_S = 300
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 def _torchrun(*args: str) -> subprocess.CompletedProcess[str]:
     env = {**os.environ, "OMP_NUM_THREADS": "1", "PYTHONPATH": str(ROOT)}
     # A static rendezvous on a loopback port, as the ACE torchrun test: no name to resolve, no store to elect.
     cmd = [sys.executable, "-m", "torch.distributed.run", "--nnodes", "1", "--nproc_per_node", "2",
-           "--master_addr", "127.0.0.1", "--master_port", str(_free_port()),
+           "--master_addr", "127.0.0.1", "--master_port", str(free_port()),
            str(SCRIPT), *args, "--give-up-after", str(WATCHDOG_S)]
     # Its own session, so that if torchrun itself hangs the whole group is killed and no rank outlives the test.
     with subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=ROOT,
