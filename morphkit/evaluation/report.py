@@ -152,8 +152,8 @@ def format_summary(rows: Sequence[SummaryRow]) -> str:
     return "\n".join(lines)
 
 
-EXTRA_BETTER = {"fid_all": "↓", "div_all": "→", "follow": "↑", "follow_hand": "↑", "follow_forward": "↑",
-                "follow_yaw": "↑", "turn_gain": "→ 1"}
+EXTRA_BETTER = {"fid_all": "↓", "div_all": "→", "follow": "↑", "follow_hand": "↑", "follow_reach": "↑",
+                "follow_forward": "↑", "follow_yaw": "↑", "turn_gain": "→ 1"}
 """Which way is better for each extra figure (the rest: lower)."""
 
 

@@ -82,6 +82,10 @@ class TableRow:
     the series: each mapped end-effector's height, the root's forward velocity and its yaw rate."""
     follow_hand: float | None = None
     """``follow`` of the heights of the creature's hand and tool end-effectors only."""
+    follow_reach: float | None = None
+    """Mean over clips and hand/tool end-effectors of the Pearson correlation of the end-effector's forward offset from
+    the root (its heading-frame x) with the human's: a hand reaching forward, not only rising. ``follow_hand`` reads
+    heights alone, and a tool that goes up when the hand goes forward scores well there."""
     follow_forward: float | None = None
     """``follow`` of the root's forward velocity only."""
     follow_yaw: float | None = None
@@ -105,8 +109,8 @@ class TableRow:
 
 EXTRA_COLUMNS = (
     ("fid_all", "FID (all data)"), ("div_all", "DIV (all data)"), ("follow", "follow"),
-    ("follow_hand", "follow hand"), ("follow_forward", "follow forward"), ("follow_yaw", "follow yaw"),
-    ("turn_gain", "turn gain"), ("drift", "drift"),
+    ("follow_hand", "follow hand"), ("follow_reach", "follow reach"), ("follow_forward", "follow forward"),
+    ("follow_yaw", "follow yaw"), ("turn_gain", "turn gain"), ("drift", "drift"),
     ("ufr_medium", "UFR medium"), ("ufr_loose", "UFR loose"), ("foot_sliding", "sliding/foot"),
     ("foot_penetration", "penetration/foot"), ("skating", "skating"), ("penetrate_mm", "Penetrate mm"),
     ("float_mm", "Float mm"), ("skate_mm", "Skate mm"), ("floating", "floating"),
@@ -199,12 +203,14 @@ def follow_series(psi: np.ndarray, ees: Sequence[str]) -> dict[str, np.ndarray]:
 
 def follow_figures(humans: Sequence[Motion], retargeted: Sequence[Motion], pairing: Pairing,
                    roles: dict[str, str]) -> dict[str, float | None]:
-    """``follow``, ``follow_hand``, ``follow_forward``, ``follow_yaw``, ``turn_gain``, ``drift`` (see
-    :class:`TableRow`): per clip the Pearson correlations of :func:`follow_series`
-    (:func:`~morphkit.metrics.follow_score`; a constant series scores 0 against a varying one), averaged over clips
-    with equal weight; the turn gain over the clips' yaw rates pooled; the drift per clip, averaged. Clips are
-    compared over their common length; clips shorter than 3 frames are left out."""
+    """``follow``, ``follow_hand``, ``follow_reach``, ``follow_forward``, ``follow_yaw``, ``turn_gain``, ``drift``
+    (see :class:`TableRow`): per clip the Pearson correlations of :func:`follow_series` and of the hand/tool
+    end-effectors' forward offsets (:func:`~morphkit.metrics.follow_score`; a constant series scores 0 against a
+    varying one), averaged over clips with equal weight; the turn gain over the clips' yaw rates pooled; the drift
+    per clip, averaged. Clips are compared over their common length; clips shorter than 3 frames are left out."""
     per: dict[str, list[float]] = {}
+    reach: list[float] = []
+    hands = [i for i, e in enumerate(pairing.creature_ees) if roles.get(e) in ("hand", "tool")]
     yaw: list[tuple[np.ndarray, np.ndarray]] = []
     drift: list[float] = []
     for h, r in zip(humans, retargeted, strict=True):
@@ -216,18 +222,23 @@ def follow_figures(humans: Sequence[Motion], retargeted: Sequence[Motion], pairi
         rs = follow_series(psi_r, pairing.creature_ees)
         for key, value in follow_score(hs, rs).correlations.items():
             per.setdefault(key, []).append(value)
+        if hands:
+            forward = [ROOT_FEATURE_DIM + 3 * i for i in hands]  # each hand/tool's heading-frame x
+            names = [str(i) for i in hands]
+            reach += follow_score(dict(zip(names, psi_h[:, forward].T, strict=True)),
+                                  dict(zip(names, psi_r[:, forward].T, strict=True))).correlations.values()
         yaw.append((hs["yaw rate"], rs["yaw rate"]))
         ground = [_FORWARD, _SIDEWAYS]  # where the root goes; a turn on the spot is the yaw's, not drift
         drift.append(float(np.linalg.norm(psi_r[:, ground].mean(axis=0) - psi_h[:, ground].mean(axis=0))))
     if not per:
-        return {"follow": None, "follow_hand": None, "follow_forward": None, "follow_yaw": None, "turn_gain": None,
-                "drift": None}
+        return {"follow": None, "follow_hand": None, "follow_reach": None, "follow_forward": None, "follow_yaw": None,
+                "turn_gain": None, "drift": None}
     mean = {k: float(np.mean(v)) for k, v in per.items()}
-    hands = [mean[f"{e} height"] for e in pairing.creature_ees if roles.get(e) in ("hand", "tool")]
+    heights = [mean[f"{pairing.creature_ees[i]} height"] for i in hands]
     gain = follow_gain(np.concatenate([h for h, _ in yaw]), np.concatenate([c for _, c in yaw]))
-    return {"follow": float(np.mean(list(mean.values()))), "follow_hand": float(np.mean(hands)) if hands else None,
-            "follow_forward": mean["forward velocity"], "follow_yaw": mean["yaw rate"], "turn_gain": gain,
-            "drift": float(np.mean(drift))}
+    return {"follow": float(np.mean(list(mean.values()))), "follow_hand": float(np.mean(heights)) if heights else None,
+            "follow_reach": float(np.mean(reach)) if reach else None, "follow_forward": mean["forward velocity"],
+            "follow_yaw": mean["yaw rate"], "turn_gain": gain, "drift": float(np.mean(drift))}
 
 
 def evaluate_clips(

@@ -116,3 +116,29 @@ def test_dataset_row_reports_matched_and_whole_data_diversity(clips):
     whole = dataset_row(clips, pairing)
     assert row.div_all == pytest.approx(whole.div) and row.fid == 0.0
     assert row.follow is None and row.floating == 0.0
+
+
+def test_reach_follow_is_the_correlation_of_the_hands_forward_offsets(clips):
+    """``follow_reach`` against a naive reference: each hand's world position from FK, minus the root's, turned into
+    the root's heading (yaw read from its quaternion), its x correlated with the other clip's, per clip and hand."""
+    pairing = _identity(clips)
+    roles = {e.name: e.role.name.lower() for e in clips[0].morphology.end_effectors}
+    hands = [i for i, e in enumerate(clips[0].morphology.end_effectors) if e.role.name.lower() == "hand"]
+    assert len(hands) == 2
+
+    def forward(c, n):
+        x, y, z, w = c.q[:n, 3:7].T
+        yaw = np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+        d = c.end_effector_positions()[:n, hands, :2] - c.q[:n, None, :2]
+        return np.cos(yaw)[:, None] * d[..., 0] + np.sin(yaw)[:, None] * d[..., 1]  # [n, hands]
+
+    others = [c.replace(q=c.q[::-1].copy()) for c in clips]  # played backwards: a correlation far from ±1
+    expected = []
+    for a, b in zip(clips, others, strict=True):
+        n = min(a.frame_count, b.frame_count)
+        fa, fb = forward(a, n), forward(b, n)
+        expected += [np.corrcoef(fa[:, k], fb[:, k])[0, 1] for k in range(len(hands))]
+    got = follow_figures(clips, others, pairing, roles)
+    assert got["follow_reach"] == pytest.approx(np.mean(expected), abs=1e-9)
+    assert abs(got["follow_reach"]) < 0.9
+    assert follow_figures(clips, clips, pairing, roles)["follow_reach"] == pytest.approx(1.0)
