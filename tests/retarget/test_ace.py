@@ -232,6 +232,14 @@ def test_bad_input_is_one_clear_error(tmp_path, human_dir, dog, cache, capsys):
     assert main(["train", "ace", str(noee), "--preset", "smoke", "--human-data", str(human_dir), "--out",
                  str(tmp_path / "c")]) == 2
     assert "no end-effectors" in capsys.readouterr().err
+    # an ablation flag set on full ACE is refused, not trained as ACE
+    with pytest.raises(ConfigError, match="ACEwoAdv ablation"):
+        train_ace(tmp_path / "d", creature, replace_config(cfg, ["retarget.adversarial=false"]), human_data=human_dir,
+                  progress=False, log=lambda s: None)
+    assert not (tmp_path / "d").exists()
+    assert main(["train", "ace", str(dog), "--preset", "smoke", "--human-data", str(human_dir), "--out",
+                 str(tmp_path / "e"), "--set", "retarget.feature_loss=false"]) == 2
+    assert "ACEwoFea ablation" in capsys.readouterr().err
 
 
 _DDP_SCRIPT = """

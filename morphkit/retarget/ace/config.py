@@ -323,7 +323,17 @@ class AceVariant(str, Enum):
         return self is not AceVariant.WO_ADV
 
     def configure(self, cfg: RetargetConfig) -> RetargetConfig:
-        """``cfg`` with this variant's ablation flags, so its ``config.yaml`` records what was trained."""
+        """``cfg`` with this variant's ablation flags, so its ``config.yaml`` records what was trained.
+
+        Raises:
+            ConfigError: ``cfg`` turns off a loss this variant trains with (``--set retarget.adversarial=false``
+                asks for ACEwoAdv, a variant of its own, and was silently trained as ACE).
+        """
+        for flag, option in (("feature_loss", "--no-feature-loss"), ("adversarial", "--no-adversarial")):
+            if getattr(self, flag) and not getattr(cfg, flag):
+                other = AceVariant.of_flags(**{flag: False})
+                raise ConfigError(f"retarget.{flag}=false is the {other.label} ablation, not {self.label}: train it "
+                                  f"as its own variant ({option} in morphkit train ace, variant={other.value!r})")
         return replace(cfg, feature_loss=self.feature_loss, adversarial=self.adversarial)
 
     @staticmethod

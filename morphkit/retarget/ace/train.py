@@ -537,6 +537,7 @@ def train_ace(
         The retargeter's stage folder.
     """
     variant = AceVariant.parse(variant)
+    variant.configure(cfg.retarget)  # a contradicting ablation flag is refused before anything trains
     run = Path(run_dir)
     # One process group for every stage under torchrun (a Run that created it would destroy it).
     init_distributed(device)
