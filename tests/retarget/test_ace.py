@@ -700,3 +700,21 @@ def test_ground_drift_compares_window_means_of_the_ground_motion_columns():
     assert float(ground_drift(h, shifted)) == pytest.approx(0.0, abs=1e-6)
     shifted[:, :, GROUND_MOTION_FEATURES[0]] += 0.25
     assert float(ground_drift(h, shifted)) == pytest.approx(0.25, rel=1e-5)
+
+
+def test_feature_weights_weigh_the_hand_and_tool_blocks_and_the_ground_motion():
+    """Spot's Ψ: root features, then one block per mapped end-effector; the gripper's (a tool) takes ``hand_weight``,
+    the ground-motion columns ``ground_motion_weight``, every other column 1; all 1 gives Eq. 9's ``None``."""
+    from morphkit.io.shipped import resolve_morphology
+    from morphkit.motion import GROUND_MOTION_FEATURES, ROOT_FEATURE_DIM
+    from morphkit.retarget.ace.config import RetargetConfig
+    from morphkit.retarget.ace.train import feature_weights
+
+    spot = read_morphology(resolve_morphology("spot"))
+    ees = ("head", "fl_foot", "gripper", "hr_foot")
+    assert feature_weights(spot, ees, RetargetConfig()) is None
+    w = feature_weights(spot, ees, RetargetConfig(hand_weight=3.0, ground_motion_weight=2.0)).numpy()
+    expected = np.ones(ROOT_FEATURE_DIM + 3 * len(ees))
+    expected[list(GROUND_MOTION_FEATURES)] = 2.0
+    expected[ROOT_FEATURE_DIM + 6 : ROOT_FEATURE_DIM + 9] = 3.0  # the gripper, third block
+    np.testing.assert_array_equal(w, expected)

@@ -132,7 +132,18 @@ class RetargetConfig:
     0.57 → 0.66, 0.62 → 0.69, 0.54 → 0.60; drift (where the creature goes that the human does not) 0.159 → 0.061,
     0.409 → 0.139, 0.075 → 0.051 body lengths/s; six floating frames on the quadruped (seed 0, of 29,046;
     none since the re-planned legs keep a foot on the ground).
-    ``quick`` uses 3, ``default`` 2 (docs/guides/train-ace.md, evaluate.md)."""
+    ``quick`` uses 4 (with ``hand_weight`` 2; 3 before), ``default`` 2 (docs/guides/train-ace.md, evaluate.md)."""
+    hand_weight: float = 1.0
+    """Factor on Ψ's hand and tool end-effector blocks in G's feature term, as ``ground_motion_weight`` on the root's
+    motion (ours; 1: Eq. 9 as written). Why: D pulls a creature's arm towards its data's arm motion, whose tool rises
+    as it goes back (Spot's gripper: x–z correlation −0.36 over its data) where a person's hand rises as it goes
+    forward. On the main job (``quick``, seeds 0–2) with 1 the gripper rose where the human reached forward (reach
+    follow −0.38 / −0.46 / 0.04; ACEwoAdv on the same prior, seed 0: 0.57) and rose twice as far as the hand. With 2
+    and ``ground_motion_weight`` 4 (against 3): reach 0.55 / 0.62 / 0.43, hand 0.93 / 0.88 / 0.94 → 0.97 / 0.94 /
+    0.94, shipped FID 0.96 / 1.04 / 0.90 → 0.87 / 0.83 / 0.91, but yaw follow 0.91 / 0.72 / 0.78 → 0.73 / 0.66 /
+    0.66 and turn gain 0.72 / 0.75 / 0.72 → 0.70 / 0.58 / 0.61. 3 (with 3 or 5 on the ground motion) turned less
+    still (turn gain down to 0.13). ``quick`` uses 2; ``default`` 1 (reach 0.54 / 0.57 / 0.43 on Spot's three seeds,
+    not yet measured with 2). docs/guides/train-ace.md has the table."""
     ground_drift_weight: float = 0.0
     """Weight (times ``w_fea``) of a term on the root's motion over the ground averaged over each training window,
     ‖mean_t Ψ^h_g − mean_t Ψ^r_g‖ over ``morphkit.motion.GROUND_MOTION_FEATURES`` (ours; 0: off): where the
@@ -255,12 +266,13 @@ PRESETS: dict[str, AceConfig] = {
     # The whole main job ≤ 5 min on 2 cores, from a cold cache. Arms that mostly hang, G's weight average and the
     # human clips mirrored (docs/guides/train-ace.md), as `default`; G's learning rate doubled for its 240 steps
     # (default's G takes 800): its feature loss was still falling when D took over; G's feature term weighs the
-    # root's motion over the ground three times, so the creature turns with the human.
+    # root's motion over the ground four times, so the creature turns with the human, and the hand or tool twice, so
+    # the arm reaches forward where the hand does (with the hand at 1 it rose instead: docs/guides/train-ace.md).
     "quick": AceConfig(
         data=DataConfig(character_frames=12_000, human_frames=3_000, arm_hang_share=0.3, human_mirror=True),
         prior=replace(_QUICK_PRIOR, epochs=8, steps_per_epoch=60, batch_size=64),
         retarget=replace(_QUICK_RET, epochs=8, steps_per_epoch=30, batch_size=32, window=24, generator_average=0.95,
-                         lr_generator=2e-4, ground_motion_weight=3.0),
+                         lr_generator=2e-4, ground_motion_weight=4.0, hand_weight=2.0),
     ),
     # Quality runs: prior + one retargeter ≤ 20 min on 2 cores. Arms that mostly hang, G's weight average and the
     # human clips mirrored: Table 1 on the quadruped with an arm over three seeds (docs/guides/evaluate.md). The

@@ -25,6 +25,7 @@ from morphkit.graph import EndEffectorRole, Morphology
 from morphkit.metrics import feature_loss
 from morphkit.motion import (
     GROUND_MOTION_FEATURES,
+    ROOT_FEATURE_DIM,
     EndEffectorMapping,
     Motion,
     NormStats,
@@ -317,6 +318,21 @@ def gradient_penalty(disc: torch.nn.Module, real: torch.Tensor) -> tuple[torch.T
     return logits, grad.square().sum(-1).mean()
 
 
+def feature_weights(creature: Morphology, ees: Sequence[str], rc: RetargetConfig) -> torch.Tensor | None:
+    """Per-column factors on Ψ [11 + 3k] in G's feature term: ``rc.ground_motion_weight`` on the root's ground
+    motion, ``rc.hand_weight`` on the blocks of the creature's hand and tool end-effectors ``ees``, 1 elsewhere
+    (``None`` when all are 1: Eq. 9 as written)."""
+    if rc.ground_motion_weight == 1.0 and rc.hand_weight == 1.0:
+        return None
+    w = torch.ones(feature_dim(len(ees)))
+    w[list(GROUND_MOTION_FEATURES)] = rc.ground_motion_weight
+    roles = {e.name: e.role for e in creature.end_effectors}
+    for i, name in enumerate(ees):
+        if roles[name] in (EndEffectorRole.HAND, EndEffectorRole.TOOL):
+            w[ROOT_FEATURE_DIM + 3 * i : ROOT_FEATURE_DIM + 3 * i + 3] = rc.hand_weight
+    return w
+
+
 def foot_indices(creature: Morphology) -> list[int]:
     """Indices of the creature's end-effectors whose role is ``foot``."""
     return [i for i, e in enumerate(creature.end_effectors) if e.role == EndEffectorRole.FOOT]
@@ -401,10 +417,9 @@ def train_retargeter(
         feet = foot_indices(data.creature) if rc.discriminator_feet else []
         disc = Discriminator(sr, rc, len(feet)).to(dev)
         stats, lay = fmap.creature_stats, fmap.creature_layout
-        psi_weight = None
-        if rc.ground_motion_weight != 1.0:
-            psi_weight = torch.ones(feature_dim(len(fmap.creature_ees)), device=dev)
-            psi_weight[list(GROUND_MOTION_FEATURES)] = rc.ground_motion_weight
+        psi_weight = feature_weights(data.creature, fmap.creature_ees, rc)
+        if psi_weight is not None:
+            psi_weight = psi_weight.to(dev)
         # Not DDP: its hooks miss the gradient penalty's double backward; gradients are averaged by hand.
         for module in (gen, disc):
             broadcast_parameters(module, run.context)
