@@ -136,7 +136,7 @@ class RetargetConfig:
     hand_weight: float = 1.0
     """Factor on Ψ's hand and tool end-effector blocks in G's feature term, as ``ground_motion_weight`` on the root's
     motion (ours; 1: Eq. 9 as written). Why: D pulls a creature's arm towards its data's arm motion, whose tool rises
-    as it goes back (Spot's gripper: x–z correlation −0.36 over its data) where a person's hand rises as it goes
+    as it goes back (a quadruped's arm: x–z correlation −0.36 over its data) where a person's hand rises as it goes
     forward. On the main job (``quick``, seeds 0–2) with 1 the gripper rose where the human reached forward (reach
     follow −0.38 / −0.46 / 0.04; ACEwoAdv on the same prior, seed 0: 0.57) and rose twice as far as the hand. With 2
     and ``ground_motion_weight`` 4 (against 3): reach 0.55 / 0.62 / 0.43, hand 0.93 / 0.88 / 0.94 → 0.97 / 0.94 /
