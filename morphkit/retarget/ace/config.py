@@ -142,8 +142,9 @@ class RetargetConfig:
     and ``ground_motion_weight`` 4 (against 3): reach 0.55 / 0.62 / 0.43, hand 0.93 / 0.88 / 0.94 → 0.97 / 0.94 /
     0.94, shipped FID 0.96 / 1.04 / 0.90 → 0.87 / 0.83 / 0.91, but yaw follow 0.91 / 0.72 / 0.78 → 0.73 / 0.66 /
     0.66 and turn gain 0.72 / 0.75 / 0.72 → 0.70 / 0.58 / 0.61. 3 (with 3 or 5 on the ground motion) turned less
-    still (turn gain down to 0.13). ``quick`` uses 2; ``default`` 1 (reach 0.54 / 0.57 / 0.43 on the quadruped's
-    three seeds, not yet measured with 2). docs/guides/train-ace.md has the table."""
+    still (turn gain down to 0.13). ``quick`` uses 2; ``default`` 1: there the reach is 0.54 / 0.57 / 0.43 on the
+    quadruped's three seeds already, and 2 (seed 0) gave 0.61 at a higher FID (0.786 → 0.803, with ground motion 3
+    0.856) and, with 2 on the ground motion, 5.3 % of frames self-colliding. docs/guides/train-ace.md has the tables."""
     ground_drift_weight: float = 0.0
     """Weight (times ``w_fea``) of a term on the root's motion over the ground averaged over each training window,
     ‖mean_t Ψ^h_g − mean_t Ψ^r_g‖ over ``morphkit.motion.GROUND_MOTION_FEATURES`` (ours; 0: off): where the
