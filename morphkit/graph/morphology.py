@@ -396,7 +396,7 @@ class Morphology:
         bases (their root frame sits on the ground), the lowest rest point otherwise. ``None``
         without hands or tools.
         """
-        hands = [e for e in self.end_effectors if e.role in (EndEffectorRole.HAND, EndEffectorRole.TOOL)]
+        hands = [e for e in self.end_effectors if e.role.on_arm]
         if not hands:
             return None
         if self.rest_stance_height is not None:

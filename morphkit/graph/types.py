@@ -60,6 +60,11 @@ class EndEffectorRole(IntEnum):
     HEAD = 2
     TOOL = 3
 
+    @property
+    def on_arm(self) -> bool:
+        """A hand or a tool: what an arm carries (synthesised as an arm, followed by a person's hands)."""
+        return self in (EndEffectorRole.HAND, EndEffectorRole.TOOL)
+
 
 class BodyLengthRule(IntEnum):
     """Which rule gave a creature's body length (see ``docs/concepts/body-length.md``)."""

@@ -16,18 +16,16 @@ import os
 import numpy as np
 
 from morphkit._atomic import atomic_write_text
-from morphkit.graph import EndEffectorRole, JointType, Morphology
+from morphkit.graph import JointType, Morphology
 from morphkit.motion.motion import Motion
 from morphkit.rotations import quat_conjugate, quat_from_yaw, quat_multiply, quat_rotate, rpy_from_quat, yaw_from_quat
 
 __all__ = ["arm_joints", "robot_commands", "write_robot_commands"]
 
-_ARM_ROLES = (EndEffectorRole.HAND, EndEffectorRole.TOOL)
-
 
 def arm_joints(morphology: Morphology) -> tuple[str, ...]:
     """1-DoF joints on the chains to hand and tool end-effectors, in joint order."""
-    on_arm = {j for ee in morphology.end_effectors if ee.role in _ARM_ROLES
+    on_arm = {j for ee in morphology.end_effectors if ee.role.on_arm
               for j in morphology.end_effector_chains[ee.name]}
     return tuple(j.name for j in morphology.joints if j.name in on_arm and not morphology.is_driven(j)
                  and j.type in (JointType.REVOLUTE, JointType.CONTINUOUS, JointType.PRISMATIC))

@@ -76,7 +76,7 @@ def analyse(m: Morphology) -> BodyPlan:
     legs: list[Limb] = []
     arms: list[Limb] = []
     for e in m.end_effectors:
-        if e.role not in (EndEffectorRole.FOOT, EndEffectorRole.HAND, EndEffectorRole.TOOL):
+        if e.role != EndEffectorRole.FOOT and not e.role.on_arm:
             continue
         chain = chains[e.name]
         own = [j for j in chain if use_count[j] == 1 and j not in m.wheel_joints]

@@ -328,7 +328,7 @@ def feature_weights(creature: Morphology, ees: Sequence[str], rc: RetargetConfig
     w[list(GROUND_MOTION_FEATURES)] = rc.ground_motion_weight
     roles = {e.name: e.role for e in creature.end_effectors}
     for i, name in enumerate(ees):
-        if roles[name] in (EndEffectorRole.HAND, EndEffectorRole.TOOL):
+        if roles[name].on_arm:
             w[ROOT_FEATURE_DIM + 3 * i : ROOT_FEATURE_DIM + 3 * i + 3] = rc.hand_weight
     return w
 
