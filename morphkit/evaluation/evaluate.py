@@ -116,7 +116,7 @@ def reference_for(methods: Sequence[Method], *, human_data: str | os.PathLike[st
     source = os.fspath(human_data) if human_data is not None else model.human_data
     clips = evaluation_clips(source, model.data, limit=limit)
     character = character_motions(creature, model.data, progress=False)
-    if model.pairing is not None and model.pairing.centred:
+    if model.pairing is not None and model.pairing.centred and model.pairing.height_centred:
         return Reference(creature, model.data, model.pairing, source, os.fspath(method.run), character), clips
     if model.pairing is not None:
         pairing, origin = model.pairing, os.fspath(method.run)
@@ -129,7 +129,7 @@ def reference_for(methods: Sequence[Method], *, human_data: str | os.PathLike[st
                                     active_hand=True)
         pairing = Pairing.from_mapping(mapping.mapping, c_len, h_len, mapping.active_hand)
         origin = "KL mapping on the evaluation clips"
-    # A run trained before Ψ was centred (or a method without a pairing): the centres come from the
+    # A run trained before Ψ (or its root height) was centred, or a method without a pairing: the centres come from the
     # data it was trained on (the synthesis is deterministic), and the report says so.
     trained_on = human_motions(model.human_data, model.data)
     pairing = pairing.with_centres(character, trained_on)

@@ -146,7 +146,8 @@ def _centred(ee: Any, centre: Sequence[float] | None) -> Any:
 
 
 def features(state: Any, layout: StateLayout, *, length: float, ee_names: Sequence[str] | None = None,
-             centre: Sequence[float] | None = None, active_hand: ActiveHand | None = None) -> Any:
+             centre: Sequence[float] | None = None, active_hand: ActiveHand | None = None,
+             height_centre: float | None = None) -> Any:
     """Ψ of states (see the module docstring).
 
     Args:
@@ -157,6 +158,8 @@ def features(state: Any, layout: StateLayout, *, length: float, ee_names: Sequen
         centre: Subtracted from the end-effector block after dividing by ``length`` [3 k] (the side's
             mean over its own data set: :attr:`Pairing.creature_centre`); ``None``: not centred.
         active_hand: How an :data:`ACTIVE_HAND` in ``ee_names`` is formed (needed when one is).
+        height_centre: Subtracted from the root height after dividing by ``length`` (the side's mean over its
+            own data set: :attr:`Pairing.creature_height_centre`); ``None``: not centred.
 
     Returns:
         [..., 11 + 3 k] features, same type as ``state``.
@@ -175,8 +178,9 @@ def features(state: Any, layout: StateLayout, *, length: float, ee_names: Sequen
                    else state[..., _ee_columns(layout, [n])] * inv for n in ee_names])
     else:
         ee = state[..., _ee_columns(layout, ee_names)] * inv
+    height = state[..., layout.slice("root_height")] * inv
     parts = [
-        state[..., layout.slice("root_height")] * inv,
+        height if height_centre is None else height - float(height_centre),
         state[..., layout.slice("root_orientation")],
         state[..., layout.slice("root_linear_velocity")] * inv,
         state[..., layout.slice("root_angular_velocity")],
@@ -226,6 +230,11 @@ class Pairing:
     frame), subtracted from it (``None``: Ψ not centred, as the paper and runs before centring)."""
     human_centre: tuple[float, ...] | None = None
     """The same for the human side, over the human data."""
+    creature_height_centre: float | None = None
+    """Mean of the creature's Ψ root height over its own data set (body lengths), subtracted from it (``None``: not
+    centred, as the paper and runs before it)."""
+    human_height_centre: float | None = None
+    """The same for the human side, over the human data."""
     active_hand: ActiveHand | None = None
     """How the human's :data:`ACTIVE_HAND` is formed, when ``human_ees`` holds it (its hands' means set by
     :meth:`with_centres`)."""
@@ -245,6 +254,10 @@ class Pairing:
                 if len(value) != 3 * len(self.creature_ees):
                     raise ConfigError(f"Pairing.{name} needs {3 * len(self.creature_ees)} values, got {len(value)}")
                 object.__setattr__(self, name, value)
+        for name in ("creature_height_centre", "human_height_centre"):
+            value = getattr(self, name)
+            if value is not None:
+                object.__setattr__(self, name, float(value))
         if ACTIVE_HAND in self.human_ees and self.active_hand is None:
             raise ConfigError(f"a pairing with {ACTIVE_HAND!r} needs its ActiveHand (the human's hands)")
 
@@ -253,24 +266,33 @@ class Pairing:
         """Whether both sides' end-effector blocks are centred."""
         return self.creature_centre is not None and self.human_centre is not None
 
+    @property
+    def height_centred(self) -> bool:
+        """Whether both sides' root heights are centred."""
+        return self.creature_height_centre is not None and self.human_height_centre is not None
+
     def with_centres(self, creature: Sequence[Motion], human: Sequence[Motion]) -> Pairing:
-        """This pairing centred on data sets: each side's mean end-effector block over its own motions.
+        """This pairing centred on data sets: each side's mean end-effector block and root height over its own
+        motions.
 
         Centring removes the floor that the two bodies' different stances put under the feature
-        loss (a quadruped's feet stand ahead of and behind its root, a human's under it): what is
-        compared is how end-effectors move about where they usually are.
+        loss (a quadruped's feet stand ahead of and behind its root, a human's under it; a wheeled robot's
+        root sits on the ground, a human's one body length above it): what is compared is how end-effectors
+        move about where they usually are, and how far the body rises or crouches from its usual height.
         """
-        plain = dataclasses.replace(self, creature_centre=None, human_centre=None)
+        plain = dataclasses.replace(self, creature_centre=None, human_centre=None, creature_height_centre=None,
+                                    human_height_centre=None)
         states = [(human_state_from_motion(m), human_state_layout(m.morphology)) for m in human]
         if plain.active_hand is not None:  # the hands' own means first: the active hand is chosen by distance from them
             hands = dataclasses.replace(plain.active_hand, means=None)
             means = np.concatenate([features(x, layout, length=self.human_length, ee_names=hands.hands)
                                     for x, layout in states])[:, ROOT_FEATURE_DIM:].mean(axis=0)
             plain = dataclasses.replace(plain, active_hand=dataclasses.replace(hands, means=tuple(means.tolist())))
-        c = np.concatenate([plain.creature_psi(m) for m in creature])[:, ROOT_FEATURE_DIM:].mean(axis=0)
-        h = np.concatenate([plain.human_psi_of_states(x, layout) for x, layout in states])
-        h = h[:, ROOT_FEATURE_DIM:].mean(axis=0)
-        return dataclasses.replace(self, creature_centre=tuple(c.tolist()), human_centre=tuple(h.tolist()),
+        c = np.concatenate([plain.creature_psi(m) for m in creature]).mean(axis=0)
+        h = np.concatenate([plain.human_psi_of_states(x, layout) for x, layout in states]).mean(axis=0)
+        return dataclasses.replace(self, creature_centre=tuple(c[ROOT_FEATURE_DIM:].tolist()),
+                                   human_centre=tuple(h[ROOT_FEATURE_DIM:].tolist()),
+                                   creature_height_centre=float(c[0]), human_height_centre=float(h[0]),
                                    active_hand=plain.active_hand)
 
     @staticmethod
@@ -288,8 +310,14 @@ class Pairing:
 
     def creature_psi(self, motion: Motion) -> np.ndarray:
         """Ψ of a creature motion's frames [T, 11 + 3k] (end-effectors through FK)."""
-        return motion_features(motion, ee_names=self.creature_ees, length=self.creature_length,
-                               centre=self.creature_centre)
+        return self.creature_psi_of_states(character_state_from_motion(motion),
+                                           character_state_layout(motion.morphology))
+
+    def creature_psi_of_states(self, state: Any, layout: StateLayout) -> Any:
+        """Ψ of creature states [..., layout.dim] (not normalised; NumPy or torch; end-effectors as the states hold
+        them) → [..., 11 + 3k]."""
+        return features(state, layout, length=self.creature_length, ee_names=self.creature_ees,
+                        centre=self.creature_centre, height_centre=self.creature_height_centre)
 
     def human_psi(self, motion: Motion) -> np.ndarray:
         """Ψ of a human motion's frames [T, 11 + 3k], its end-effectors in the creature's order."""
@@ -299,4 +327,4 @@ class Pairing:
         """Ψ of human states [..., layout.dim] (not normalised; NumPy or torch) → [..., 11 + 3k], end-effectors in
         the creature's order."""
         return features(state, layout, length=self.human_length, ee_names=self.human_ees, centre=self.human_centre,
-                        active_hand=self.active_hand)
+                        active_hand=self.active_hand, height_centre=self.human_height_centre)

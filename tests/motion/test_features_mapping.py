@@ -275,3 +275,28 @@ def test_roles_map_a_mirror_symmetric_creature_mirror_symmetrically() -> None:
     got = map_end_effectors(creature, human, roles=roles).mapping
     assert got == {"l_claw": "lwrist", "l_front_foot": "lfoot", "l_hind_foot": "lfoot",
                    "r_claw": "rwrist", "r_front_foot": "rfoot", "r_hind_foot": "rfoot"}
+
+
+def test_a_centred_pairing_ignores_a_constant_root_height_but_sees_a_crouch() -> None:
+    """Each side's Ψ is centred on its own data (:meth:`Pairing.with_centres`): a body whose root always sits
+    0.5 m higher (a human against a robot whose root rides on the ground) has the same centred Ψ, while lowering
+    the root in one frame lowers that frame's Ψ height by the drop over the body length, as uncentred."""
+    from morphkit.motion import Pairing
+
+    clips = [_motion(seed) for seed in range(3)]
+    raised = [m.replace(q=m.q + np.eye(m.q.shape[1])[2] * 0.5) for m in clips]
+    assert np.allclose(raised[0].root_pose()[:, 2] - clips[0].root_pose()[:, 2], 0.5)
+    ees = tuple(e.name for e in clips[0].morphology.end_effectors)
+    plain = Pairing(ees, ees, 1.7, 1.7)
+    pairing = plain.with_centres(raised, clips)  # the creature side is the raised body
+    assert pairing.height_centred and pairing.centred
+    for m, r in zip(clips, raised, strict=True):
+        np.testing.assert_allclose(pairing.creature_psi(r), pairing.human_psi(m), atol=1e-9)
+        assert np.allclose(plain.creature_psi(r)[:, 0] - plain.human_psi(m)[:, 0], 0.5 / 1.7)
+    for side in (np.concatenate([pairing.creature_psi(r) for r in raised]),
+                 np.concatenate([pairing.human_psi(m) for m in clips])):
+        assert abs(side[:, 0].mean()) < 1e-9 and np.abs(side[:, 11:].mean(axis=0)).max() < 1e-9
+    crouch = raised[0].q.copy()
+    crouch[4, 2] -= 0.2
+    moved = pairing.creature_psi(raised[0].replace(q=crouch))[:, 0] - pairing.creature_psi(raised[0])[:, 0]
+    np.testing.assert_allclose(moved, np.where(np.arange(len(crouch)) == 4, -0.2 / 1.7, 0.0), atol=1e-9)

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
+import yaml
 from _ace_fixtures import write_human_clips, write_quadruped
 from morphkit_testing import free_port
 
@@ -148,8 +149,16 @@ def test_same_code_trains_shipped_creatures(tmp_path, human_dir, cache, name):
     assert (ACTIVE_HAND in art.pairing.human_ees) == (name != "crab")
     if name != "crab":
         assert len(art.pairing.active_hand.means) == 6
-    art.save(tmp_path / "copy")  # the pairing, its hands' means included, survives a save and a load
+    art.save(tmp_path / "copy")  # the pairing, its hands' means and Ψ's centres included, survives a save and a load
     assert AceArtifact.load(tmp_path / "copy").pairing == art.pairing
+    assert art.pairing.height_centred and (name != "stretch" or art.pairing.creature_height_centre == 0.0)
+    # a run from before the root height was centred keeps comparing Ψ as it was trained to
+    meta = yaml.safe_load((tmp_path / "copy" / "ace.yaml").read_text())
+    for key in ("creature_height", "human_height"):
+        del meta["psi_centre"][key]
+    (tmp_path / "copy" / "ace.yaml").write_text(yaml.safe_dump(meta))
+    old = AceArtifact.load(tmp_path / "copy").pairing
+    assert old.creature_centre == art.pairing.creature_centre and not old.height_centred
 
 
 def test_same_code_trains_dm_control_dog(tmp_path, human_dir, cache):

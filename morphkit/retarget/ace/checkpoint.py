@@ -147,6 +147,9 @@ class AceArtifact:
         if self.pairing.centred:
             meta["psi_centre"] = {"creature": list(self.pairing.creature_centre or ()),
                                   "human": list(self.pairing.human_centre or ())}
+            if self.pairing.height_centred:  # absent: a run from before the root height was centred
+                meta["psi_centre"] |= {"creature_height": self.pairing.creature_height_centre,
+                                       "human_height": self.pairing.human_height_centre}
         hand = self.pairing.active_hand
         if hand is not None:
             meta["active_hand"] = {"hands": list(hand.hands), "mirror": list(hand.mirror),
@@ -192,7 +195,9 @@ class AceArtifact:
                                            float(meta["human_body_length"]), None if not hand else ActiveHand(**hand))
             centre = meta.get("psi_centre")
             if centre:
-                pairing = dataclasses.replace(pairing, creature_centre=centre["creature"], human_centre=centre["human"])
+                pairing = dataclasses.replace(pairing, creature_centre=centre["creature"], human_centre=centre["human"],
+                                              creature_height_centre=centre.get("creature_height"),
+                                              human_height_centre=centre.get("human_height"))
         except (KeyError, TypeError, ValueError, ConfigError) as exc:
             raise RunError(f"damaged ACE run folder: {exc!r}", location=SourceLocation(str(run / META_FILE))) from exc
         with np.load(_need(run / _START_STATES)) as f:

@@ -27,7 +27,6 @@ from morphkit.motion import (
     StateLayout,
     compiled_model,
     derive_character_state,
-    features,
     world_end_effectors,
 )
 from morphkit.retarget.ace.config import PriorConfig, RetargetConfig
@@ -188,8 +187,7 @@ class FeatureMap:
 
     def psi_of_fixed(self, fixed: torch.Tensor) -> torch.Tensor:
         """Ψ of denormalised states whose ee block is already FK's (:meth:`creature_with_fk`)."""
-        return features(fixed, self.creature_layout, length=self.creature_length, ee_names=self.creature_ees,
-                        centre=self.pairing.creature_centre)
+        return self.pairing.creature_psi_of_states(fixed, self.creature_layout)
 
 
 VELOCITY_SLOTS = ("root_linear_velocity", "root_angular_velocity", "ee_velocities")

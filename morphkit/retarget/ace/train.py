@@ -35,7 +35,6 @@ from morphkit.motion import (
     character_state_layout,
     ee_distributions,
     feature_dim,
-    features,
     human_state_from_motion,
     human_state_layout,
     map_end_effectors,
@@ -159,8 +158,7 @@ def _start_states(states: Sequence[np.ndarray], fmap: FeatureMap, seed: int) -> 
     rng = np.random.default_rng(seed)
     pick = rng.choice(flat.shape[0], size=min(START_STATES, flat.shape[0]), replace=False)
     x = flat[np.sort(pick)]
-    return x, features(x, fmap.creature_layout, length=fmap.creature_length, ee_names=fmap.creature_ees,
-                       centre=fmap.pairing.creature_centre)
+    return x, fmap.pairing.creature_psi_of_states(x, fmap.creature_layout)
 
 
 def completion(fmap: FeatureMap, fps: float, cfg: PriorConfig) -> StateCompletion:
