@@ -241,10 +241,11 @@ class AceConfig:
     floor no motion goes under (1.86 on a quadruped for the nearest data frame of every human frame)
     and its gradient pulls the creature's feet towards where a human's would be. The root height is centred
     the same way: Ψ divides lengths by the standing root height, so a legged creature's root stands near 1 as a
-    human's does (Spot 0.94, the crab 0.94, the human 0.99), but a wheeled robot's root rides on the ground at 0.
-    Uncentred, that constant was 62 % of Stretch's squared Ψ distance, and in L_fea's unsquared norm it shrank G's
-    gradient on every other feature: the gripper's rare overhead frames were regressed to the mean (12 / 14 / 13
-    of 14 overhead clips above 0.8 m on seeds 0 / 1 / 2, against 14 / 14 / 14 centred; docs/guides/evaluate.md)."""
+    human's does (0.94 for the quadruped with an arm and the six-legged creature, 0.99 for the CMU humans), but a
+    wheeled robot's root rides on the ground at 0. Uncentred, that constant was 62 % of the wheeled robot's squared
+    Ψ distance, and in L_fea's unsquared norm it shrank G's gradient on every other feature: its gripper's rare
+    overhead frames were regressed to the mean (12 / 14 / 13 of 14 overhead clips above 0.8 m on seeds 0 / 1 / 2,
+    against 14 / 14 / 14 centred; docs/guides/evaluate.md)."""
     data: DataConfig = field(default_factory=DataConfig)
     prior: PriorConfig = field(default_factory=PriorConfig)
     retarget: RetargetConfig = field(default_factory=RetargetConfig)
