@@ -13,13 +13,22 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
             "Apply a contact-aware export to a creature motion (.npz or .usd[a|c], which carry their creature; "
             "any retargeter's output or a file you made): replan re-steps the legs with the synthesis' footstep "
             "planner along the motion's root path; lock keeps the motion's own steps and holds each stance foot at its "
-            "touchdown point by IK. Both keep the root path and every non-leg joint."
+            "touchdown point by IK. Both keep the root path, then move the upper body (arms, head, tail) out of the "
+            "creature's own shapes and the ground by the smallest change of its joints, in the frames where it is in "
+            "them; nothing else moves."
         ),
     )
     p.add_argument("motion", metavar="IN", help="a creature motion file (.npz, .usda, .usdc, .usd)")
     p.add_argument("out", metavar="OUT", help="output motion file (.npz, .bvh, .usd[a|c]) or robot commands (.csv)")
     p.add_argument("--mode", default="replan", choices=("replan", "lock", "none"), help="the export (default replan)")
     p.set_defaults(run=run)
+
+
+def _self_collision(motion) -> float:
+    """Share of frames with two of the creature's shapes overlapping (the unrealistic-frame metric's check)."""
+    from morphkit.metrics import unrealistic_frame_ratio
+
+    return float(unrealistic_frame_ratio(motion).self_collision.mean()) if motion.frame_count else 0.0
 
 
 def run(args: argparse.Namespace) -> int:
@@ -39,5 +48,6 @@ def run(args: argparse.Namespace) -> int:
     before, after = foot_contact_figures(motion), foot_contact_figures(out)
     print(f"{written}: {motion.frame_count} frames; foot sliding {100 * before.sliding_rate:.1f} % → "
           f"{100 * after.sliding_rate:.1f} % of foot-frames, penetration {100 * before.penetration_rate:.1f} % → "
-          f"{100 * after.penetration_rate:.1f} %")
+          f"{100 * after.penetration_rate:.1f} %, self-collision {100 * _self_collision(motion):.1f} % → "
+          f"{100 * _self_collision(out):.1f} % of frames")
     return 0

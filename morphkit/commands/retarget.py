@@ -33,7 +33,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--contacts", choices=("none", "replan", "lock"),
                    help="contact-aware export: replan re-steps a legged creature's legs along the retargeted root "
                         "path (stance feet planted; body and arms kept); lock keeps the retargeter's own steps and "
-                        "holds each stance foot at its touchdown point; none writes the raw output (default: "
+                        "holds each stance foot at its touchdown point; both then move an arm out of the body "
+                        "where it went in; none writes the raw output (default: "
                         "replan onto a creature, none onto a human skeleton)")
     p.add_argument("--target", metavar="SKELETON",
                    help="NKN runs over human skeletons: a training character's name, a bone-length variant "

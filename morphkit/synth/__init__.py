@@ -12,7 +12,9 @@ limb with the morphkit DLS IK kernel, many rollouts at once (:mod:`.core`), lift
 heads that would go below the ground (:mod:`.ground`). :mod:`.report` measures what came out with the
 contact kernels; :mod:`.output` writes it (a folder with a manifest, or one file, batch by batch with
 :func:`iter_synthesize`); :mod:`.human` is the embedded default human motion
-(:func:`default_human_motion`).
+(:func:`default_human_motion`). The same rig exports retargeted motions contact-aware
+(:func:`apply_contacts`): legs re-stepped (:mod:`.replan`) or stance feet locked (:mod:`.lock`), then
+the upper body moved out of the body and the ground (:mod:`.clearance`).
 
 Example::
 
@@ -30,6 +32,7 @@ from morphkit.synth.analysis import BodyPlan as BodyPlan
 from morphkit.synth.analysis import Limb as Limb
 from morphkit.synth.analysis import analyse as analyse
 from morphkit.synth.arms import ArmConfig as ArmConfig
+from morphkit.synth.clearance import clear_upper_body as clear_upper_body
 from morphkit.synth.contacts import CONTACT_MODES as CONTACT_MODES
 from morphkit.synth.contacts import apply_contacts as apply_contacts
 from morphkit.synth.core import SynthConfig as SynthConfig
@@ -67,6 +70,7 @@ __all__ = [
     "SynthRig",
     "analyse",
     "apply_contacts",
+    "clear_upper_body",
     "default_human_clips",
     "default_human_config",
     "default_human_motion",

@@ -6,6 +6,7 @@ from typing import Any
 
 from morphkit.errors import ConfigError
 from morphkit.motion.motion import Motion
+from morphkit.synth.clearance import clear_upper_body
 from morphkit.synth.lock import lock_feet
 from morphkit.synth.replan import replan_legs
 
@@ -14,7 +15,9 @@ __all__ = ["CONTACT_MODES", "apply_contacts"]
 CONTACT_MODES = ("none", "replan", "lock")
 """``none``: the retargeter's raw output (the paper's); ``replan``: legs re-stepped by the synthesis' planner
 along the root path (:func:`~morphkit.synth.replan.replan_legs`); ``lock``: the retargeter's own steps
-with stance feet held at their touchdown points (:func:`~morphkit.synth.lock.lock_feet`)."""
+with stance feet held at their touchdown points (:func:`~morphkit.synth.lock.lock_feet`). Both then move the
+upper body out of the creature's own shapes and the ground by the smallest change of its joints
+(:func:`~morphkit.synth.clearance.clear_upper_body`)."""
 
 
 def apply_contacts(motion: Motion, mode: str, *, stance: Any = None) -> Motion:
@@ -29,7 +32,7 @@ def apply_contacts(motion: Motion, mode: str, *, stance: Any = None) -> Motion:
     if mode == "none":
         return motion
     if mode == "replan":
-        return replan_legs(motion)
+        return clear_upper_body(replan_legs(motion))
     if mode == "lock":
-        return lock_feet(motion, stance=stance)
+        return clear_upper_body(lock_feet(motion, stance=stance))
     raise ConfigError(f"unknown contact mode {mode!r}; expected one of: {', '.join(CONTACT_MODES)}")

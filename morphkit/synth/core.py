@@ -137,6 +137,10 @@ class SynthRig:
     arm_pairs: SelfCollisionPairs | None = None
     """Shape pairs of the arms IK moves against the rest of the body but the legs, for the per-frame check of
     an arm that strayed to another branch (None: no such pair)."""
+    upper_coordinates: tuple[np.ndarray, np.ndarray, np.ndarray] = field(
+        default_factory=lambda: (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0)))
+    """The upper body's 1-DoF coordinates (arms and the other joints, not legs and not those carrying a leg:
+    indices in ``q``) and their lower and upper limits (:func:`~morphkit.synth.ground.lift_coordinates`)."""
 
     def summary(self) -> dict[str, Any]:
         """Calibration figures for reports (JSON-friendly)."""
@@ -273,7 +277,7 @@ def prepare(m: Morphology, *, fps: float = 30.0, config: SynthConfig | None = No
     arm_pairs = _arm_body_pairs(m, plan, solver, [a for a in range(len(plan.arms)) if a not in held],
                                 config.arms.collision_rest_margin)
     rig = SynthRig(m, plan, loco, solver, legs, arms, q_stance, limits, float(scale), fps, config, actions, ground,
-                   arm_pairs)
+                   arm_pairs, lift_coordinates(m, lifting))
     _rig_cache.append((m, fps, config, rig))
     del _rig_cache[:-4]
     return rig
