@@ -50,6 +50,9 @@ from morphkit.synth.legged import limb_links
 
 __all__ = ["UpperBodyClearance", "clear_upper_body"]
 
+TOUCHING = 1e-6
+"""Overlap [m] still taken as touching: a wheel standing on the ground, or round-off, is not a collision."""
+
 
 class UpperBodyClearance:
     """The upper body's joints, limits and shape constraints of one creature (see the module docstring).
@@ -68,7 +71,8 @@ class UpperBodyClearance:
         moved: set[str] = set()
         starts = set(self.coordinates.tolist())
         for ji, j in enumerate(m.joints):
-            if int(m.joint_q_start[ji]) in starts:
+            # a joint without coordinates (fixed, a wheel driven by the base) starts where the next one does
+            if m.joint_q_start[ji + 1] > m.joint_q_start[ji] and int(m.joint_q_start[ji]) in starts:
                 moved |= limb_links(m, (j.name,))
         links = np.array(sorted(self.model.link_index(n) for n in moved), dtype=np.int64)
         pairs: SelfCollisionPairs | None = None
@@ -116,7 +120,7 @@ class UpperBodyClearance:
         moved = np.zeros(len(q), dtype=bool)
         if self.empty or not len(q):
             return q, moved
-        hit = np.flatnonzero((self.distances(q) < 0.0).any(axis=1))
+        hit = np.flatnonzero((self.distances(q) < -TOUCHING).any(axis=1))
         idx = self.coordinates
         change = np.zeros(idx.size)
         for t in hit:
@@ -147,7 +151,7 @@ class UpperBodyClearance:
         d = self.distances(q[None])[0]
         for _ in range(iterations):
             r = np.maximum(clearance - d, 0.0)  # only what is violated pushes
-            if (d >= 0.0).all():
+            if (d >= -TOUCHING).all():
                 break
             # central differences of every distance and link origin with respect to every upper-body coordinate
             probe = np.repeat(q[None], 2 * k, axis=0)
@@ -173,7 +177,7 @@ class UpperBodyClearance:
             mid = 0.5 * (lo + hi)
             p = raw.copy()
             p[idx] += mid * change
-            if (self.distances(p[None])[0] >= 0.0).all():
+            if (self.distances(p[None])[0] >= -TOUCHING).all():
                 hi = mid
             else:
                 lo = mid

@@ -133,3 +133,13 @@ def test_contacts_command_reports_the_frames_it_took_out_of_the_body(tmp_path, c
     printed = capsys.readouterr().out
     share = 100 * unrealistic_frame_ratio(raw).self_collision.mean()
     assert f"self-collision {share:.1f} % → 0.0 % of frames" in printed
+
+
+def test_wheels_standing_on_the_ground_are_not_a_collision():
+    # a wheel is driven by the base (no coordinate of its own) and touches the ground by design: a robot that
+    # rolls with its arm clear comes back as it was, object for object
+    m = read_morphology("stretch")
+    q = np.repeat(np.asarray(prepare(m, fps=30.0).q_stance, dtype=float)[None], 6, axis=0)
+    q[:, 0] += 0.02 * np.arange(6)
+    rolling = Motion(m, 30.0, q, "roll")
+    assert clear_upper_body(rolling) is rolling
