@@ -14,7 +14,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
             "any retargeter's output or a file you made): replan re-steps the legs with the synthesis' footstep "
             "planner along the motion's root path; lock keeps the motion's own steps and holds each stance foot at its "
             "touchdown point by IK. Both keep the root path, then move the upper body (arms, head, tail) out of the "
-            "creature's own shapes and the ground by the smallest change of its joints, in the frames where it is in "
+            "creature's own shapes and the ground by a short change of its joints, in the frames where it is in "
             "them; nothing else moves."
         ),
     )

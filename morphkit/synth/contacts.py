@@ -16,7 +16,7 @@ CONTACT_MODES = ("none", "replan", "lock")
 """``none``: the retargeter's raw output (the paper's); ``replan``: legs re-stepped by the synthesis' planner
 along the root path (:func:`~morphkit.synth.replan.replan_legs`); ``lock``: the retargeter's own steps
 with stance feet held at their touchdown points (:func:`~morphkit.synth.lock.lock_feet`). Both then move the
-upper body out of the creature's own shapes and the ground by the smallest change of its joints
+upper body out of the creature's own shapes and the ground by a short change of its joints
 (:func:`~morphkit.synth.clearance.clear_upper_body`)."""
 
 

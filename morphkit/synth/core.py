@@ -212,11 +212,12 @@ def prepare(m: Morphology, *, fps: float = 30.0, config: SynthConfig | None = No
     points = upper_body_points(m, upper)
     points += [GroundPoint(e.link, e.offset, 0.0) for e in (m.end_effector(a.end_effector) for a in plan.arms)]
     solver = LimbSolver(m, plan, points=[(p.link, p.offset) for p in points])
+    upper_coordinates = lift_coordinates(m, lifting)
     ground = None
     if points and config.keep_above_ground:
         mask = lift_mask(m, lifting, len(solver.all_mask))
         ground = GroundGuard(solver.model, solver.point_ee, np.array([p.radius for p in points]), mask, solver.step,
-                             solver.link_transforms, coordinates=lift_coordinates(m, lifting))
+                             solver.link_transforms, coordinates=upper_coordinates)
     cc = config.commands
     legs = None
     if loco == Locomotion.LEGGED:
@@ -277,7 +278,7 @@ def prepare(m: Morphology, *, fps: float = 30.0, config: SynthConfig | None = No
     arm_pairs = _arm_body_pairs(m, plan, solver, [a for a in range(len(plan.arms)) if a not in held],
                                 config.arms.collision_rest_margin)
     rig = SynthRig(m, plan, loco, solver, legs, arms, q_stance, limits, float(scale), fps, config, actions, ground,
-                   arm_pairs, lift_coordinates(m, lifting))
+                   arm_pairs, upper_coordinates)
     _rig_cache.append((m, fps, config, rig))
     del _rig_cache[:-4]
     return rig
