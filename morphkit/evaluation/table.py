@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from morphkit.graph import EndEffectorRole
 from morphkit.metrics import (
     UFR_SETTINGS,
     FootContactFigures,
@@ -210,7 +211,7 @@ def follow_figures(humans: Sequence[Motion], retargeted: Sequence[Motion], pairi
     per clip, averaged. Clips are compared over their common length; clips shorter than 3 frames are left out."""
     per: dict[str, list[float]] = {}
     reach: list[float] = []
-    hands = [i for i, e in enumerate(pairing.creature_ees) if roles.get(e) in ("hand", "tool")]
+    hands = [i for i, e in enumerate(pairing.creature_ees) if e in roles and EndEffectorRole[roles[e].upper()].on_arm]
     yaw: list[tuple[np.ndarray, np.ndarray]] = []
     drift: list[float] = []
     for h, r in zip(humans, retargeted, strict=True):
