@@ -19,7 +19,12 @@ exactly as it was:
   its own (which, measured on ACE's output, flipped the arm from side to side between frames);
 * **as short as it can be**: the change is then shrunk to the smallest fraction that still clears
   (bisection), and refined by halving it and clearing again while that gives a shorter one, so it
-  fades to nothing as the pose leaves the body.
+  fades to nothing as the pose leaves the body;
+* **else towards the standing pose**: where the steps find no way out — two shapes overlapping by a
+  depth that does not change with the joints (a gripper's fingers closed past each other: the distance
+  kernel's depth is flat there) — one joint moves towards its value in the synthesis' standing pose
+  (which touches nothing), the one that clears with the shortest change, by as little as clears; if no
+  single joint does, all of them together.
 
 The result is **causal** (frame ``t`` depends on frames ``0..t`` only), so a streaming retargeter can
 apply it frame by frame.
@@ -67,6 +72,8 @@ class UpperBodyClearance:
         rig = prepare(m, fps=motion.fps, config=config)
         self.morphology = m
         self.coordinates, self.lower, self.upper = rig.upper_coordinates
+        self.rest = np.asarray(rig.q_stance, dtype=float)[self.coordinates]
+        """The upper body's coordinates in the creature's standing pose, clear of the body by construction [k]."""
         self.model = compiled_model(m)
         moved: set[str] = set()
         starts = set(self.coordinates.tolist())
@@ -137,6 +144,8 @@ class UpperBodyClearance:
                 if np.linalg.norm(shorter) >= np.linalg.norm(change):
                     break
                 change = shorter
+            if not self._clear(raw, change):
+                change = self._towards_rest(raw)
             q[t, idx] = raw[idx] + change
             moved[t] = True
         return q, moved
@@ -168,20 +177,39 @@ class UpperBodyClearance:
             d = self.distances(q[None])[0]
         return q
 
+    def _towards_rest(self, raw: np.ndarray) -> np.ndarray:
+        """Where the steps found no way out (two shapes overlapping by a depth that does not change with the
+        joints, as a gripper's fingers closed past each other): the shortest change [k] that clears by taking one
+        upper-body coordinate towards its standing value, else all of them together."""
+        idx = self.coordinates
+        towards = self.rest - raw[idx]
+        best: np.ndarray | None = None
+        for j in np.flatnonzero(towards):
+            one = np.zeros_like(towards)
+            one[j] = towards[j]
+            if self._clear(raw, one):
+                one = self._shrink(raw, one)
+                if best is None or np.abs(one).sum() < np.abs(best).sum():
+                    best = one
+        return best if best is not None else self._shrink(raw, towards)
+
     def _shrink(self, raw: np.ndarray, change: np.ndarray, *, steps: int = 6) -> np.ndarray:
         """The smallest fraction of ``change`` [k] (of the upper-body coordinates) that keeps pose ``raw`` + it clear,
         by bisection (the whole change if even that does not clear)."""
-        idx = self.coordinates
         lo, hi = 0.0, 1.0
         for _ in range(steps):
             mid = 0.5 * (lo + hi)
-            p = raw.copy()
-            p[idx] += mid * change
-            if (self.distances(p[None])[0] >= -TOUCHING).all():
+            if self._clear(raw, mid * change):
                 hi = mid
             else:
                 lo = mid
         return hi * change
+
+    def _clear(self, raw: np.ndarray, change: np.ndarray) -> bool:
+        """Pose ``raw`` [C] with ``change`` [k] added to its upper body overlaps nothing."""
+        p = raw.copy()
+        p[self.coordinates] += change
+        return bool((self.distances(p[None])[0] >= -TOUCHING).all())
 
 
 def clear_upper_body(motion: Motion, *, clearance: float = 0.002, iterations: int = 12,

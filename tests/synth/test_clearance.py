@@ -143,3 +143,20 @@ def test_wheels_standing_on_the_ground_are_not_a_collision():
     q[:, 0] += 0.02 * np.arange(6)
     rolling = Motion(m, 30.0, q, "roll")
     assert clear_upper_body(rolling) is rolling
+
+
+def test_fingers_closed_past_each_other_open_though_their_overlap_does_not_change_with_the_joint():
+    # Stretch's two gripper fingers overlap by a depth the distance kernel reports flat (2 cm) once the finger joint
+    # is past about -0.15 rad: no step finds a way out, so the finger opens towards its standing value instead
+    m = read_morphology("stretch")
+    q = np.repeat(np.asarray(prepare(m, fps=30.0).q_stance, dtype=float)[None], 5, axis=0)
+    finger = m.joint_q_start[m.joint_index("joint_gripper_finger_left")]
+    q[:, finger] = np.linspace(-0.6, -0.2, 5)
+    closed = Motion(m, 30.0, q, "pinch")
+    assert unrealistic_frame_ratio(closed).self_collision.all()
+    out = clear_upper_body(closed)
+    assert not unrealistic_frame_ratio(out).self_collision.any()
+    others = np.ones(m.coordinate_count, dtype=bool)
+    others[finger] = False
+    np.testing.assert_allclose(out.q[:, others], closed.q[:, others], atol=1e-9)  # the finger alone moved
+    assert (out.q[:, finger] > closed.q[:, finger]).all() and (out.q[:, finger] < 0.05).all()  # opened, not flung
