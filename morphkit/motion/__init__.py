@@ -56,6 +56,7 @@ from morphkit.motion.io_bvh import write_bvh_motion as write_bvh_motion
 from morphkit.motion.io_commands import write_robot_commands
 from morphkit.motion.io_npz import read_npz_motion as read_npz_motion
 from morphkit.motion.io_npz import write_npz_motion as write_npz_motion
+from morphkit.motion.mirror import MIRRORED_SUFFIX as MIRRORED_SUFFIX
 from morphkit.motion.mirror import mirror_motion as mirror_motion
 from morphkit.motion.mirror import mirror_partners as mirror_partners
 from morphkit.motion.motion import Motion as Motion
@@ -78,6 +79,7 @@ __all__ = [
     "ACTIVE_HAND",
     "CANONICAL_HUMAN",
     "GROUND_MOTION_FEATURES",
+    "MIRRORED_SUFFIX",
     "MOTION_READ_SUFFIXES",
     "MOTION_WRITE_SUFFIXES",
     "ROOT_FEATURE_DIM",

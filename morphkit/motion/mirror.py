@@ -23,7 +23,10 @@ from morphkit.errors import ConfigError
 from morphkit.graph import BaseType, JointType, Morphology
 from morphkit.motion.motion import Motion
 
-__all__ = ["MIRROR_TOLERANCE", "mirror_motion", "mirror_partners"]
+__all__ = ["MIRRORED_SUFFIX", "MIRROR_TOLERANCE", "mirror_motion", "mirror_partners"]
+
+MIRRORED_SUFFIX = "_mirrored"
+"""What :func:`mirror_motion` appends to a clip's name."""
 
 MIRROR_TOLERANCE = 1e-6
 """Largest difference [m, or unit-vector/quaternion components] between a joint's origin or axis and
@@ -91,7 +94,7 @@ def mirror_motion(motion: Motion, *, name: str | None = None) -> Motion:
 
     Args:
         motion: A motion of a left-right symmetric creature (:func:`mirror_partners`).
-        name: The mirrored clip's name (default: ``motion.name`` + ``"_mirrored"``).
+        name: The mirrored clip's name (default: ``motion.name`` + :data:`MIRRORED_SUFFIX`).
 
     Returns:
         A motion of the same creature, frame rate and length.
@@ -117,4 +120,4 @@ def mirror_motion(motion: Motion, *, name: str | None = None) -> Motion:
             raise ConfigError(f"mirror: joint {m.joints[i].name!r} has coordinates and its partner "
                               f"{m.joints[k].name!r} follows another joint (or the other way round)")
         out[:, lo:hi] = src * _QUAT_REFLECT if m.joints[i].type == JointType.SPHERICAL else sign * src
-    return Motion(m, motion.fps, out, name=f"{motion.name}_mirrored" if name is None else name)
+    return Motion(m, motion.fps, out, name=f"{motion.name}{MIRRORED_SUFFIX}" if name is None else name)

@@ -32,6 +32,7 @@ from morphkit._version import __version__
 from morphkit.errors import ConfigError, MotionFormatError, SourceLocation
 from morphkit.graph import Morphology
 from morphkit.motion import (
+    MIRRORED_SUFFIX,
     Motion,
     NormStats,
     SkeletonMap,
@@ -54,6 +55,7 @@ __all__ = [
     "evaluation_split",
     "human_motions",
     "split_evaluation_clips",
+    "validation_split",
 ]
 
 
@@ -257,7 +259,7 @@ def human_motions(
     """Human training clips: every motion file under ``path`` (evaluation split removed), resampled
     to ``data.fps`` and mapped onto the canonical human; or, with ``path=None``, the embedded default
     human motion (the canonical human already). With ``data.human_mirror``, each clip's mirror image follows
-    the clips (named ``<clip>_mirrored``).
+    the clips (named ``<clip>`` + :data:`~morphkit.motion.MIRRORED_SUFFIX`).
 
     Args:
         path: A human data folder (or file), or ``None``.
@@ -325,6 +327,27 @@ def evaluation_clips(path: str | os.PathLike[str] | None, data: DataConfig, *, l
         if canonical:
             clips = _canonical(clips, maps)
     return clips[:limit] if limit is not None else clips
+
+
+def validation_split(names: Sequence[str], share: float, seed: int) -> tuple[list[int], list[int]]:
+    """Indices of the training and the validation clips: ``share`` of the source clips (at least one, fewer than
+    all; none when there is only one), drawn by ``seed``; a clip's mirror image (``<clip>_mirrored``,
+    ``data.human_mirror``) goes with its clip, so no mirrored twin of a validation clip is trained on.
+
+    Raises:
+        ConfigError: ``share`` outside (0, 1).
+    """
+    if not 0.0 < share < 1.0:
+        raise ConfigError(f"retarget.validation_share must lie in (0, 1), got {share}")
+    sources = sorted({n.removesuffix(MIRRORED_SUFFIX) for n in names})
+    if len(sources) < 2:
+        return list(range(len(names))), []
+    count = min(max(1, round(share * len(sources))), len(sources) - 1)
+    held = set(np.random.default_rng(seed).choice(len(sources), size=count, replace=False).tolist())
+    held_names = {sources[i] for i in held}
+    val = [i for i, n in enumerate(names) if n.removesuffix(MIRRORED_SUFFIX) in held_names]
+    train = [i for i, n in enumerate(names) if n.removesuffix(MIRRORED_SUFFIX) not in held_names]
+    return train, val
 
 
 @dataclass(eq=False)

@@ -727,3 +727,71 @@ def test_feature_weights_weigh_the_hand_and_tool_blocks_and_the_ground_motion():
     expected[list(GROUND_MOTION_FEATURES)] = 2.0
     expected[ROOT_FEATURE_DIM + 6 : ROOT_FEATURE_DIM + 9] = 3.0  # the gripper, third block
     np.testing.assert_array_equal(w, expected)
+
+
+def test_validation_split_holds_out_a_share_of_the_clips_with_their_mirror_images():
+    from morphkit.retarget.training_data import validation_split
+
+    names = [f"c{i:02d}" for i in range(20)] + [f"c{i:02d}_mirrored" for i in range(20)]
+    train, val = validation_split(names, 0.1, seed=3)
+    assert sorted(train + val) == list(range(40)) and not set(train) & set(val)
+    held = {names[i] for i in val}
+    assert len(held) == 4 and {n.removesuffix("_mirrored") for n in held} == {n for n in held if "_" not in n}
+    assert validation_split(names, 0.1, seed=3) == (train, val)  # the seed decides, nothing else
+    assert validation_split(names, 0.1, seed=4) != (train, val)
+    assert len(validation_split(names[:2], 0.01, seed=0)[1]) == 1  # at least one clip, never all of them
+    assert validation_split(["c00", "c00_mirrored"], 0.5, seed=0) == ([0, 1], [])  # one clip: nothing held out
+    for bad in (-0.1, 1.0):
+        with pytest.raises(ConfigError, match="validation_share"):
+            validation_split(names, bad, seed=0)
+
+
+def test_the_g_that_retargets_is_the_epoch_with_the_lowest_held_out_feature_loss(tmp_path, human_dir, dog, cache):
+    from morphkit.retarget.ace.checkpoint import BEST_STATE, retargeting_generator_state
+    from morphkit.retarget.ace.retarget import AceRetargeter
+    from morphkit.retarget.ace.train import Validation, completion, frozen_prior, prepare, train_prior
+    from morphkit.retarget.training_data import StateWindows, validation_split
+
+    cfg = replace_config(preset("smoke"), [*TINY, "retarget.epochs=4", "retarget.generator_average=0.5",
+                                           "retarget.validation_share=0.3"])
+    creature = read_morphology(dog)
+    train_ace(tmp_path / "run", creature, cfg, human_data=human_dir, progress=False, log=lambda s: None)
+    scores = _column(tmp_path / "run" / "retarget" / "metrics.csv", "validation_feature_loss")
+    assert len(scores) == 4 and np.isfinite(scores).all()
+    best = int(np.argmin(scores))
+    assert _column(tmp_path / "run" / "retarget" / "metrics.csv", "best_epoch")[-1] == best
+    states = torch.load(tmp_path / "run" / "retarget" / "checkpoint.pt", weights_only=True)["states"]
+    assert states[BEST_STATE]["epoch"] == best
+    # The G that retargets, scored afresh on the held-out windows rebuilt from the data: the lowest score logged.
+    data = prepare(tmp_path / "run", creature, cfg, human_data=human_dir, progress=False, log=lambda s: None)
+    vae = train_prior(tmp_path / "run" / "prior", data, cfg, progress=False)
+    _, val = validation_split([m.name for m in data.human], 0.3, cfg.seed)
+    starts = StateWindows.build(data.character_states, 1, data.features.creature_stats)
+    validation = Validation.build([data.human_states[i] for i in val], starts, cfg.retarget.window, data.features,
+                                  torch.device("cpu"), seed=cfg.seed)
+    gen = AceRetargeter(tmp_path / "run").generator.cpu()
+    score = validation.feature_loss(gen, frozen_prior(vae), completion(data.features, cfg.data.fps, cfg.prior))
+    assert score == pytest.approx(scores[best], rel=1e-5)
+    for k, v in retargeting_generator_state(states).items():
+        torch.testing.assert_close(gen.state_dict()[k], v)
+
+
+def test_best_generator_keeps_the_weights_of_the_lowest_loss_and_survives_its_state_dict():
+    from morphkit.retarget.ace.checkpoint import AVERAGE_STATE, BEST_STATE, retargeting_generator_state
+    from morphkit.retarget.ace.train import BestGenerator
+
+    net = torch.nn.Linear(2, 1)
+    best, seen = BestGenerator(), []
+    for epoch, loss in enumerate([3.0, 1.0, 2.0, 1.0]):
+        torch.nn.init.constant_(net.weight, float(epoch))
+        seen.append(net.weight.detach().clone())
+        best.offer(loss, net, epoch)
+    assert (best.epoch, best.loss) == (1, 1.0)  # the lowest, the earlier of a tie
+    torch.testing.assert_close(best.weights["weight"], seen[1])
+    again = BestGenerator()
+    again.load_state_dict(best.state_dict())
+    assert (again.epoch, again.loss) == (1, 1.0) and torch.equal(again.weights["weight"], seen[1])
+    # it is what retargets, ahead of the weight average; without one the average (or G) still does
+    states = {"generator": {"weight": seen[3]}, AVERAGE_STATE: {"module.weight": seen[2], "n_averaged": 3}}
+    assert torch.equal(retargeting_generator_state({**states, BEST_STATE: best.state_dict()})["weight"], seen[1])
+    assert torch.equal(retargeting_generator_state(states)["weight"], seen[2])

@@ -36,7 +36,7 @@ from morphkit.motion import CANONICAL_HUMAN, ActiveHand, NormStats, Pairing, can
 from morphkit.retarget.config import config_from_dict, config_to_dict
 from morphkit.retarget.training_data import DataConfig
 
-__all__ = ["AVERAGE_STATE", "META_FILE", "PRIOR_STAGE", "AceArtifact", "retargeting_generator_state"]
+__all__ = ["AVERAGE_STATE", "BEST_STATE", "META_FILE", "PRIOR_STAGE", "AceArtifact", "retargeting_generator_state"]
 
 META_FILE = "ace.yaml"
 """The file that makes a folder an ACE run."""
@@ -44,6 +44,9 @@ PRIOR_STAGE = "prior"
 """The motion prior's stage folder inside the run (unless the run shares another run's prior)."""
 AVERAGE_STATE = "generator_average"
 """The retargeter checkpoint's state of G's weight average (``retarget.generator_average``), when trained with one."""
+BEST_STATE = "generator_best"
+"""The retargeter checkpoint's state of the G chosen on held-out clips (``retarget.validation_share``), when trained
+with them: ``loss``, ``epoch`` and the ``weights`` of G (of its average, where kept) at that epoch."""
 _CREATURE = "creature.yaml"
 _CHARACTER_STATS = "stats_character.npz"
 _HUMAN_STATS = "stats_human.npz"
@@ -53,8 +56,12 @@ _UNSET: Any = object()
 
 
 def retargeting_generator_state(states: dict[str, Any]) -> dict[str, Any]:
-    """G's weights that retarget, from a retargeter checkpoint's ``states``: the weight average when the run
-    kept one (a ``torch.optim.swa_utils.AveragedModel``'s state: ``module.``-prefixed, with its count), else G."""
+    """G's weights that retarget, from a retargeter checkpoint's ``states``: those of the epoch chosen on held-out
+    clips when the run chose one, else the weight average when the run kept one (a
+    ``torch.optim.swa_utils.AveragedModel``'s state: ``module.``-prefixed, with its count), else G."""
+    best = states.get(BEST_STATE)
+    if best is not None and best["weights"]:
+        return best["weights"]
     average = states.get(AVERAGE_STATE)
     if average is None:
         return states["generator"]

@@ -40,7 +40,7 @@ from morphkit.motion import (
     map_end_effectors,
     world_end_effectors,
 )
-from morphkit.retarget.ace.checkpoint import AVERAGE_STATE, META_FILE, PRIOR_STAGE, AceArtifact
+from morphkit.retarget.ace.checkpoint import AVERAGE_STATE, BEST_STATE, META_FILE, PRIOR_STAGE, AceArtifact
 from morphkit.retarget.ace.config import AceConfig, AceVariant, PriorConfig, RetargetConfig
 from morphkit.retarget.ace.model import (
     Discriminator,
@@ -53,7 +53,7 @@ from morphkit.retarget.ace.model import (
 from morphkit.retarget.ace.networks import MotionVAE, kl_divergence
 from morphkit.retarget.distributed import average_gradients, broadcast_parameters, init_distributed
 from morphkit.retarget.run import Run
-from morphkit.retarget.training_data import StateWindows, character_data, human_motions
+from morphkit.retarget.training_data import StateWindows, character_data, human_motions, validation_split
 
 __all__ = [
     "AceData",
@@ -390,18 +390,28 @@ def train_retargeter(
     variant: AceVariant | str = AceVariant.ACE,
     device: str | torch.device | None = None,
     progress: bool = True,
+    log: Callable[[str], None] = print,
 ) -> Generator:
     """Train (or resume, or load when finished) G and D (Eq. 3–10) from a trained prior π (kept frozen).
 
     Args:
         variant: The retargeter (:class:`~.config.AceVariant`); its ablation flags are set in the
             retarget config, so the stage's ``config.yaml`` records what was trained.
+        log: Where the G chosen on held-out clips is reported (``retarget.validation_share``).
     """
     variant = AceVariant.parse(variant)
     rc: RetargetConfig = variant.configure(cfg.retarget)
     use_feature_loss, use_adversarial = rc.feature_loss, rc.adversarial
     fmap = data.features
-    humans = StateWindows.build(data.human_states, rc.window, fmap.human_stats)
+    human_states, held_out = data.human_states, None
+    if rc.validation_share != 0:  # a negative share is refused by the split
+        train_idx, val_idx = validation_split([m.name for m in data.human], rc.validation_share, cfg.seed)
+        if val_idx:
+            human_states = [data.human_states[i] for i in train_idx]
+            held_out = [data.human_states[i] for i in val_idx]
+        else:
+            log("one human clip: none to hold out, so the last epoch's G retargets (retarget.validation_share)")
+    humans = StateWindows.build(human_states, rc.window, fmap.human_stats)
     reals = StateWindows.build(data.character_states, 2, fmap.creature_stats)
     starts = StateWindows.build(data.character_states, 1, fmap.creature_stats)
     sh, sr = humans.states.shape[1], reals.states.shape[1]
@@ -432,7 +442,12 @@ def train_retargeter(
             run.track(**{AVERAGE_STATE: average})
         if rc.lr_final_fraction != 1.0:  # a constant rate has no state: runs from before it resume as they were
             run.track(scheduler_g=sched_g, scheduler_d=sched_d)
-        for _ in run.epochs(rc.epochs):
+        best = validation = None
+        if held_out is not None:
+            validation = Validation.build(held_out, starts, rc.window, fmap, dev, seed=cfg.seed)
+            best = BestGenerator()
+            run.track(**{BEST_STATE: best})
+        for epoch in run.epochs(rc.epochs):
             for _ in run.steps(rc.steps_per_epoch):
                 b = rc.batch_size
                 x_h = humans.windows(torch.randint(len(humans), (b,), generator=run.generator), dev)
@@ -495,9 +510,73 @@ def train_retargeter(
                     sched_d.step()
                 run.log(**row, loss_g=loss_g.detach(), loss_g_adv=g_adv.detach(), loss_g_fea=g_fea.detach(),
                         loss_g_contact=g_contact.detach(), feature_loss=fea.detach(), ee_fk_gap=gap.mean())
+            if validation is not None and best is not None:
+                retargeting = gen if average is None else average.module
+                score = validation.feature_loss(retargeting, prior, complete)
+                best.offer(score, retargeting, epoch)
+                run.log(validation_feature_loss=score, best_epoch=best.epoch)
     final = gen if average is None else average.module
+    if best is not None and best.weights:
+        final.load_state_dict(best.weights)
+        log(f"G chosen on {len(held_out or [])} held-out human clips: epoch {best.epoch + 1} of {rc.epochs} "
+            f"(L_fea {best.loss:.3f})")
     final.eval()
     return final
+
+
+@dataclass(eq=False)
+class Validation:
+    """Fixed windows of held-out human clips and fixed character start states that G is scored on after each epoch
+    (``retarget.validation_share``); drawn once from ``seed``, never from the run's random stream, so a resumed
+    run scores as the uninterrupted one."""
+
+    human: torch.Tensor
+    """Normalised human windows [N, T, Sh]."""
+    start: torch.Tensor
+    """Normalised character start states [N, Sr]."""
+    features: FeatureMap
+
+    WINDOWS = 256
+    """Windows scored (ours: the validation clips' windows drawn at random, at most this many)."""
+
+    @staticmethod
+    def build(per_clip: Sequence[np.ndarray], starts: StateWindows, window: int, fmap: FeatureMap,
+              device: torch.device, *, seed: int) -> Validation:
+        windows = StateWindows.build(per_clip, window, fmap.human_stats)
+        draw = torch.Generator().manual_seed(seed)
+        n = min(Validation.WINDOWS, len(windows))
+        human = windows.windows(torch.randperm(len(windows), generator=draw)[:n], device)
+        start = starts.windows(torch.randint(len(starts), (n,), generator=draw), device)[:, 0]
+        return Validation(human, start, fmap)
+
+    @torch.no_grad()
+    def feature_loss(self, generator: torch.nn.Module, prior: torch.nn.Module, complete: StateCompletion) -> float:
+        """L_fea (Eq. 9, unweighted) of ``generator``'s rollouts over the windows."""
+        _, fake = rollout(generator, prior, self.human, self.start, complete=complete)
+        fmap = self.features
+        fixed = fmap.creature_stats.denormalize(fake) if complete.derive else fmap.creature_with_fk(fake)[0]
+        return float(feature_loss(fmap.human_psi(self.human), fmap.psi_of_fixed(fixed)))
+
+
+class BestGenerator:
+    """G's weights at the epoch with the lowest validation feature loss so far (a checkpointed state)."""
+
+    def __init__(self) -> None:
+        self.loss = float("inf")
+        self.epoch = -1
+        self.weights: dict[str, torch.Tensor] = {}
+
+    def offer(self, loss: float, generator: torch.nn.Module, epoch: int) -> None:
+        """Keep ``generator``'s weights if ``loss`` is the lowest yet (ties keep the earlier epoch)."""
+        if loss < self.loss:
+            self.loss, self.epoch = loss, epoch
+            self.weights = {k: v.detach().clone() for k, v in generator.state_dict().items()}
+
+    def state_dict(self) -> dict[str, Any]:
+        return {"loss": self.loss, "epoch": self.epoch, "weights": self.weights}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        self.loss, self.epoch, self.weights = float(state["loss"]), int(state["epoch"]), dict(state["weights"])
 
 
 def ground_drift(psi_h: torch.Tensor, psi_r: torch.Tensor) -> torch.Tensor:
@@ -566,5 +645,6 @@ def train_ace(
     vae = train_prior(prior, data, cfg, device=device, progress=progress)
     stage = run / variant.folder
     log(f"retargeter ({variant.value}): {stage}")
-    train_retargeter(stage, data, vae, cfg, variant=variant, device=device, progress=progress)
+    train_retargeter(stage, data, vae, cfg, variant=variant, device=device, progress=progress,
+                     log=log if _main_process() else lambda s: None)
     return stage
