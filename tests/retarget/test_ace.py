@@ -795,3 +795,13 @@ def test_best_generator_keeps_the_weights_of_the_lowest_loss_and_survives_its_st
     states = {"generator": {"weight": seen[3]}, AVERAGE_STATE: {"module.weight": seen[2], "n_averaged": 3}}
     assert torch.equal(retargeting_generator_state({**states, BEST_STATE: best.state_dict()})["weight"], seen[1])
     assert torch.equal(retargeting_generator_state(states)["weight"], seen[2])
+
+
+def test_acewofea_is_not_chosen_by_the_feature_loss_it_ablates():
+    from morphkit.retarget.ace.config import AceVariant
+
+    rc = preset("default").retarget
+    assert rc.validation_share > 0
+    assert AceVariant.WO_FEA.configure(rc).validation_share == 0.0
+    for v in (AceVariant.ACE, AceVariant.WO_ADV, AceVariant.ACE_CONTACT):
+        assert v.configure(rc).validation_share == rc.validation_share

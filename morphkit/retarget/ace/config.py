@@ -198,7 +198,8 @@ class RetargetConfig:
     0.41) and its FID on seed 2 (0.684 → 1.801). Chosen on 5 % of the clips from 40 epochs, the robot's G came from
     epoch 39 on seeds 1 and 2 (yaw 0.70 / 0.70, FID 0.414 / 0.225 → 0.168 / 0.165) and the quadruped's from epochs
     31 / 20 / 15 (FID 0.792 / 0.956 / 0.684 → 0.688 / 1.004 / 0.639, hand 0.84 / 0.86 / 0.80 → 0.83 / 0.82 / 0.82).
-    ``default`` uses 0.05 with 40 epochs (docs/guides/evaluate.md)."""
+    ``default`` uses 0.05 with 40 epochs (docs/guides/evaluate.md). ACEwoFea keeps its last epoch (not chosen by the
+    loss it ablates)."""
     window: int = 32
     """Human frames per training rollout."""
     tbptt: int = 8
@@ -365,7 +366,9 @@ class AceVariant(str, Enum):
                 other = AceVariant.of_flags(**{flag: False})
                 raise ConfigError(f"retarget.{flag}=false is the {other.label} ablation, not {self.label}: train it "
                                   f"as its own variant ({option} in morphkit train ace, variant={other.value!r})")
-        return replace(cfg, feature_loss=self.feature_loss, adversarial=self.adversarial)
+        # ACEwoFea's G is not chosen by the feature loss it ablates (it would borrow what it leaves out): its last epoch
+        share = cfg.validation_share if self.feature_loss else 0.0
+        return replace(cfg, feature_loss=self.feature_loss, adversarial=self.adversarial, validation_share=share)
 
     @staticmethod
     def parse(name: str | AceVariant) -> AceVariant:
