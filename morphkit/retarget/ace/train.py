@@ -308,6 +308,15 @@ def rollout(
     return torch.stack(prevs, dim=1), torch.stack(outs, dim=1)
 
 
+def exported_states(fmap: FeatureMap, complete: StateCompletion,
+                    fake: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """The denormalised states that are exported from π's normalised outputs ``fake`` [..., Sr], and the gap [...]
+    between π's end-effector slots and FK of its joints (zero where the completion already derives them by FK)."""
+    if complete.derive:  # ee slots already FK's
+        return fmap.creature_stats.denormalize(fake), fake.new_zeros(())
+    return fmap.creature_with_fk(fake)  # what is exported: ee from FK of the joints
+
+
 def gradient_penalty(disc: torch.nn.Module, real: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
     """D's logits on real transitions [N, 2 Sr] and E‖∇_x D(x)‖² over them (Eq. 5, before the w_gp/2 weight)."""
     real = real.detach().requires_grad_(True)
@@ -453,10 +462,7 @@ def train_retargeter(
                 x_h = humans.windows(torch.randint(len(humans), (b,), generator=run.generator), dev)
                 x0 = starts.windows(torch.randint(len(starts), (b,), generator=run.generator), dev)[:, 0]
                 prev, fake = rollout(g_model, prior, x_h, x0, tbptt=rc.tbptt, complete=complete)
-                if complete.derive:  # ee slots already FK's
-                    fixed, gap = stats.denormalize(fake), fake.new_zeros(())
-                else:
-                    fixed, gap = fmap.creature_with_fk(fake)  # what is exported: ee from FK of the joints
+                fixed, gap = exported_states(fmap, complete, fake)
                 if rc.discriminate_exported:
                     shown = stats.normalize(fixed)
                     prev = torch.cat([x0[:, None], shown[:, :-1]], dim=1)
@@ -554,7 +560,7 @@ class Validation:
         """L_fea (Eq. 9, unweighted) of ``generator``'s rollouts over the windows."""
         _, fake = rollout(generator, prior, self.human, self.start, complete=complete)
         fmap = self.features
-        fixed = fmap.creature_stats.denormalize(fake) if complete.derive else fmap.creature_with_fk(fake)[0]
+        fixed, _ = exported_states(fmap, complete, fake)
         return float(feature_loss(fmap.human_psi(self.human), fmap.psi_of_fixed(fixed)))
 
 
