@@ -8,7 +8,10 @@ no-op, so the same script runs either way. Rank 0 is the one that writes files.
 
 from __future__ import annotations
 
+import importlib
 import os
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
 
@@ -24,6 +27,7 @@ __all__ = [
     "all_reduce_max",
     "all_reduce_mean",
     "init_distributed",
+    "joined_group",
     "release_group",
     "unwrap",
     "wrap_ddp",
@@ -83,10 +87,37 @@ def init_distributed(device: str | torch.device | None = None) -> DistributedCon
     if world_size > 1:
         backend = "nccl" if dev.type == "cuda" else "gloo"
         if not dist.is_initialized():
+            # DDP imports torch._dynamo at its first construction; imported while a group exists, it keeps
+            # references to the group that destroy_process_group cannot drop (torch 2.13), so Gloo's threads
+            # outlived the group until exit, where a rank aborted with a peer gone. Imported first, nothing holds it.
+            importlib.import_module("torch._dynamo")
+
             dist.init_process_group(backend=backend, device_id=dev if dev.type == "cuda" else None)
         else:
             backend = dist.get_backend()
     return DistributedContext(rank, local_rank, world_size, dev, backend)
+
+
+@contextmanager
+def joined_group(device: str | torch.device | None = None) -> Iterator[DistributedContext]:
+    """:func:`init_distributed` for a block; a process group it created is left at the block's end.
+
+    For a trainer that runs several stages in one group. On a normal exit every rank waits for the
+    others, then tears the group down at the same point; left to the interpreter's exit, Gloo's
+    threads outlived a peer that had already gone and a rank aborted ("terminate called without an
+    active exception"). On an error the barrier is skipped: the other ranks may never reach it.
+    """
+    joined = dist.is_available() and dist.is_initialized()
+    context = init_distributed(device)
+    ok = False
+    try:
+        yield context
+        ok = True
+    finally:
+        if context.is_distributed and not joined and dist.is_initialized():
+            if ok:
+                context.barrier()
+            dist.destroy_process_group()
 
 
 def wrap_ddp(module: nn.Module, context: DistributedContext) -> nn.Module:

@@ -425,6 +425,7 @@ class Run(Generic[C]):
         Leaving the group, every rank first waits for the others (``wait_for_ranks``, skipped when
         closing on an error, which the other ranks may never reach) and the wrapped modules let go of
         it (:func:`~morphkit.retarget.distributed.release_group`), so it is torn down here on every rank.
+        In a group the run did not create, the wrapped modules let go of it all the same.
         """
         self._close_bar()
         self.metrics.close()
@@ -433,14 +434,17 @@ class Run(Generic[C]):
         self._previous_handlers = {}
         enabled, warn_only = self._deterministic_before
         torch.use_deterministic_algorithms(enabled, warn_only=warn_only)
-        if self._owns_group and torch.distributed.is_initialized():
-            if wait_for_ranks:
+        if self.context.is_distributed and torch.distributed.is_initialized():
+            if self._owns_group and wait_for_ranks:
                 self.context.barrier()
+            # Released even in a group that outlives the run: a wrapper left holding it is collected
+            # whenever Python gets to it, possibly after the group is gone.
             for obj in [*self._tracked.values(), *self._wrapped]:
                 if isinstance(obj, nn.Module):
                     release_group(obj)
-            torch.distributed.destroy_process_group()
-            self._owns_group = False
+            if self._owns_group:
+                torch.distributed.destroy_process_group()
+                self._owns_group = False
 
     def __enter__(self) -> Run[C]:
         return self

@@ -51,7 +51,7 @@ from morphkit.retarget.ace.model import (
     foot_view,
 )
 from morphkit.retarget.ace.networks import MotionVAE, kl_divergence
-from morphkit.retarget.distributed import average_gradients, broadcast_parameters, init_distributed
+from morphkit.retarget.distributed import average_gradients, broadcast_parameters, joined_group
 from morphkit.retarget.run import Run
 from morphkit.retarget.training_data import StateWindows, character_data, human_motions, validation_split
 
@@ -638,19 +638,19 @@ def train_ace(
     variant.configure(cfg.retarget)  # a contradicting ablation flag is refused before anything trains
     run = Path(run_dir)
     # One process group for every stage under torchrun (a Run that created it would destroy it).
-    init_distributed(device)
-    data = prepare(run, creature, cfg, human_data=human_data, mapping_override=mapping_override, progress=progress,
-                   log=log)
-    if prior_dir is not None and _main_process():
-        # A shared prior is recorded, so retargeting with this run finds it.
-        artifact = AceArtifact.load(run)
-        artifact.prior_dir = os.fspath(Path(prior_dir).resolve())
-        artifact.save_meta(run)
-    prior = Path(prior_dir) if prior_dir is not None else run / PRIOR_STAGE
-    log(f"motion prior: {prior}")
-    vae = train_prior(prior, data, cfg, device=device, progress=progress)
-    stage = run / variant.folder
-    log(f"retargeter ({variant.value}): {stage}")
-    train_retargeter(stage, data, vae, cfg, variant=variant, device=device, progress=progress,
-                     log=log if _main_process() else lambda s: None)
-    return stage
+    with joined_group(device):
+        data = prepare(run, creature, cfg, human_data=human_data, mapping_override=mapping_override, progress=progress,
+                       log=log)
+        if prior_dir is not None and _main_process():
+            # A shared prior is recorded, so retargeting with this run finds it.
+            artifact = AceArtifact.load(run)
+            artifact.prior_dir = os.fspath(Path(prior_dir).resolve())
+            artifact.save_meta(run)
+        prior = Path(prior_dir) if prior_dir is not None else run / PRIOR_STAGE
+        log(f"motion prior: {prior}")
+        vae = train_prior(prior, data, cfg, device=device, progress=progress)
+        stage = run / variant.folder
+        log(f"retargeter ({variant.value}): {stage}")
+        train_retargeter(stage, data, vae, cfg, variant=variant, device=device, progress=progress,
+                         log=log if _main_process() else lambda s: None)
+        return stage
