@@ -28,6 +28,7 @@ __all__ = [
     "all_reduce_mean",
     "init_distributed",
     "joined_group",
+    "leave_group",
     "release_group",
     "unwrap",
     "wrap_ddp",
@@ -114,10 +115,18 @@ def joined_group(device: str | torch.device | None = None) -> Iterator[Distribut
         yield context
         ok = True
     finally:
-        if context.is_distributed and not joined and dist.is_initialized():
-            if ok:
-                context.barrier()
-            dist.destroy_process_group()
+        if not joined:
+            leave_group(context, wait_for_ranks=ok)
+
+
+def leave_group(context: DistributedContext, *, wait_for_ranks: bool = True) -> None:
+    """Tear the process group down on this rank, after waiting for the others (``wait_for_ranks``; skip it
+    on an error, which the other ranks may never reach); a no-op in one process. Modules wrapped in DDP must
+    have let go of the group first (:func:`release_group`)."""
+    if context.is_distributed and dist.is_initialized():
+        if wait_for_ranks:
+            context.barrier()
+        dist.destroy_process_group()
 
 
 def wrap_ddp(module: nn.Module, context: DistributedContext) -> nn.Module:

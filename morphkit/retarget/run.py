@@ -54,6 +54,7 @@ from morphkit.retarget.distributed import (
     all_reduce_max,
     all_reduce_mean,
     init_distributed,
+    leave_group,
     release_group,
     unwrap,
     wrap_ddp,
@@ -422,9 +423,10 @@ class Run(Generic[C]):
     def close(self, *, wait_for_ranks: bool = True) -> None:
         """Close logs and progress bar; restore signal handlers and determinism; leave a process group it joined.
 
-        Leaving the group, every rank first waits for the others (``wait_for_ranks``, skipped when
-        closing on an error, which the other ranks may never reach) and the wrapped modules let go of
-        it (:func:`~morphkit.retarget.distributed.release_group`), so it is torn down here on every rank.
+        Leaving the group, the wrapped modules let go of it
+        (:func:`~morphkit.retarget.distributed.release_group`) and every rank waits for the others
+        (``wait_for_ranks``, skipped when closing on an error, which the other ranks may never reach), so it
+        is torn down here on every rank (:func:`~morphkit.retarget.distributed.leave_group`).
         In a group the run did not create, the wrapped modules let go of it all the same.
         """
         self._close_bar()
@@ -435,15 +437,13 @@ class Run(Generic[C]):
         enabled, warn_only = self._deterministic_before
         torch.use_deterministic_algorithms(enabled, warn_only=warn_only)
         if self.context.is_distributed and torch.distributed.is_initialized():
-            if self._owns_group and wait_for_ranks:
-                self.context.barrier()
             # Released even in a group that outlives the run: a wrapper left holding it is collected
             # whenever Python gets to it, possibly after the group is gone.
             for obj in [*self._tracked.values(), *self._wrapped]:
                 if isinstance(obj, nn.Module):
                     release_group(obj)
             if self._owns_group:
-                torch.distributed.destroy_process_group()
+                leave_group(self.context, wait_for_ranks=wait_for_ranks)
                 self._owns_group = False
 
     def __enter__(self) -> Run[C]:

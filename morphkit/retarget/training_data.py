@@ -339,14 +339,14 @@ def validation_split(names: Sequence[str], share: float, seed: int) -> tuple[lis
     """
     if not 0.0 < share < 1.0:
         raise ConfigError(f"retarget.validation_share must lie in (0, 1), got {share}")
-    sources = sorted({n.removesuffix(MIRRORED_SUFFIX) for n in names})
+    source_of = [n.removesuffix(MIRRORED_SUFFIX) for n in names]
+    sources = sorted(set(source_of))
     if len(sources) < 2:
         return list(range(len(names))), []
     count = min(max(1, round(share * len(sources))), len(sources) - 1)
-    held = set(np.random.default_rng(seed).choice(len(sources), size=count, replace=False).tolist())
-    held_names = {sources[i] for i in held}
-    val = [i for i, n in enumerate(names) if n.removesuffix(MIRRORED_SUFFIX) in held_names]
-    train = [i for i, n in enumerate(names) if n.removesuffix(MIRRORED_SUFFIX) not in held_names]
+    held = {sources[i] for i in np.random.default_rng(seed).choice(len(sources), size=count, replace=False)}
+    val = [i for i, s in enumerate(source_of) if s in held]
+    train = [i for i, s in enumerate(source_of) if s not in held]
     return train, val
 
 
