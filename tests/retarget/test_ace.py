@@ -553,6 +553,52 @@ def test_completed_states_are_the_encoding_of_the_motion_they_decode_to(dog):
     torch.testing.assert_close(raw.grad[5, fs], want, rtol=1e-9, atol=0)
 
 
+@pytest.mark.parametrize("derive", [False, True])
+def test_root_height_from_feet_stands_the_lowest_foot_on_the_ground(dog, derive):
+    """``root_height_from_feet``: π's outputs (data plus noise) completed step by step decode to a motion whose
+    lowest foot (world FK of the decoded coordinates) is at z = 0 to 1e-5 m on every frame; on the synthesised
+    data themselves the derived height is the data's (to 1e-5 m) wherever the synthesis has a foot on the
+    ground; every other slot is what the completion without it gives."""
+    from morphkit.motion import decode_character_states
+    from morphkit.retarget.ace.model import StateCompletion, foot_indices
+
+    fmap, x, motion = _dog_feature_map(dog, frames=60)
+    m, lay, stats = motion.morphology, fmap.creature_layout, fmap.creature_stats
+    feet = foot_indices(m)
+    rng = np.random.default_rng(0)
+    noisy = x + 0.05 * stats.std * rng.normal(size=x.shape)
+    lower, upper = m.coordinate_limits
+    b = m.base_coordinate_count
+    js = lay.slice("joint_q")
+    noisy[:, js] = np.clip(noisy[:, js], lower[b:] + 1e-6, upper[b:] - 1e-6)
+    h = lay.slice("root_height")
+
+    def completed(raw_states: np.ndarray, ground: bool) -> np.ndarray:
+        complete = StateCompletion(fmap, motion.fps, derive=derive, contacts=False, ground_feet=ground)
+        raw = torch.as_tensor(stats.normalize(raw_states), dtype=torch.float64)
+        states = [torch.as_tensor(stats.normalize(x[:1]), dtype=torch.float64)[0]]
+        for t in range(1, len(x)):
+            states.append(complete(states[-1], raw[t])[0])
+        return stats.denormalize(torch.stack(states).detach().numpy())
+
+    done = completed(noisy, True)
+    back, _ = decode_character_states(done, m, motion.fps, layout=lay)
+    lowest = back.end_effector_positions()[1:, feet, 2].min(axis=1)
+    np.testing.assert_allclose(lowest, 0.0, atol=1e-5)
+    assert np.abs(noisy[1:, h] - done[1:, h]).max() > 1e-3  # the noise moved π's own height
+    without = completed(noisy, False)
+    rest = np.ones(lay.dim, dtype=bool)
+    rest[h] = False
+    if derive:  # the height enters the root's vertical velocity, and through it the ee velocities
+        for name in ("root_linear_velocity", "ee_velocities"):
+            rest[lay.slice(name)] = False
+    np.testing.assert_allclose(done[1:, rest], without[1:, rest], atol=1e-9)
+    on_data = completed(x, True)
+    planted = motion.end_effector_positions()[1:, feet, 2].min(axis=1) < 1e-6
+    assert planted.mean() > 0.9
+    np.testing.assert_allclose(on_data[1:, h][planted], x[1:, h][planted], atol=1e-5)
+
+
 def test_stance_flags_and_derived_slots_train_retarget_and_lock(tmp_path, human_dir, dog, cache):
     """With both options: the logged prior loss is exactly its weighted terms (the stance term among them);
     retargeted clips carry 0/1 stance flags per foot, their states' ee block is FK of the decoded motion,

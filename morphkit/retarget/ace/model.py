@@ -7,7 +7,8 @@
   character's end-effectors taken from **morphkit's FK of the generated joint coordinates** (through
   :mod:`morphkit.torch`), so what the feature loss scores is what is exported.
 * :class:`StateCompletion` — π's output made a whole state: stance flags from its logits, derived
-  slots from FK and the previous state (``PriorConfig.contact_flags``, ``PriorConfig.derive_slots``).
+  slots from FK and the previous state, the root height from the lowest foot (``PriorConfig.contact_flags``,
+  ``PriorConfig.derive_slots``, ``PriorConfig.root_height_from_feet``).
 
 All networks read and write *normalised* states (z-scores with the run's statistics).
 """
@@ -20,7 +21,7 @@ import torch
 from torch import nn
 
 import morphkit.torch as mt
-from morphkit.graph import BaseType, Morphology
+from morphkit.graph import BaseType, EndEffectorRole, Morphology
 from morphkit.motion import (
     NormStats,
     Pairing,
@@ -34,7 +35,12 @@ from morphkit.retarget.ace.networks import MotionEncoder, MotionPrior, MotionVAE
 from morphkit.retarget.networks import MLP
 
 __all__ = ["FOOT_HEIGHT_SCALE", "FOOT_STEP_SCALE", "Discriminator", "FeatureMap", "Generator", "StateCompletion",
-           "build_vae", "foot_view"]
+           "build_vae", "foot_indices", "foot_view"]
+
+
+def foot_indices(creature: Morphology) -> list[int]:
+    """Indices of the creature's end-effectors whose role is ``foot``."""
+    return [i for i, e in enumerate(creature.end_effectors) if e.role == EndEffectorRole.FOOT]
 
 
 def build_vae(state_dim: int, cfg: PriorConfig) -> MotionVAE:
@@ -204,17 +210,23 @@ class StateCompletion:
     * ``derive``: the root orientations are made unit, the end-effectors are FK of the tilt and joints
       (:meth:`FeatureMap.fk_end_effectors`), and the velocities follow from them and the previous state
       (:func:`~morphkit.motion.derive_character_state`).
+    * ``ground_feet``: the root height is minus the lowest foot's heading-frame height (FK of the tilt and
+      joints), so that foot stands on the ground (``PriorConfig.root_height_from_feet``; nothing without feet).
 
-    With neither, the output is π's as it is.
+    With none, the output is π's as it is.
     """
 
     features: FeatureMap
     fps: float
     derive: bool
     contacts: bool
+    ground_feet: bool = False
 
     def __post_init__(self) -> None:
         lay = self.features.creature_layout
+        feet = foot_indices(self.features.creature)
+        self._feet = feet if self.ground_feet and feet else None
+        self._height = lay.slice("root_height")
         self._flags = lay.slice("foot_contacts") if self.contacts else None
         mask = torch.ones(lay.dim)
         skip = (["foot_contacts"] if self.contacts else []) + (list(VELOCITY_SLOTS) if self.derive else [])
@@ -228,10 +240,11 @@ class StateCompletion:
     def __call__(self, prev: torch.Tensor, raw: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor | None]:
         """``prev`` (x_{t-1}) and π's output ``raw`` [..., D] → (completed x_t [..., D], stance logits [..., F]
         or ``None``)."""
-        if not (self.derive or self._flags is not None):
+        if not (self.derive or self._flags is not None or self._feet is not None):
             return raw, None
         stats, lay = self.features.creature_stats, self.features.creature_layout
         x = stats.denormalize(raw)
+        ee = None
         logits = None
         if self._flags is not None:
             logits = raw[..., self._flags]
@@ -243,7 +256,15 @@ class StateCompletion:
             ro = lay.slice("root_orientation")
             unit = torch.nn.functional.normalize(x[..., ro], dim=-1)
             x = torch.cat([x[..., : ro.start], unit, x[..., ro.stop :]], dim=-1)
-            x = derive_character_state(stats.denormalize(prev), x, self.features.fk_end_effectors(x), self.fps, lay)
+        if self.derive or self._feet is not None:
+            ee = self.features.fk_end_effectors(x)  # heading frame: independent of the root height
+        if self._feet is not None:
+            assert ee is not None
+            h = -ee[..., self._feet, 2].amin(dim=-1, keepdim=True)
+            x = torch.cat([x[..., : self._height.start], h, x[..., self._height.stop :]], dim=-1)
+        if self.derive:
+            assert ee is not None
+            x = derive_character_state(stats.denormalize(prev), x, ee, self.fps, lay)
         return stats.normalize(x), logits
 
     def flags_of(self, x_norm: torch.Tensor) -> torch.Tensor:

@@ -67,10 +67,14 @@ def _stage_trainer(stage: Path) -> str:
 
 
 def read_prior_config(path: str | os.PathLike[str]) -> PriorConfig:
-    """A prior stage's ``config.yaml``; one written before stance flags and derived slots existed has neither."""
+    """A prior stage's ``config.yaml``; one written before stance flags, derived slots or the derived root
+    height existed has none of them that it does not name."""
     pc = read_config(PriorConfig, path)
-    if "derive_slots" not in (yaml.safe_load(Path(path).read_text(encoding="utf-8")) or {}):
+    named = yaml.safe_load(Path(path).read_text(encoding="utf-8")) or {}
+    if "derive_slots" not in named:
         pc = dataclasses.replace(pc, contact_flags=False, derive_slots=False)
+    if "root_height_from_feet" not in named:
+        pc = dataclasses.replace(pc, root_height_from_feet=False)
     return pc
 
 

@@ -21,7 +21,7 @@ from torch.nn import functional as F
 from torch.optim.swa_utils import AveragedModel, get_ema_multi_avg_fn
 
 from morphkit.errors import ConfigError, RunError, SourceLocation
-from morphkit.graph import EndEffectorRole, Morphology
+from morphkit.graph import Morphology
 from morphkit.metrics import feature_loss
 from morphkit.motion import (
     GROUND_MOTION_FEATURES,
@@ -48,6 +48,7 @@ from morphkit.retarget.ace.model import (
     Generator,
     StateCompletion,
     build_vae,
+    foot_indices,
     foot_view,
 )
 from morphkit.retarget.ace.networks import MotionVAE, kl_divergence
@@ -163,7 +164,7 @@ def _start_states(states: Sequence[np.ndarray], fmap: FeatureMap, seed: int) -> 
 
 def completion(fmap: FeatureMap, fps: float, cfg: PriorConfig) -> StateCompletion:
     """The :class:`~.model.StateCompletion` of π's outputs that ``cfg`` asks for."""
-    return StateCompletion(fmap, float(fps), cfg.derive_slots, cfg.contact_flags)
+    return StateCompletion(fmap, float(fps), cfg.derive_slots, cfg.contact_flags, cfg.root_height_from_feet)
 
 
 # ---- stage 1: the motion prior ----------------------------------------------------------------
@@ -338,11 +339,6 @@ def feature_weights(creature: Morphology, ees: Sequence[str], rc: RetargetConfig
         if roles[name].on_arm:
             w[ROOT_FEATURE_DIM + 3 * i : ROOT_FEATURE_DIM + 3 * i + 3] = rc.hand_weight
     return w
-
-
-def foot_indices(creature: Morphology) -> list[int]:
-    """Indices of the creature's end-effectors whose role is ``foot``."""
-    return [i for i, e in enumerate(creature.end_effectors) if e.role == EndEffectorRole.FOOT]
 
 
 def prior_foot_term(fmap: FeatureMap, feet: Sequence[int], prev: torch.Tensor, pred: torch.Tensor,
