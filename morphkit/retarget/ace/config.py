@@ -96,6 +96,13 @@ class PriorConfig:
     creature without feet. Measured on raw ACE outputs before it existed (a quadruped with an arm and six legs
     and two claws, ``default``, seed 0, 23 held-out CMU clips), putting the lowest foot on the ground after
     the fact: UFR 71.1 → 45.3 % and 76.3 → 34.9 % (penetration 58.0 / 69.6 % → 0)."""
+    root_step_from_feet: bool = False
+    """Beyond the paper (False: π predicts the root step): π's root step over the ground is derived inside the
+    forward pass so that the feet on the ground stay where they are — the mean over feet of the step that holds
+    each where it was at t − 1, weighed by how surely it is within 1 cm of the ground at both frames
+    (:class:`~morphkit.retarget.ace.model.StateCompletion`); π's own step only where no foot is down. The root's
+    linear velocity (which Ψ reads) is then that step times the frame rate. The synthesised data hold it: feet
+    within 2 cm of the ground at both frames of a transition moved more than 2 mm in 0.2 % of them."""
     rollout: int = 8
     """Steps of a scheduled-sampling rollout (MotionVAE: 8)."""
     teacher_fraction: float = 0.15

@@ -33,6 +33,7 @@ from morphkit.motion import (
 from morphkit.retarget.ace.config import PriorConfig, RetargetConfig
 from morphkit.retarget.ace.networks import MotionEncoder, MotionPrior, MotionVAE
 from morphkit.retarget.networks import MLP
+from morphkit.rotations import quat_from_yaw, quat_normalize, quat_rotate, yaw_from_quat
 
 __all__ = ["FOOT_HEIGHT_SCALE", "FOOT_STEP_SCALE", "Discriminator", "FeatureMap", "Generator", "StateCompletion",
            "build_vae", "foot_indices", "foot_view"]
@@ -196,6 +197,15 @@ class FeatureMap:
         return self.pairing.creature_psi_of_states(fixed, self.creature_layout)
 
 
+STANCE_BAND = 0.01
+"""[m] (ours): a foot this close to the ground holds the root step (``StateCompletion.step_feet``) with weight ½ a
+frame; the synthesised data's stance feet stand at 0 and their swing feet above 3.7 cm, so any band in between
+gives their steps exactly."""
+STANCE_SOFTNESS = 0.002
+"""[m] (ours): width of the sigmoid around ``STANCE_BAND``."""
+OWN_STEP_WEIGHT = 0.01
+"""Weight of π's own root step against the feet's (``StateCompletion.step_feet``): only where no foot is down."""
+
 VELOCITY_SLOTS = ("root_linear_velocity", "root_angular_velocity", "ee_velocities")
 """The character state's velocity fields (derived from positions when ``PriorConfig.derive_slots``)."""
 
@@ -212,6 +222,11 @@ class StateCompletion:
       (:func:`~morphkit.motion.derive_character_state`).
     * ``ground_feet``: the root height is minus the lowest foot's heading-frame height (FK of the tilt and
       joints), so that foot stands on the ground (``PriorConfig.root_height_from_feet``; nothing without feet).
+    * ``step_feet``: the root's ground step is the one that keeps the feet on the ground still — the mean over
+      feet of the step that holds each where it was at t − 1 (FK of both frames' tilt and joints), weighed by
+      how surely the foot is down at both frames, σ((``STANCE_BAND`` − z)/``STANCE_SOFTNESS``) per frame, with
+      π's own step weighing ``OWN_STEP_WEIGHT`` (it is the step where no foot is down); the root's linear
+      velocity is that step and the height change times the frame rate (``PriorConfig.root_step_from_feet``).
 
     With none, the output is π's as it is.
     """
@@ -221,15 +236,18 @@ class StateCompletion:
     derive: bool
     contacts: bool
     ground_feet: bool = False
+    step_feet: bool = False
 
     def __post_init__(self) -> None:
         lay = self.features.creature_layout
         feet = foot_indices(self.features.creature)
         self._feet = feet if self.ground_feet and feet else None
+        self._step_feet = feet if self.step_feet and feet else None
         self._height = lay.slice("root_height")
         self._flags = lay.slice("foot_contacts") if self.contacts else None
         mask = torch.ones(lay.dim)
         skip = (["foot_contacts"] if self.contacts else []) + (list(VELOCITY_SLOTS) if self.derive else [])
+        skip += ["root_linear_velocity"] if self._step_feet is not None and not self.derive else []
         for name in skip:
             mask[lay.slice(name)] = 0.0
         self.regression_mask = mask
@@ -240,7 +258,7 @@ class StateCompletion:
     def __call__(self, prev: torch.Tensor, raw: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor | None]:
         """``prev`` (x_{t-1}) and π's output ``raw`` [..., D] → (completed x_t [..., D], stance logits [..., F]
         or ``None``)."""
-        if not (self.derive or self._flags is not None or self._feet is not None):
+        if not (self.derive or self._flags is not None or self._feet is not None or self._step_feet is not None):
             return raw, None
         stats, lay = self.features.creature_stats, self.features.creature_layout
         x = stats.denormalize(raw)
@@ -256,16 +274,38 @@ class StateCompletion:
             ro = lay.slice("root_orientation")
             unit = torch.nn.functional.normalize(x[..., ro], dim=-1)
             x = torch.cat([x[..., : ro.start], unit, x[..., ro.stop :]], dim=-1)
-        if self.derive or self._feet is not None:
+        if self.derive or self._feet is not None or self._step_feet is not None:
             ee = self.features.fk_end_effectors(x)  # heading frame: independent of the root height
         if self._feet is not None:
             assert ee is not None
             h = -ee[..., self._feet, 2].amin(dim=-1, keepdim=True)
             x = torch.cat([x[..., : self._height.start], h, x[..., self._height.stop :]], dim=-1)
+        if self._step_feet is not None:
+            assert ee is not None
+            x = self._step_of_feet(stats.denormalize(prev), x, ee[..., self._step_feet, :])
         if self.derive:
             assert ee is not None
             x = derive_character_state(stats.denormalize(prev), x, ee, self.fps, lay)
         return stats.normalize(x), logits
+
+    def _step_of_feet(self, prev: torch.Tensor, x: torch.Tensor, feet: torch.Tensor) -> torch.Tensor:
+        """``x`` (denormalised) with the root step and linear velocity of the feet on the ground (``step_feet``);
+        ``feet`` [..., F, 3]: heading-frame FK of ``x``'s feet."""
+        lay = self.features.creature_layout
+        h, disp = self._height, lay.slice("root_displacement")
+        feet_prev = self.features.fk_end_effectors(prev)[..., self._step_feet, :]
+        # frame t−1's feet in frame t's heading axes (as derive_character_state turns them)
+        turn = quat_from_yaw(yaw_from_quat(quat_normalize(x[..., lay.slice("previous_root_orientation")])))
+        hold = quat_rotate(turn[..., None, :], feet_prev)[..., :2] - feet[..., :2]  # [..., F, 2]
+        z_prev = prev[..., h] + feet_prev[..., 2]
+        z_cur = x[..., h] + feet[..., 2]
+        down = torch.sigmoid((STANCE_BAND - z_prev) / STANCE_SOFTNESS) * torch.sigmoid(
+            (STANCE_BAND - z_cur) / STANCE_SOFTNESS)
+        down = down.detach()[..., None]  # which feet hold is decided, not optimised: lifting a foot frees the root
+        step = ((down * hold).sum(-2) + OWN_STEP_WEIGHT * x[..., disp]) / (down.sum(-2) + OWN_STEP_WEIGHT)
+        velocity = torch.cat([step, x[..., h] - prev[..., h]], dim=-1) * self.fps
+        parts = {"root_displacement": step, "root_linear_velocity": velocity}
+        return torch.cat([parts.get(name, x[..., a:b]) for name, a, b in lay.fields], dim=-1)
 
     def flags_of(self, x_norm: torch.Tensor) -> torch.Tensor:
         """The 0/1 stance flags [..., F] of normalised states."""

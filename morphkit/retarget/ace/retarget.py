@@ -75,6 +75,8 @@ def read_prior_config(path: str | os.PathLike[str]) -> PriorConfig:
         pc = dataclasses.replace(pc, contact_flags=False, derive_slots=False)
     if "root_height_from_feet" not in named:
         pc = dataclasses.replace(pc, root_height_from_feet=False)
+    if "root_step_from_feet" not in named:
+        pc = dataclasses.replace(pc, root_step_from_feet=False)
     return pc
 
 

@@ -164,7 +164,8 @@ def _start_states(states: Sequence[np.ndarray], fmap: FeatureMap, seed: int) -> 
 
 def completion(fmap: FeatureMap, fps: float, cfg: PriorConfig) -> StateCompletion:
     """The :class:`~.model.StateCompletion` of π's outputs that ``cfg`` asks for."""
-    return StateCompletion(fmap, float(fps), cfg.derive_slots, cfg.contact_flags, cfg.root_height_from_feet)
+    return StateCompletion(fmap, float(fps), cfg.derive_slots, cfg.contact_flags, cfg.root_height_from_feet,
+                           cfg.root_step_from_feet)
 
 
 # ---- stage 1: the motion prior ----------------------------------------------------------------
