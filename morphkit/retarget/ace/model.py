@@ -7,8 +7,8 @@
   character's end-effectors taken from **morphkit's FK of the generated joint coordinates** (through
   :mod:`morphkit.torch`), so what the feature loss scores is what is exported.
 * :class:`StateCompletion` — π's output made a whole state: stance flags from its logits, derived
-  slots from FK and the previous state, the root height from the lowest foot (``PriorConfig.contact_flags``,
-  ``PriorConfig.derive_slots``, ``PriorConfig.root_height_from_feet``).
+  slots from FK and the previous state, the root height and step from the feet (``PriorConfig.contact_flags``,
+  ``PriorConfig.derive_slots``, ``PriorConfig.root_height_from_feet``, ``PriorConfig.root_step_from_feet``).
 
 All networks read and write *normalised* states (z-scores with the run's statistics).
 """
