@@ -553,6 +553,28 @@ def test_completed_states_are_the_encoding_of_the_motion_they_decode_to(dog):
     torch.testing.assert_close(raw.grad[5, fs], want, rtol=1e-9, atol=0)
 
 
+def _noisy_outputs(fmap, x: np.ndarray, *, seed: int) -> np.ndarray:
+    """Stand-ins for π's outputs: states ``x`` plus 5 % of their std of noise, joints kept inside their limits
+    (decoding then clamps nothing)."""
+    m, lay, stats = fmap.creature, fmap.creature_layout, fmap.creature_stats
+    noisy = x + 0.05 * stats.std * np.random.default_rng(seed).normal(size=x.shape)
+    lower, upper = m.coordinate_limits
+    b = m.base_coordinate_count
+    js = lay.slice("joint_q")
+    noisy[:, js] = np.clip(noisy[:, js], lower[b:] + 1e-6, upper[b:] - 1e-6)
+    return noisy
+
+
+def _completed_rollout(complete, start: np.ndarray, raw_states: np.ndarray) -> np.ndarray:
+    """Denormalised states: ``start``, then each frame t ≥ 1 of ``raw_states`` completed on the previous output."""
+    stats = complete.features.creature_stats
+    raw = torch.as_tensor(stats.normalize(raw_states), dtype=torch.float64)
+    states = [torch.as_tensor(stats.normalize(start), dtype=torch.float64)]
+    for t in range(1, len(raw)):
+        states.append(complete(states[-1], raw[t])[0])
+    return stats.denormalize(torch.stack(states).detach().numpy())
+
+
 @pytest.mark.parametrize("derive", [False, True])
 def test_root_height_from_feet_stands_the_lowest_foot_on_the_ground(dog, derive):
     """``root_height_from_feet``: π's outputs (data plus noise) completed step by step decode to a motion whose
@@ -563,23 +585,14 @@ def test_root_height_from_feet_stands_the_lowest_foot_on_the_ground(dog, derive)
     from morphkit.retarget.ace.model import StateCompletion, foot_indices
 
     fmap, x, motion = _dog_feature_map(dog, frames=60)
-    m, lay, stats = motion.morphology, fmap.creature_layout, fmap.creature_stats
+    m, lay = motion.morphology, fmap.creature_layout
     feet = foot_indices(m)
-    rng = np.random.default_rng(0)
-    noisy = x + 0.05 * stats.std * rng.normal(size=x.shape)
-    lower, upper = m.coordinate_limits
-    b = m.base_coordinate_count
-    js = lay.slice("joint_q")
-    noisy[:, js] = np.clip(noisy[:, js], lower[b:] + 1e-6, upper[b:] - 1e-6)
+    noisy = _noisy_outputs(fmap, x, seed=0)
     h = lay.slice("root_height")
 
     def completed(raw_states: np.ndarray, ground: bool) -> np.ndarray:
-        complete = StateCompletion(fmap, motion.fps, derive=derive, contacts=False, ground_feet=ground)
-        raw = torch.as_tensor(stats.normalize(raw_states), dtype=torch.float64)
-        states = [torch.as_tensor(stats.normalize(x[:1]), dtype=torch.float64)[0]]
-        for t in range(1, len(x)):
-            states.append(complete(states[-1], raw[t])[0])
-        return stats.denormalize(torch.stack(states).detach().numpy())
+        return _completed_rollout(StateCompletion(fmap, motion.fps, derive=derive, contacts=False, ground_feet=ground),
+                                  x[0], raw_states)
 
     done = completed(noisy, True)
     back, _ = decode_character_states(done, m, motion.fps, layout=lay)
@@ -610,22 +623,13 @@ def test_root_step_from_feet_keeps_the_feet_on_the_ground_still(dog, ground):
     from morphkit.retarget.ace.model import STANCE_BAND, STANCE_SOFTNESS, StateCompletion, foot_indices
 
     fmap, x, motion = _dog_feature_map(dog, frames=60)
-    m, lay, stats = motion.morphology, fmap.creature_layout, fmap.creature_stats
+    m, lay = motion.morphology, fmap.creature_layout
     feet = foot_indices(m)
-    rng = np.random.default_rng(1)
-    noisy = x + 0.05 * stats.std * rng.normal(size=x.shape)
-    lower, upper = m.coordinate_limits
-    b = m.base_coordinate_count
-    js = lay.slice("joint_q")
-    noisy[:, js] = np.clip(noisy[:, js], lower[b:] + 1e-6, upper[b:] - 1e-6)
+    noisy = _noisy_outputs(fmap, x, seed=1)
 
     def completed(raw_states: np.ndarray, step: bool) -> np.ndarray:
         complete = StateCompletion(fmap, motion.fps, derive=False, contacts=False, ground_feet=ground, step_feet=step)
-        raw = torch.as_tensor(stats.normalize(raw_states), dtype=torch.float64)
-        states = [torch.as_tensor(stats.normalize(x[:1]), dtype=torch.float64)[0]]
-        for t in range(1, len(x)):
-            states.append(complete(states[-1], raw[t])[0])
-        return stats.denormalize(torch.stack(states).detach().numpy())
+        return _completed_rollout(complete, x[0], raw_states)
 
     def down_steps(states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         back, _ = decode_character_states(states, m, motion.fps, layout=lay)
