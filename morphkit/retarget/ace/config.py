@@ -99,7 +99,11 @@ class PriorConfig:
     0.74, shipped FID 0.688 / 1.004 / 0.639 → 0.921 / 1.715 / 0.665; six legs and two claws — raw UFR 76.3 / 37.3 /
     32.5 → 41.2 / 34.8 / 38.6 %, forward 0.66 / 0.44 / 0.62 → 0.60 / 0.61 / 0.70, shipped FID 1.137 / 1.240 /
     1.107 → 1.133 / 1.215 / 0.914, hand follow within ±0.08. Sliding is then all of raw UFR, and the
-    quadruped's FID rises on two seeds, so it stays off."""
+    quadruped's FID rises on two seeds, so it stays off. With G's contact term too (``--contact-weight 2``, the
+    ACE+contact row, same priors): raw UFR 35.8 / 43.1 / 31.9 % (quadruped; seed 1 self-collision 11.6 %) and
+    22.7 / 25.0 / 24.3 % (six legs), forward follow 0.66 / 0.66 / 0.68 and 0.51 / 0.54 / 0.51, the six-legged
+    one's turn gain 0.50 → 0.30–0.36. With ``retarget.ground_drift_weight = 1`` instead (seed 0): raw UFR 43.7 % and
+    44.9 %, shipped FID 0.921 → 1.396 and 1.133 → 1.340, forward 0.61 and 0.45 — worse on every figure."""
     root_step_from_feet: bool = False
     """Beyond the paper (False: π predicts the root step): π's root step over the ground is derived inside the
     forward pass so that the feet on the ground stay where they are — the mean over feet of the step that holds
