@@ -64,7 +64,7 @@ that predicts only the first can complete a state whose every slot agrees with i
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -131,6 +131,11 @@ class StateLayout:
 
     def names(self) -> tuple[str, ...]:
         return tuple(n for n, _, _ in self.fields)
+
+    def replace(self, state: Any, parts: Mapping[str, Any]) -> Any:
+        """``state`` [..., dim] (NumPy or torch, differentiable) with the fields named in ``parts`` set to their
+        values [..., field length]; the other fields kept."""
+        return _cat([parts.get(name, state[..., a:b]) for name, a, b in self.fields])
 
 
 def _layout(kind: str, sizes: Sequence[tuple[str, int]], ee_names: tuple[str, ...]) -> StateLayout:
@@ -475,7 +480,7 @@ def derive_character_state(prev: Any, cur: Any, ee_positions: Any, fps: float, l
     parts = {"root_orientation": ro, "previous_root_orientation": pro, "root_linear_velocity": disp * fps,
              "root_angular_velocity": omega, "ee_positions": _flat_tail(ee_positions),
              "ee_velocities": _flat_tail(ee_vel)}
-    return _cat([parts.get(name, cur[..., a:b]) for name, a, b in layout.fields])
+    return layout.replace(cur, parts)
 
 
 # ---- normalisation ------------------------------------------------------------------------

@@ -639,12 +639,12 @@ def test_root_step_from_feet_keeps_the_feet_on_the_ground_still(dog, ground):
         mean = (w[..., None] * (p[1:, :, :2] - p[:-1, :, :2])).sum(1) / np.maximum(w.sum(1), 1e-12)[:, None]
         return np.linalg.norm(mean, axis=-1), w.sum(1)
 
-    held, weight = down_steps(completed(noisy, True))
+    done = completed(noisy, True)
+    held, weight = down_steps(done)
     free, _ = down_steps(completed(noisy, False))
     assert (weight > 0.5).mean() > 0.5
     assert held[weight > 0.5].max() < 1e-4
     assert free[weight > 0.5].max() > 0.003
-    done = completed(noisy, True)
     vel = lay.slice("root_linear_velocity")
     np.testing.assert_allclose(done[1:, vel][:, :2], done[1:, lay.slice("root_displacement")] * motion.fps, atol=1e-9)
     on_data = completed(x, True)

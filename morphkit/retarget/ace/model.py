@@ -267,25 +267,22 @@ class StateCompletion:
         if self._flags is not None:
             logits = raw[..., self._flags]
             p = torch.sigmoid(logits)
-            flag = (p > 0.5).to(p.dtype) + p - p.detach()
-            parts = [x[..., : self._flags.start], flag, x[..., self._flags.stop :]]
-            x = torch.cat(parts, dim=-1)
+            x = lay.replace(x, {"foot_contacts": (p > 0.5).to(p.dtype) + p - p.detach()})
         if self.derive:
-            ro = lay.slice("root_orientation")
-            unit = torch.nn.functional.normalize(x[..., ro], dim=-1)
-            x = torch.cat([x[..., : ro.start], unit, x[..., ro.stop :]], dim=-1)
+            unit = torch.nn.functional.normalize(x[..., lay.slice("root_orientation")], dim=-1)
+            x = lay.replace(x, {"root_orientation": unit})
         if self.derive or self._feet is not None or self._step_feet is not None:
             ee = self.features.fk_end_effectors(x)  # heading frame: independent of the root height
         if self._feet is not None:
             assert ee is not None
-            h = -ee[..., self._feet, 2].amin(dim=-1, keepdim=True)
-            x = torch.cat([x[..., : self._height.start], h, x[..., self._height.stop :]], dim=-1)
+            x = lay.replace(x, {"root_height": -ee[..., self._feet, 2].amin(dim=-1, keepdim=True)})
+        x_prev = stats.denormalize(prev) if self.derive or self._step_feet is not None else None
         if self._step_feet is not None:
-            assert ee is not None
-            x = self._step_of_feet(stats.denormalize(prev), x, ee[..., self._step_feet, :])
+            assert ee is not None and x_prev is not None
+            x = self._step_of_feet(x_prev, x, ee[..., self._step_feet, :])
         if self.derive:
-            assert ee is not None
-            x = derive_character_state(stats.denormalize(prev), x, ee, self.fps, lay)
+            assert ee is not None and x_prev is not None
+            x = derive_character_state(x_prev, x, ee, self.fps, lay)
         return stats.normalize(x), logits
 
     def _step_of_feet(self, prev: torch.Tensor, x: torch.Tensor, feet: torch.Tensor) -> torch.Tensor:
@@ -304,8 +301,7 @@ class StateCompletion:
         down = down.detach()[..., None]  # which feet hold is decided, not optimised: lifting a foot frees the root
         step = ((down * hold).sum(-2) + OWN_STEP_WEIGHT * x[..., disp]) / (down.sum(-2) + OWN_STEP_WEIGHT)
         velocity = torch.cat([step, x[..., h] - prev[..., h]], dim=-1) * self.fps
-        parts = {"root_displacement": step, "root_linear_velocity": velocity}
-        return torch.cat([parts.get(name, x[..., a:b]) for name, a, b in lay.fields], dim=-1)
+        return lay.replace(x, {"root_displacement": step, "root_linear_velocity": velocity})
 
     def flags_of(self, x_norm: torch.Tensor) -> torch.Tensor:
         """The 0/1 stance flags [..., F] of normalised states."""
