@@ -56,6 +56,8 @@ class MorphologyBuilder:
         self._wheels: Wheels | None = None
         self._wheels_location: SourceLocation | None = None
         self._body_length: float | None = None
+        self._rest_pose: dict[str, float] = {}
+        self._excludes: list[tuple[str, str]] = []
 
     def _loc(self, location: SourceLocation | None) -> SourceLocation | None:
         return location if location is not None else (SourceLocation(self.source) if self.source else None)
@@ -199,6 +201,16 @@ class MorphologyBuilder:
     def add_joint_spherical(self, name: str, parent: str, child: str, **kw: object) -> int:
         return self.add_joint(name, JointType.SPHERICAL, parent, child, **kw)  # type: ignore[arg-type]
 
+    def set_rest_pose(self, values: dict[str, float], *, location: SourceLocation | None = None) -> None:
+        """Set the rest values [rad or m] of 1-DoF joints (others rest at 0): a keyframe or a found stance."""
+        loc = self._loc(location)
+        names = list(values)
+        self._rest_pose = dict(zip(names, _finite([values[n] for n in names], "rest pose", loc), strict=True))
+
+    def exclude_collision(self, link_a: str, link_b: str) -> None:
+        """Never check the pair ``link_a``–``link_b`` for self-collision (MJCF ``<contact><exclude>``)."""
+        self._excludes.append((link_a, link_b))
+
     # ---- end-effectors and wheels ----------------------------------------------------------
     def add_end_effector(
         self,
@@ -335,6 +347,14 @@ class MorphologyBuilder:
                     raise GraphError(f"wheel {w!r} must name a continuous joint", location=self._wheels_location)
                 if self._joints[w].mimic is not None:
                     raise GraphError(f"wheel {w!r} cannot also be a mimic joint", location=self._wheels_location)
+        for name in self._rest_pose:
+            j = self._joints.get(name)
+            if j is None or j.type not in (JointType.REVOLUTE, JointType.CONTINUOUS, JointType.PRISMATIC):
+                raise GraphError(f"rest pose names {name!r}, which is not a 1-DoF joint", location=where)
+        for pair in self._excludes:
+            for link in pair:
+                if link not in self._links:
+                    raise GraphError(f"collision exclude names missing link {link!r}", location=where)
         links = (self._links[root], *(self._links[j.child] for j in order))
         return Morphology(
             name=self.name,
@@ -346,6 +366,8 @@ class MorphologyBuilder:
             wheels=self._wheels,
             source=self.source,
             declared_body_length=self._body_length,
+            rest_pose=tuple((j.name, self._rest_pose[j.name]) for j in order if j.name in self._rest_pose),
+            collision_excludes=tuple(self._excludes),
         )
 
     @staticmethod

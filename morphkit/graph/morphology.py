@@ -84,6 +84,11 @@ class Morphology:
     declared_body_length: float | None = None
     """Body length [m] the description declares (YAML ``body_length:``); ``None``: :attr:`body_length`
     follows its rule."""
+    rest_pose: tuple[tuple[str, float], ...] = ()
+    """Values of 1-DoF joints [rad or m] at the rest pose, where it is not ``q = 0`` (an MJCF keyframe, a
+    declared ``rest_pose:``, or a stance found for a file that has none); other joints rest at 0."""
+    collision_excludes: tuple[tuple[str, str], ...] = ()
+    """Link pairs never checked for self-collision beyond the parent–child rule (MJCF ``<contact><exclude>``)."""
 
     # ---- lookups ---------------------------------------------------------------------------
     @property
@@ -226,10 +231,16 @@ class Morphology:
         return lower, upper
 
     def rest_q(self) -> np.ndarray:
-        """The rest pose: base at the origin, identity rotations, joints at 0 clamped into their limits."""
+        """The rest pose: base at the origin, identity rotations, joints at :attr:`rest_pose` (else 0) clamped
+        into their limits."""
         q = np.zeros(self.coordinate_count)
         if self.base == BaseType.FLOATING:
             q[6] = 1.0
+        starts = self.joint_q_start
+        for name, value in self.rest_pose:
+            ji = self.joint_index(name)
+            if starts[ji + 1] - starts[ji] == 1:
+                q[starts[ji]] = value
         for j, start in zip(self.joints, self.joint_q_start[:-1], strict=True):
             if j.type == JointType.SPHERICAL and not self.is_driven(j):
                 q[start + 3] = 1.0
