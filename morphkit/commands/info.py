@@ -8,6 +8,7 @@ from collections import Counter
 from typing import Any
 
 from morphkit.graph import HUMAN_HAND_REACH, BodyLengthRule, JointType, Morphology
+from morphkit.io.anatomy import anatomy_warnings
 
 _RULE_TEXT = {
     BodyLengthRule.DECLARED: "declared by the description",
@@ -41,7 +42,14 @@ def summary(m: Morphology) -> dict[str, Any]:
         "coordinate_count": m.coordinate_count,
         "base_dof": m.base_dof,
         "driven_joints": [j.name for j in m.joints if m.is_driven(j)],
-        "end_effectors": [{"name": e.name, "link": e.link, "role": e.role.name.lower()} for e in m.end_effectors],
+        "end_effectors": [
+            {"name": e.name, "link": e.link, "role": e.role.name.lower(), "offset": [round(v, 6) for v in e.offset],
+             "guessed": bool(e.reason), "reason": e.reason or "declared by the description"}
+            for e in m.end_effectors
+        ],
+        "rest_pose": {k: round(v, 6) for k, v in m.rest_pose},
+        "notes": list(m.notes),
+        "warnings": anatomy_warnings(m),
         "characteristic_length": round(m.characteristic_length, 6),
         "body_length": round(m.body_length, 6),
         "body_length_rule": m.body_length_rule.name.lower(),
@@ -62,8 +70,13 @@ def _text(s: dict[str, Any]) -> str:
     ]
     if s["driven_joints"]:
         lines.append(f"  driven joints         {', '.join(s['driven_joints'])}")
+    lines += [f"  end-effectors         {len(s['end_effectors'])}: {ees}"]
+    lines += [f"    {e['name']}: {e['reason']}" for e in s["end_effectors"] if e["guessed"]]
+    lines += [f"  {n}" for n in s["notes"]]
+    if s["rest_pose"]:
+        lines.append("  rest pose             " + ", ".join(f"{k} {v:+.2f}" for k, v in s["rest_pose"].items()))
+    lines += [f"  warning: {w}" for w in s["warnings"]]
     lines += [
-        f"  end-effectors         {len(s['end_effectors'])}: {ees}",
         f"  characteristic length {s['characteristic_length']:.3f} m (rest-pose height)",
         f"  body length           {s['body_length']:.3f} m ({_RULE_TEXT[BodyLengthRule[rule.upper()]]})",
     ]

@@ -122,6 +122,8 @@ class EndEffector:
     """Position in the link frame [m]."""
     role: EndEffectorRole = EndEffectorRole.TOOL
     location: SourceLocation | None = field(default=None, compare=False, repr=False)
+    reason: str = field(default="", compare=False, repr=False)
+    """Why a reader guessed this point, where the description did not name it (empty: declared)."""
 
 
 @dataclass(frozen=True)

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
@@ -89,6 +89,8 @@ class Morphology:
     declared ``rest_pose:``, or a stance found for a file that has none); other joints rest at 0."""
     collision_excludes: tuple[tuple[str, str], ...] = ()
     """Link pairs never checked for self-collision beyond the parent–child rule (MJCF ``<contact><exclude>``)."""
+    notes: tuple[str, ...] = field(default=(), compare=False)
+    """What a reader decided where the description was silent (base type, rest pose), for ``morphkit info``."""
 
     # ---- lookups ---------------------------------------------------------------------------
     @property

@@ -55,7 +55,6 @@ import os
 import re
 import warnings
 from collections.abc import Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 from xml.sax.saxutils import quoteattr
@@ -77,6 +76,7 @@ from morphkit.graph import (
     Transform,
 )
 from morphkit.io._source import relative_mesh_path
+from morphkit.io.anatomy import Frame, complete_anatomy
 from morphkit.rotations import (
     quat_between_vectors,
     quat_wxyz_to_xyzw,
@@ -224,22 +224,6 @@ def _name(model: Any, kind: Any, i: int, default: str) -> str:
     import mujoco
 
     return mujoco.mj_id2name(model, kind, i) or default
-
-
-@dataclass
-class _Candidate:
-    name: str
-    body: int
-    link: str
-    offset: np.ndarray
-    world: np.ndarray
-    role: EndEffectorRole
-
-
-def _keyword_role(name: str) -> EndEffectorRole | None:
-    from morphkit.io.bvh import ROLE_KEYWORDS, keyword_role
-
-    return keyword_role(name, ROLE_KEYWORDS)
 
 
 class _Builder:
@@ -460,37 +444,18 @@ class _Builder:
         """A point given in ``body``'s MuJoCo frame, in its link's frame."""
         return transform_multiply(self.link_from_body[body], _translation(pos))[:3]
 
-    def candidates(self, bodies: list[int], data: Any) -> list[_Candidate]:
+    def sites(self, bodies: list[int]) -> list[Frame]:
+        """The named sites on the creature's bodies, as frames on their links (hints for the end-effector guess)."""
         m = self.model
         inside = set(bodies)
-        out: list[_Candidate] = []
+        out = []
         for s in range(m.nsite):
             body = int(m.site_bodyid[s])
             name = _name(m, self.mj.mjtObj.mjOBJ_SITE, s, "")
-            role = _keyword_role(name) or _keyword_role(self.body_names[body])
-            if body in inside and name and role is not None:
-                offset = self.link_offset(body, m.site_pos[s])
-                out.append(_Candidate(name, body, self.body_names[body], offset, np.array(data.site_xpos[s]), role))
-        taken = {c.name for c in out}
-        for body in bodies:
-            name = self.body_names[body]
-            role = _keyword_role(name)
-            if not self.children[body] and role is not None and name not in taken:
-                offset = self.link_offset(body, np.zeros(3))
-                out.append(_Candidate(name, body, name, offset, np.array(data.xpos[body]), role))
+            if body in inside and name:
+                offset = tuple(float(v) for v in self.link_offset(body, m.site_pos[s]))
+                out.append(Frame(name, self.body_link[body], offset))  # type: ignore[arg-type]
         return out
-
-    def limb_top(self, body: int, role: EndEffectorRole) -> int:
-        """The topmost body of the run of bodies with ``role``'s keywords through ``body`` (itself if none)."""
-        top = body
-        cur = body
-        while cur != self.root_body and cur > 0:
-            if _keyword_role(self.body_names[cur]) == role:
-                top = cur
-            elif cur != body:
-                break
-            cur = int(self.model.body_parentid[cur])
-        return top
 
 
 def _ellipsoid(T: np.ndarray, semi: np.ndarray) -> Shape:
@@ -502,30 +467,6 @@ def _ellipsoid(T: np.ndarray, semi: np.ndarray) -> Shape:
     axis = np.eye(3)[k]
     T = transform_multiply(T, np.array([0.0, 0.0, 0.0, *quat_between_vectors(np.array([0.0, 0.0, 1.0]), axis)]))
     return Shape(ShapeType.CAPSULE, _transform(T), radius=radius, length=max(2.0 * (float(semi[k]) - radius), 0.0))
-
-
-def _guess_end_effectors(bld: _Builder, bodies: list[int], data: Any) -> None:
-    cands = bld.candidates(bodies, data)
-    feet = [c.world[2] for c in cands if c.role == EndEffectorRole.FOOT]
-    ground = min(feet) if feet else None
-    root_height = float(data.xpos[bld.root_body][2])
-    groups: dict[tuple[int, int], list[_Candidate]] = {}
-    for c in cands:
-        groups.setdefault((int(c.role), bld.limb_top(c.body, c.role)), []).append(c)
-    for (_, top), group in groups.items():
-        if (
-            group[0].role == EndEffectorRole.HAND
-            and ground is not None
-            and min(c.world[2] for c in group) - ground < _FRONT_PAW_FRACTION * (root_height - ground)
-        ):
-            for c in group:
-                c.role = EndEffectorRole.FOOT  # a front paw on the ground
-        if group[0].role == EndEffectorRole.FOOT:
-            pick = min(group, key=lambda c: c.world[2])
-        else:
-            pick = max(group, key=lambda c: float(np.linalg.norm(c.world - data.xpos[top])))
-        bld.b.add_end_effector(pick.name, bld.body_link[pick.body], offset=tuple(pick.offset), role=pick.role,
-                               location=bld.loc)
 
 
 def _side_end_effectors(bld: _Builder, path: Path, doc: Any, reader: Any) -> None:
@@ -586,7 +527,6 @@ def morphology_from_mjmodel(
         DescriptionError: a joint morphkit cannot express (free joint below the top body, unlimited slide).
         GraphError: structural problems found by :class:`~morphkit.graph.MorphologyBuilder`.
     """
-    import mujoco
 
     side_doc = _read_side_file(Path(side)) if side is not None else None
     body = None
@@ -598,11 +538,8 @@ def morphology_from_mjmodel(
     _, bodies = bld.build()
     if side_doc is not None and "end_effectors" in side_doc[0]:
         _side_end_effectors(bld, Path(side), *side_doc)  # type: ignore[arg-type]
-    else:
-        data = mujoco.MjData(model)
-        mujoco.mj_kinematics(model, data)
-        _guess_end_effectors(bld, bodies, data)
-    return bld.b.build()
+        return bld.b.build()
+    return complete_anatomy(bld.b.build(), frames=bld.sites(bodies), base_declared=True)
 
 
 def _model_name(model: Any) -> str | None:

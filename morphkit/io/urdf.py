@@ -61,6 +61,7 @@ from morphkit.graph import (
 )
 from morphkit.graph.types import parse_enum
 from morphkit.io._source import read_text, relative_mesh_path, resolve_mesh_path, warn_wheeled_without_wheels
+from morphkit.io.anatomy import complete_anatomy
 
 __all__ = ["dump_urdf", "parse_urdf", "read_urdf", "write_urdf"]
 
@@ -242,9 +243,10 @@ class _Reader:
         if wheels is not None:
             names = self.attr(wheels, "joints", "wheels").split()
             b.set_wheels(names, self.number(wheels, "radius", "wheels"), location=self.loc(wheels))
-        return warn_wheeled_without_wheels(
+        m = warn_wheeled_without_wheels(
             b.build(), self.loc(base_el) if base_el is not None else None, how='<wheels joints="..." radius="R"/>'
         )
+        return complete_anatomy(m, base_declared=base_el is not None or world_base is not None)
 
     def _end(self, el: Any, tag: str, jname: str) -> str | None:
         sub = el.find(tag)

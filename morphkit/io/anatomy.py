@@ -1,0 +1,758 @@
+"""Body parts of a creature read from a file that names none: end-effectors, base type and a stance.
+
+Vendor URDFs and MJCFs describe links, joints and shapes but not which points are feet or hands,
+and their ``q = 0`` is often not a standing pose (legs folded flat, straight or clamped at a limit).
+:func:`complete_anatomy` decides from the graph and the shapes, with names only as hints:
+
+1. **Ends.** Links joined by fixed joints form one rigid group; the root's group is the body. A
+   group with no moving joint below it is a tip. Tips that branch off one group close to it (a
+   gripper's fingers, a paw's toes, a jaw on a skull: every branch shorter than half the group's
+   distance from the root) are one end at that group; other branches are ends of their own.
+2. **Roles.** On a fixed base every end is an arm's: a tool where fingers meet (a frame there named
+   like ``grasp``/``tcp``/``tool``, else between the fingertips), else a hand at its farthest point.
+   On a floating base, feet are the ends that carry the body: each end's lowest reachable point
+   (joint limits sampled, root at rest) is compared with the deepest; ends within
+   :data:`LEG_DEPTH_FRACTION` of it are legs. Names are hints: an end named like an arm, hand or head
+   is a leg only if it rests on the ground at the reference pose (a dog's front paws); one named like
+   a tail, ear or sensor is no end-effector. A non-leg end ahead of and above the root, with at most
+   three joints, is a head.
+3. **Base.** A floating base nobody declared (a URDF without a ``world`` link) whose creature has no
+   feet is an arm bolted down: fixed.
+4. **Stance.** Unless the reference pose (an MJCF keyframe, else ``q = 0``) already stands — feet
+   lowest, every other shape above them, legs bent — one is searched for: the body level, each foot
+   under its hip on the ground at :data:`STANCE_EXTENSION` of the shortest leg's reach, knees bent the
+   way the joint limits allow (multi-start damped least squares per leg; among solutions, those that
+   keep every link above the ground, then knees backwards for four or more legs and forwards for two).
+5. **Feet** sit on the sole: the lowest point of the tip's shapes at the stance (a sphere's bottom, the
+   middle of a box's lowest face).
+
+Every decision is kept as a reason (:attr:`EndEffector.reason`, :attr:`Morphology.notes`) that
+``morphkit info`` prints. A side file or the description's own end-effectors always win.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from morphkit.graph import BaseType, EndEffector, EndEffectorRole, JointType, Morphology, ShapeType
+from morphkit.rotations import transform_multiply
+
+__all__ = [
+    "LEG_DEPTH_FRACTION",
+    "STANCE_EXTENSION",
+    "Frame",
+    "anatomy_warnings",
+    "complete_anatomy",
+    "leg_like_chains",
+]
+
+LEG_DEPTH_FRACTION = 0.3
+"""An end is a leg when its lowest reach lies within this fraction of the deepest end's reach below the root."""
+STANCE_EXTENSION = {2: 0.92, 0: 0.8}
+"""Hip-to-sole distance of a searched stance, as a fraction of the shortest leg's reach: bipeds stand
+near straight (as people do), other creatures with their knees well bent (quadruped robots' nominal
+heights: A1, Aliengo, Mini Cheetah 0.75–0.85)."""
+_SAMPLES = 256
+_MERGE_FRACTION = 0.5
+_GROUND_TOL = 0.002
+_FOOT_TOL = 0.01
+_STRAIGHT = 0.97
+_PAW_FRACTION = 0.15
+_UNDER_HIP = 0.25
+
+_ONE_DOF = (JointType.REVOLUTE, JointType.CONTINUOUS, JointType.PRISMATIC)
+_HINTS: tuple[tuple[str, tuple[str, ...]], ...] = (
+    ("skip", ("tail", "ear", "antenna", "imu", "camera", "lidar", "sensor", "laser", "kinect")),
+    ("tool", ("grasp", "tcp", "tool", "gripper", "eef", "ee")),
+    ("hand", ("palm", "hand", "finger", "thumb", "claw", "wrist", "arm")),
+    ("foot", ("sole", "toe", "foot", "feet", "paw", "hoof", "heel", "ankle", "calf", "shank", "shin", "knee", "leg")),
+    ("head", ("head", "skull", "neck", "jaw")),
+)
+
+
+@dataclass(frozen=True)
+class Frame:
+    """A named point on a link (an MJCF site): ``offset`` [m] in the link frame."""
+
+    name: str
+    link: str
+    offset: tuple[float, float, float]
+
+
+def _tokens(name: str) -> list[str]:
+    spaced = re.sub(r"([a-z])([A-Z])", r"\1 \2", name)
+    return [t for t in re.split(r"[^a-z]+", spaced.lower()) if t]
+
+
+def name_hint(name: str) -> str | None:
+    """``"skip"``, ``"tool"``, ``"hand"``, ``"foot"`` or ``"head"`` from a link, joint or site name, if any."""
+    tokens = _tokens(name)
+    for hint, words in _HINTS:
+        for t in tokens:
+            if t in words or any(t.startswith(w) and len(w) >= 4 for w in words):
+                return hint
+    return None
+
+
+# ---------------------------------------------------------------------------------------------
+# numpy forward kinematics over many joint-value samples
+# ---------------------------------------------------------------------------------------------
+def _matrix(T: np.ndarray) -> np.ndarray:
+    x, y, z, w = T[3:]
+    M = np.eye(4)
+    M[:3, :3] = [
+        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+    ]
+    M[:3, 3] = T[:3]
+    return M
+
+
+class _Kinematics:
+    """Link poses of ``m`` for batches of 1-DoF joint values, root at the origin (NumPy)."""
+
+    def __init__(self, m: Morphology) -> None:
+        self.m = m
+        self.origins = np.stack([_matrix(j.origin.as_array()) for j in m.joints]) if m.joints else np.zeros((0, 4, 4))
+        self.parent = np.asarray(m.link_parent)
+        self.index = {j.name: i for i, j in enumerate(m.joints)}
+        lo = np.full(m.joint_count, -math.pi)
+        hi = np.full(m.joint_count, math.pi)
+        for i, j in enumerate(m.joints):
+            if j.limit is not None and j.type in (JointType.REVOLUTE, JointType.PRISMATIC):
+                lo[i], hi[i] = j.limit.lower, j.limit.upper
+            elif j.type not in _ONE_DOF:
+                lo[i] = hi[i] = 0.0
+        self.lower, self.upper = lo, hi
+        rest = dict(m.rest_pose)
+        self.rest = np.clip([rest.get(j.name, 0.0) for j in m.joints], lo, hi) if m.joints else np.zeros(0)
+
+    def poses(self, values: np.ndarray) -> np.ndarray:
+        """``T_root_link`` for values [N, joint_count] → [N, link_count, 4, 4]."""
+        m = self.m
+        n = values.shape[0]
+        out = np.zeros((n, m.link_count, 4, 4))
+        out[:, 0] = np.eye(4)
+        for ji, j in enumerate(m.joints):
+            v = values[:, ji]
+            if j.mimic is not None:
+                v = j.mimic.multiplier * values[:, self.index[j.mimic.joint]] + j.mimic.offset
+            local = np.broadcast_to(self.origins[ji], (n, 4, 4)).copy()
+            if j.type in (JointType.REVOLUTE, JointType.CONTINUOUS):
+                axis = np.asarray(j.axis, dtype=float)
+                K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+                R = np.eye(3) + np.sin(v)[:, None, None] * K + (1 - np.cos(v))[:, None, None] * (K @ K)
+                local[:, :3, :3] = local[:, :3, :3] @ R
+            elif j.type == JointType.PRISMATIC:
+                local[:, :3, 3] += (local[:, :3, :3] @ np.asarray(j.axis, dtype=float)) * v[:, None]
+            out[:, ji + 1] = out[:, self.parent[ji + 1]] @ local
+        return out
+
+    def sample(self, joints: Sequence[int], n: int, rng: np.random.Generator) -> np.ndarray:
+        """``n`` value rows: the rest values with ``joints`` drawn uniformly within their limits."""
+        values = np.tile(self.rest, (n, 1))
+        for ji in joints:
+            values[:, ji] = rng.uniform(self.lower[ji], self.upper[ji], n)
+        return values
+
+
+# ---------------------------------------------------------------------------------------------
+# shapes as points
+# ---------------------------------------------------------------------------------------------
+@lru_cache(maxsize=256)
+def _mesh_bounds(path: str) -> tuple[tuple[float, ...], tuple[float, ...]] | None:
+    try:
+        import trimesh
+
+        mesh = trimesh.load(path, force="mesh")
+        lo, hi = mesh.bounds
+        return tuple(float(v) for v in lo), tuple(float(v) for v in hi)
+    except Exception:  # an unreadable mesh only loses its points here; the renderer reports it
+        return None
+
+
+def _shape_points(shape) -> tuple[np.ndarray, float]:
+    """Core points [k, 3] of a shape in its link frame and the radius around them [m]."""
+    T = shape.origin.as_array()
+
+    def place(pts: np.ndarray) -> np.ndarray:
+        return np.array([transform_multiply(T, np.array([*p, 0, 0, 0, 1]))[:3] for p in pts])
+
+    corners = np.array(list(np.ndindex(2, 2, 2)), dtype=float) - 0.5
+    if shape.type == ShapeType.SPHERE:
+        return place(np.zeros((1, 3))), shape.radius
+    if shape.type == ShapeType.CAPSULE:
+        return place(np.array([[0, 0, -shape.length / 2], [0, 0, shape.length / 2]])), shape.radius
+    if shape.type == ShapeType.BOX:
+        return place(corners * np.asarray(shape.size)), 0.0
+    if shape.type == ShapeType.CYLINDER:
+        a = np.linspace(0, 2 * np.pi, 12, endpoint=False)
+        ring = np.stack([np.cos(a) * shape.radius, np.sin(a) * shape.radius, np.zeros_like(a)], axis=1)
+        half = np.array([0.0, 0.0, shape.length / 2])
+        caps = np.concatenate([ring - half, ring + half])
+        return place(caps), 0.0
+    if shape.type == ShapeType.MESH and shape.mesh:
+        bounds = _mesh_bounds(shape.mesh)
+        if bounds is not None:
+            lo, hi = np.asarray(bounds[0]), np.asarray(bounds[1])
+            return place((lo + (corners + 0.5) * (hi - lo)) * np.asarray(shape.scale)), 0.0
+    return np.zeros((0, 3)), 0.0
+
+
+class _Shapes:
+    """Every link's shapes as (core points, radius), for lowest points at any pose."""
+
+    def __init__(self, m: Morphology) -> None:
+        self.per_link = [[_shape_points(s) for s in link.shapes] for link in m.links]
+
+    def lowest(self, poses: np.ndarray, links: Sequence[int]) -> float:
+        """Lowest z [m] of the shapes of ``links`` at ``poses`` [link_count, 4, 4] (+inf without shapes)."""
+        best = math.inf
+        for li in links:
+            for pts, r in self.per_link[li]:
+                if len(pts):
+                    z = (pts @ poses[li, :3, :3].T + poses[li, :3, 3])[:, 2]
+                    best = min(best, float(z.min()) - r)
+        return best
+
+    def distal(self, poses: np.ndarray, links: Sequence[int], origin: np.ndarray) -> tuple[int, int] | None:
+        """(link, shape index) of the shape of ``links`` whose centre lies farthest from ``origin`` (a foot's)."""
+        best: tuple[float, int, int] | None = None
+        for li in links:
+            for si, (pts, _r) in enumerate(self.per_link[li]):
+                if len(pts):
+                    d = float(np.linalg.norm(poses[li, :3, :3] @ pts.mean(axis=0) + poses[li, :3, 3] - origin))
+                    if best is None or d > best[0]:
+                        best = (d, li, si)
+        return None if best is None else (best[1], best[2])
+
+    def sole(self, poses: np.ndarray, li: int, si: int) -> np.ndarray:
+        """Lowest point of shape ``si`` of link ``li``, in the link frame: a sphere's bottom, a flat face's middle."""
+        pts, r = self.per_link[li][si]
+        R, p = poses[li, :3, :3], poses[li, :3, 3]
+        world = pts @ R.T + p
+        z = world[:, 2]
+        low = world[z <= z.min() + max(_GROUND_TOL, 0.05 * float(np.ptp(z)))]
+        return R.T @ (low.mean(axis=0) - np.array([0.0, 0.0, r]) - p)
+
+
+# ---------------------------------------------------------------------------------------------
+# ends: tips of the tree, fingers merged
+# ---------------------------------------------------------------------------------------------
+@dataclass
+class _End:
+    attach: int
+    """Group index where the end branches off (the body or a branch point)."""
+    top: int
+    """Group where the end's own links start (its fingers merged below it where ``tips`` > 1)."""
+    tips: list[int]
+    joints: list[int]
+    """Moving joints from the root down to the end's tips (indices into ``m.joints``)."""
+    own: list[int]
+    """Moving joints this end alone uses."""
+
+
+class _Tree:
+    def __init__(self, m: Morphology, rest: np.ndarray) -> None:
+        self.m = m
+        group = [0] * m.link_count
+        for ji, j in enumerate(m.joints):
+            child = ji + 1
+            group[child] = group[m.link_parent[child]] if j.type == JointType.FIXED else child
+        self.group = group
+        self.members: dict[int, list[int]] = {}
+        for li, g in enumerate(group):
+            self.members.setdefault(g, []).append(li)
+        self.kids: dict[int, list[int]] = {g: [] for g in self.members}
+        for g in self.members:
+            if g:
+                self.kids[group[m.link_parent[g]]].append(g)
+        self.rest = rest
+
+    def tips_below(self, g: int) -> list[int]:
+        if not self.kids[g]:
+            return [g]
+        return [t for k in self.kids[g] for t in self.tips_below(k)]
+
+    def spread(self, g: int, tip: int) -> float:
+        """Rest distance [m] from group ``g``'s origin to the farthest link of ``tip``'s group."""
+        o = self.rest[g, :3, 3]
+        return max(float(np.linalg.norm(self.rest[li, :3, 3] - o)) for li in self.members[tip])
+
+    def path(self, g: int) -> list[int]:
+        """Moving joints from the root to group ``g``'s top link."""
+        out = []
+        li = g
+        while li:
+            j = self.m.joints[li - 1]
+            if j.type != JointType.FIXED:
+                out.append(li - 1)
+            li = self.m.link_parent[li]
+        return out[::-1]
+
+    def ends(self) -> list[_End]:
+        out: list[_End] = []
+
+        def visit(g: int, attach: int) -> None:
+            kids = self.kids[g]
+            if not kids:
+                out.append(_End(attach, g, [g], self.path(g), []))
+                return
+            if g and len(kids) > 1:
+                depth = float(np.linalg.norm(self.rest[g, :3, 3]))
+                tips = self.tips_below(g)
+                if max(self.spread(g, t) for t in tips) < _MERGE_FRACTION * depth:
+                    out.append(_End(attach, g, tips, self.path(g), []))
+                    return
+            for k in kids:
+                visit(k, g if len(kids) > 1 or g == 0 else attach)
+
+        visit(0, 0)
+        uses: dict[int, int] = {}
+        for e in out:
+            for ji in e.joints:
+                uses[ji] = uses.get(ji, 0) + 1
+        for e in out:
+            e.own = [ji for ji in e.joints if uses[ji] == 1]
+        return [e for e in out if e.joints]
+
+
+# ---------------------------------------------------------------------------------------------
+# the decision
+# ---------------------------------------------------------------------------------------------
+@dataclass
+class _Part:
+    end: _End
+    hint: str | None
+    frame: Frame | None
+    links: list[int]
+    reach: float = 0.0
+    foot: tuple[int, int] | None = None
+    """(link, shape index) of the shape a foot stands on."""
+    role: EndEffectorRole | None = None
+    reason: str = ""
+
+
+def _end_links(tree: _Tree, e: _End) -> list[int]:
+    """Every link of the end below the group it branches off."""
+    links: list[int] = []
+    for t in e.tips:
+        g = t
+        while g and g != e.attach:
+            links += tree.members[g]
+            g = tree.group[tree.m.link_parent[g]]
+    return sorted(set(links))
+
+
+def _rank(name: str) -> int:
+    """Order of a hinted name: earlier keywords of :data:`_HINTS` first (``head`` before ``jaw``)."""
+    words = [w for _, ws in _HINTS for w in ws]
+    tokens = _tokens(name)
+    return min((k for k, w in enumerate(words) for t in tokens if t == w or t.startswith(w)), default=len(words))
+
+
+def _hint_of(m: Morphology, tree: _Tree, e: _End, frames: Sequence[Frame]) -> tuple[str | None, Frame | None]:
+    """The first name hint on the end (its frames, its tip links, then up its own joints) and the hinted frame."""
+    links = _end_links(tree, e)
+    names = {m.links[li].name for li in links}
+    hinted = [f for f in frames if f.link in names and name_hint(f.name) not in (None, "skip")]
+    if hinted:
+        f = min(hinted, key=lambda f: _rank(f.name))
+        return name_hint(f.name), f
+    for li in sorted(links, reverse=True):
+        h = name_hint(m.links[li].name)
+        if h is not None:
+            return h, None
+    for ji in reversed(e.own):
+        for name in (m.joints[ji].name, m.joints[ji].child):
+            h = name_hint(name)
+            if h is not None:
+                return h, None
+    return None, None
+
+
+def _frames_of(m: Morphology, tree: _Tree, frames: Sequence[Frame]) -> list[Frame]:
+    """The given frames plus shape-less links fixed to a tip's group (a URDF's ``FR_toe``, ``grasptarget``)."""
+    out = list(frames)
+    for g, members in tree.members.items():
+        for li in members:
+            if li != g and not m.links[li].shapes and not any(f.link == m.links[li].name for f in out):
+                out.append(Frame(m.links[li].name, m.links[li].name, (0.0, 0.0, 0.0)))
+    return out
+
+
+def _point(poses: np.ndarray, m: Morphology, f: Frame) -> np.ndarray:
+    T = poses[m.link_index(f.link)]
+    return T[:3, :3] @ np.asarray(f.offset) + T[:3, 3]
+
+
+def _far_point(m: Morphology, shapes: _Shapes, poses: np.ndarray, part: _Part, origin: np.ndarray
+               ) -> tuple[int, np.ndarray]:
+    """(link, offset) of an arm end's point: its hinted frame, the middle of its fingertips, else its farthest point."""
+    if part.frame is not None:
+        return m.link_index(part.frame.link), np.asarray(part.frame.offset, dtype=float)
+    e = part.end
+    tips = []
+    for t in e.tips:
+        cands = []
+        for li in _tip_links(m, part, t):
+            R, p = poses[li, :3, :3], poses[li, :3, 3]
+            for pts, _r in shapes.per_link[li]:
+                cands += list(pts @ R.T + p)
+            cands.append(p)
+        tips.append(max(cands, key=lambda x: float(np.linalg.norm(x - origin))))
+    point = np.mean(tips, axis=0)
+    li = e.top if len(e.tips) > 1 else max(_tip_links(m, part, e.tips[0]))
+    R, p = poses[li, :3, :3], poses[li, :3, 3]
+    return li, R.T @ (point - p)
+
+
+def _tip_links(m: Morphology, part: _Part, tip: int) -> list[int]:
+    return [li for li in part.links if li >= tip and _under(m, li, tip)]
+
+
+def _under(m: Morphology, li: int, g: int) -> bool:
+    while li > g:
+        li = m.link_parent[li]
+    return li == g
+
+
+def _classify(m: Morphology, parts: list[_Part], kin: _Kinematics, shapes: _Shapes, poses: np.ndarray,
+              fixed: bool) -> None:
+    rng = np.random.default_rng(0)
+    for p in parts:
+        if p.hint == "skip":
+            continue
+        values = np.concatenate([kin.rest[None], kin.sample(p.end.joints, _SAMPLES, rng)])
+        low = kin.poses(values)
+        p.reach = min(_lowest_z(shapes, low[k], p.links) for k in range(len(values)))
+    live = [p for p in parts if p.hint != "skip"]
+    for p in parts:
+        if p.hint == "skip":
+            p.reason = "named like a tail or a sensor: not an end-effector"
+    if fixed:
+        for p in live:
+            _arm_role(p, "fixed base: an arm's end")
+        return
+    deepest = min((p.reach for p in live), default=0.0)
+    ref_low = {id(p): _lowest_z(shapes, poses, p.links) for p in live}
+    ground_ref = min(ref_low.values(), default=0.0)
+    for p in live:
+        if p.hint is None and _on_midline(m, poses, p) and poses[p.links[0], 0, 3] < 0:
+            p.hint = "skip"
+            p.reason = "a chain on the midline behind the body (a tail): not an end-effector"
+    live = [p for p in live if p.hint != "skip"]
+    candidates = [p for p in live if p.reach <= deepest + LEG_DEPTH_FRACTION * abs(deepest)
+                  and not _on_midline(m, poses, p)]
+    if len(candidates) < 2:  # one chain reaching down is an arm on a pedestal, not a body on legs
+        candidates = []
+    for p in live:
+        near = p in candidates
+        resting = ref_low[id(p)] <= ground_ref + _PAW_FRACTION * abs(ground_ref)
+        if deepest >= 0 or not near:
+            continue
+        if p.hint in ("hand", "tool", "head") and not resting:
+            continue
+        p.role = EndEffectorRole.FOOT
+        how = f"reaches {-p.reach:.2f} m below the root (deepest end {-deepest:.2f} m)"
+        p.reason = f"a leg: {how}" + (f"; named like a {p.hint} but rests on the ground" if p.hint in
+                                        ("hand", "tool", "head") else "")
+    for p in live:
+        if p.role is not None:
+            continue
+        head_like = p.end.top in (p.end.tips[0],) and len(p.end.own) <= 3
+        centre = poses[p.links[0], :3, 3]
+        if p.hint == "head" or (p.hint is None and head_like and centre[0] > 0 and centre[2] > 0
+                                and abs(centre[1]) < 0.25 * abs(centre[0])):
+            p.role = EndEffectorRole.HEAD
+            p.reason = "named like a head" if p.hint == "head" else "a short chain ahead of and above the body"
+        else:
+            why = "does not reach the ground as the legs do" if deepest < 0 else "nothing reaches below the body"
+            _arm_role(p, why)
+
+
+def _on_midline(m: Morphology, poses: np.ndarray, p: _Part) -> bool:
+    """Whether the end's joints and tip lie in the creature's plane of symmetry (a tail or a neck, not a leg)."""
+    y = [poses[ji + 1, 1, 3] for ji in p.end.own] + [poses[li, 1, 3] for li in p.links]
+    size = max(float(np.abs(poses[:, :3, 3]).max()), 1e-6)
+    return float(np.abs(y).max()) < 0.02 * size
+
+
+def _lowest_z(shapes: _Shapes, poses: np.ndarray, links: Sequence[int]) -> float:
+    """Lowest shape point of ``links`` [m], their lowest origin where they carry no shapes."""
+    low = shapes.lowest(poses, links)
+    return low if math.isfinite(low) else float(min(poses[li, 2, 3] for li in links))
+
+
+def _arm_role(p: _Part, why: str) -> None:
+    gripper = len(p.end.tips) > 1 or p.hint == "tool"
+    p.role = EndEffectorRole.TOOL if gripper else EndEffectorRole.HAND
+    where = "between its fingers" if len(p.end.tips) > 1 and p.frame is None else "at its tool frame" \
+        if p.frame is not None else "at its farthest point"
+    p.reason = f"an arm ({why}); {'tool' if gripper else 'hand'} {where}"
+
+
+# ---------------------------------------------------------------------------------------------
+# stance
+# ---------------------------------------------------------------------------------------------
+def _leg_geometry(m: Morphology, kin: _Kinematics, shapes: _Shapes, part: _Part, poses: np.ndarray
+                  ) -> tuple[np.ndarray, list[int]]:
+    """The hip point [3] (root frame, at rest) under which the foot stands, and the leg's own 1-DoF joints."""
+    own = [ji for ji in part.end.own if m.joints[ji].type in _ONE_DOF and m.joints[ji].mimic is None]
+    anchors = np.array([poses[ji + 1, :3, 3] for ji in own])
+    hip = np.array([anchors[0, 0], anchors[-1, 1], anchors[0, 2]]) if len(anchors) else poses[part.links[0], :3, 3]
+    return hip, own
+
+
+def _foot_shape(tree: _Tree, shapes: _Shapes, poses: np.ndarray, p: _Part) -> tuple[int, int] | None:
+    """The shape a foot stands on: on the leg's last rigid group that has shapes, the farthest from its joint."""
+    g = p.end.tips[0]
+    while g and g != p.end.attach:
+        found = shapes.distal(poses, tree.members[g], poses[g, :3, 3])
+        if found is not None:
+            return found
+        g = tree.group[tree.m.link_parent[g]]
+    return None
+
+
+def _sole(shapes: _Shapes, poses: np.ndarray, part: _Part) -> tuple[int, np.ndarray]:
+    """(link, offset) of a foot's sole at ``poses``: its distal shape's lowest point, else its tip link's origin."""
+    if part.foot is None:
+        return max(part.links), np.zeros(3)
+    li, si = part.foot
+    return li, shapes.sole(poses, li, si)
+
+
+def _sole_world(m: Morphology, shapes: _Shapes, poses: np.ndarray, part: _Part) -> np.ndarray:
+    li, off = _sole(shapes, poses, part)
+    return poses[li, :3, :3] @ off + poses[li, :3, 3]
+
+
+def _reference_stands(m: Morphology, kin: _Kinematics, shapes: _Shapes, legs: list[_Part], poses: np.ndarray
+                      ) -> str | None:
+    """Why the reference pose is not a stance (``None`` where it is one)."""
+    soles = np.array([_sole_world(m, shapes, poses, p) for p in legs])
+    ground = float(soles[:, 2].min())
+    if ground >= -1e-3:
+        return "its feet are not below the body"
+    if float(soles[:, 2].max()) > ground + max(_FOOT_TOL, 0.05 * abs(ground)):
+        return "its feet are not level"
+    leg_links = {li for p in legs for li in p.links}
+    others = [li for li in range(m.link_count) if li not in leg_links]
+    if shapes.lowest(poses, others) < ground + _FOOT_TOL or any(
+        shapes.lowest(poses, [li]) < ground - _GROUND_TOL for li in leg_links
+    ):
+        return "a link other than the feet touches the ground"
+    for p in legs:
+        hip, own = _leg_geometry(m, kin, shapes, p, poses)
+        reach = _leg_reach(m, kin, shapes, p, own)
+        sole = _sole_world(m, shapes, poses, p)
+        if np.linalg.norm(sole - poses[own[0] + 1, :3, 3]) > _STRAIGHT * reach:
+            return "its legs are straight"
+        if np.linalg.norm((sole - hip)[:2]) > _UNDER_HIP * reach:
+            return "its feet are not under the hips"
+    return None
+
+
+def _leg_reach(m: Morphology, kin: _Kinematics, shapes: _Shapes, p: _Part, own: list[int]) -> float:
+    """Largest distance [m] from the leg's first joint to its sole over joint-limit samples."""
+    values = kin.sample(own, 128, np.random.default_rng(1))
+    poses = kin.poses(values)
+    return max(float(np.linalg.norm(_sole_world(m, shapes, poses[k], p) - poses[k, own[0] + 1, :3, 3]))
+               for k in range(len(values)))
+
+
+def _solve_leg(m: Morphology, kin: _Kinematics, shapes: _Shapes, p: _Part, own: list[int], base: np.ndarray,
+               target: np.ndarray, knee_sign: float, hip: np.ndarray) -> tuple[float, np.ndarray]:
+    """Best values for the leg's joints putting its sole at ``target``: (cost, values [joint_count])."""
+    lo, hi = kin.lower[own], kin.upper[own]
+    starts = [base[own], 0.5 * (lo + hi), lo + 0.25 * (hi - lo), lo + 0.75 * (hi - lo)]
+    rng = np.random.default_rng(2)
+    starts += list(rng.uniform(lo, hi, (6, len(own))))
+    best = (math.inf, base)
+    for x0 in starts:
+        x = np.clip(np.asarray(x0, dtype=float), lo, hi)
+        for _ in range(40):
+            vals = np.tile(base, (len(own) + 1, 1))
+            vals[:, own] = x
+            for k in range(len(own)):
+                vals[k + 1, own[k]] += 1e-5
+            poses = kin.poses(vals)
+            f = np.array([_sole_world(m, shapes, poses[k], p) for k in range(len(own) + 1)])
+            err = target - f[0]
+            if np.linalg.norm(err) < 1e-4:
+                break
+            J = ((f[1:] - f[0]) / 1e-5).T
+            step = J.T @ np.linalg.solve(J @ J.T + 1e-4 * np.eye(3), err)
+            x = np.clip(x + step, lo, hi)
+        vals = base.copy()
+        vals[own] = x
+        poses = kin.poses(vals[None])[0]
+        err = float(np.linalg.norm(target - _sole_world(m, shapes, poses, p)))
+        under = max(0.0, target[2] - shapes.lowest(poses, p.links) - _GROUND_TOL)
+        knee = _knee_offset(poses, own, hip, target)
+        cost = 10.0 * err + 10.0 * under + (0.0 if knee * knee_sign >= 0 else 0.01)
+        if cost < best[0]:
+            best = (cost, vals)
+    return best
+
+
+def _knee_offset(poses: np.ndarray, own: list[int], hip: np.ndarray, foot: np.ndarray) -> float:
+    """Fore-aft offset [m] of the leg's joint farthest from the hip–foot line (+: ahead)."""
+    line = foot - hip
+    line /= max(np.linalg.norm(line), 1e-9)
+    best, off = 0.0, 0.0
+    for ji in own[1:]:
+        a = poses[ji + 1, :3, 3] - hip
+        d = a - (a @ line) * line
+        if np.linalg.norm(d) > best:
+            best, off = float(np.linalg.norm(d)), float(d[0])
+    return off
+
+
+def _find_stance(m: Morphology, kin: _Kinematics, shapes: _Shapes, legs: list[_Part], poses: np.ndarray
+                 ) -> tuple[np.ndarray, str] | None:
+    geo = [_leg_geometry(m, kin, shapes, p, poses) for p in legs]
+    reaches = [_leg_reach(m, kin, shapes, p, own) for p, (_hip, own) in zip(legs, geo, strict=True)]
+    ext0 = STANCE_EXTENSION.get(len(legs), STANCE_EXTENSION[0])
+    knee_sign = 1.0 if len(legs) == 2 else -1.0
+    best: tuple[float, np.ndarray, float] | None = None
+    for ext in (ext0, ext0 - 0.05, ext0 + 0.05, ext0 - 0.1):
+        h = ext * min(reaches)
+        values = kin.rest.copy()
+        cost = 0.0
+        for p, (hip, own) in zip(legs, geo, strict=True):
+            if not own:
+                continue
+            target = np.array([hip[0], hip[1], hip[2] - h])
+            c, vals = _solve_leg(m, kin, shapes, p, own, values, target, knee_sign, hip)
+            values[own] = vals[own]
+            cost += c
+        if best is None or cost < best[0] - 1e-6:
+            best = (cost, values, ext)
+        if cost < 0.01 * len(legs):
+            break
+    if best is None:
+        return None
+    cost, values, ext = best
+    return values, f"searched: feet under the hips at {ext:.2f} of the legs' reach, body level"
+
+
+def _rest_pose_of(m: Morphology, values: np.ndarray) -> dict[str, float]:
+    return {j.name: float(values[i]) for i, j in enumerate(m.joints)
+            if j.type in _ONE_DOF and j.mimic is None and abs(values[i]) > 1e-12}
+
+
+# ---------------------------------------------------------------------------------------------
+# entry points
+# ---------------------------------------------------------------------------------------------
+def complete_anatomy(m: Morphology, *, frames: Sequence[Frame] = (), base_declared: bool = True,
+                     reference: str = "q = 0") -> Morphology:
+    """``m`` with end-effectors, base type and rest pose decided from its body where the file named none.
+
+    Args:
+        m: A morphology read from a file without end-effectors.
+        frames: Named points on links (MJCF sites) that may mark a foot, hand or head.
+        base_declared: Whether the file said how the base moves (a URDF ``world`` joint, an MJCF ``free``
+            joint); if not, a floating base without feet becomes fixed.
+        reference: What ``m``'s rest pose is, for the notes (``"q = 0"`` or ``"keyframe 'home'"``).
+
+    Returns:
+        ``m`` unchanged where it has end-effectors; else a copy with guessed end-effectors (each with
+        its :attr:`~morphkit.graph.EndEffector.reason`), maybe a fixed base and a found
+        :attr:`~morphkit.graph.Morphology.rest_pose`, and :attr:`~morphkit.graph.Morphology.notes`.
+    """
+    if m.end_effectors or m.joint_count == 0:
+        return m
+    kin = _Kinematics(m)
+    poses = kin.poses(kin.rest[None])[0]
+    return _complete(m, kin, _Shapes(m), poses, _frames_of(m, _Tree(m, poses), frames), base_declared, reference)
+
+
+def _complete(m: Morphology, kin: _Kinematics, shapes: _Shapes, poses: np.ndarray, frames: list[Frame],
+              base_declared: bool, reference: str) -> Morphology:
+    tree = _Tree(m, poses)
+    parts = []
+    for e in tree.ends():
+        hint, frame = _hint_of(m, tree, e, frames)
+        parts.append(_Part(e, hint, frame, _end_links(tree, e)))
+    fixed = m.base in (BaseType.FIXED, BaseType.WHEELED, BaseType.PLANAR)
+    _classify(m, parts, kin, shapes, poses, fixed)
+    notes: list[str] = []
+    base = m.base
+    legs = [p for p in parts if p.role == EndEffectorRole.FOOT]
+    for p in legs:
+        p.foot = _foot_shape(tree, shapes, poses, p)
+    if base == BaseType.FLOATING and not legs and not base_declared:
+        base = BaseType.FIXED
+        notes.append("base: fixed — no chain carries the body and the file does not say the base floats")
+        for p in parts:
+            if p.role is not None and p.role != EndEffectorRole.HEAD:
+                _arm_role(p, "fixed base: an arm's end")
+    values = kin.rest.copy()
+    rest_note = f"rest pose: {reference}"
+    if legs and base == BaseType.FLOATING:
+        why = _reference_stands(m, kin, shapes, legs, poses)
+        if why is not None:
+            found = _find_stance(m, kin, shapes, legs, poses)
+            if found is not None:
+                values, how = found
+                rest_note = f"rest pose: {how} ({reference} is no stance: {why})"
+                poses = kin.poses(values[None])[0]
+        else:
+            rest_note += " (stands: feet lowest and level, legs bent)"
+    notes.append(rest_note)
+    ees = []
+    taken: set[str] = set()
+    for p in parts:
+        if p.role is None:
+            continue
+        if p.role == EndEffectorRole.FOOT:
+            li, off = _sole(shapes, poses, p)
+        else:
+            li, off = _far_point(m, shapes, poses, p, poses[p.links[0], :3, 3])
+        tip = max(p.links) if len(p.end.tips) == 1 else p.end.top
+        name = p.frame.name if p.frame is not None else m.links[tip].name
+        while name in taken:
+            name += "_"
+        taken.add(name)
+        ees.append(EndEffector(name, m.links[li].name, tuple(float(v) for v in off),  # type: ignore[arg-type]
+                               p.role, m.links[li].location, reason=p.reason))
+    rest = _rest_pose_of(m, values) if values is not kin.rest else dict(m.rest_pose)
+    return dataclasses.replace(m, base=base, end_effectors=tuple(ees), rest_pose=tuple(rest.items()),
+                               notes=(*m.notes, *notes))
+
+
+def leg_like_chains(m: Morphology) -> list[str]:
+    """Tip links of chains that look like legs (reach the ground as deep as the deepest) but carry no foot."""
+    if m.base != BaseType.FLOATING or not m.joint_count:
+        return []
+    kin = _Kinematics(m)
+    poses = kin.poses(kin.rest[None])[0]
+    tree = _Tree(m, poses)
+    parts = [_Part(e, None, None, _end_links(tree, e)) for e in tree.ends()]
+    _classify(m, parts, kin, _Shapes(m), poses, False)
+    feet_links = {m.link_index(e.link) for e in m.end_effectors if e.role == EndEffectorRole.FOOT}
+    return [m.links[max(p.links)].name for p in parts
+            if p.role == EndEffectorRole.FOOT and not feet_links.intersection(p.links)]
+
+
+def anatomy_warnings(m: Morphology) -> list[str]:
+    """What a user must fix before training on ``m``, each with the fix (empty when nothing)."""
+    out = []
+    legs = leg_like_chains(m)
+    if legs and not m.ee_by_role(EndEffectorRole.FOOT):
+        out.append(
+            f"{m.name}: {len(legs)} leg-like chain(s) ({', '.join(legs)}) but no feet: synthesis will glide. Fix: "
+            "name them in the description (YAML end_effectors, URDF <end_effector role=\"foot\">, or an MJCF side "
+            "file <model>.morphkit.yaml) or remove the end-effectors it declares so morphkit guesses them"
+        )
+    return out
