@@ -15,6 +15,7 @@ human | creature side by side. Re-running the same command resumes the run.
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 from pathlib import Path
 
@@ -42,6 +43,7 @@ def main(argv: list[str] | None = None) -> int:
 def run(args: argparse.Namespace) -> int:
     from morphkit.evaluation.table import dataset_row, evaluate_clips, pooled_skating, reference_data, write_table
     from morphkit.io import read_morphology
+    from morphkit.io.anatomy import anatomy_warnings
     from morphkit.motion import write_motion_files
     from morphkit.retarget import WithContacts, load
     from morphkit.retarget.ace.config import preset
@@ -53,6 +55,14 @@ def run(args: argparse.Namespace) -> int:
     name = "smoke" if args.smoke else args.preset
     cfg = replace_config(preset(name), args.set) if args.set else preset(name)
     creature = read_morphology(args.creature)
+    for line in creature.notes:  # first, before minutes of training
+        print(f"note: {line}", file=sys.stderr)
+    for line in anatomy_warnings(creature):
+        print(f"warning: {line}", file=sys.stderr)
+    if not creature.end_effectors:
+        print(f"error: {args.creature}: no end-effectors found; name them in the description (YAML end_effectors, "
+              "URDF <end_effector>, MJCF side file <model>.morphkit.yaml)", file=sys.stderr)
+        return 2
     out = Path(args.out) if args.out else Path("runs") / f"ace_{creature.name}_{name}"
     train_ace(out, creature, cfg, human_data=args.human_data)
 

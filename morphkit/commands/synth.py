@@ -41,6 +41,7 @@ def run(args: argparse.Namespace) -> int:
     from morphkit.errors import ConfigError
     from morphkit.graph import BaseType
     from morphkit.io import read_morphology
+    from morphkit.io.anatomy import anatomy_warnings
     from morphkit.io.shipped import resolve_morphology
     from morphkit.synth import SynthConfig, SynthResult, analyse, iter_synthesize, prepare
     from morphkit.synth.core import rollout_count
@@ -97,7 +98,7 @@ def run(args: argparse.Namespace) -> int:
     with contextlib.redirect_stdout(sys.stderr):
         start = time.perf_counter()
         rig = prepare(morphology, fps=args.fps, config=config)  # calibrated once: iter_synthesize reuses it
-        told = list(rig.legs.warnings) if rig.legs is not None else []
+        told = anatomy_warnings(morphology) + (list(rig.legs.warnings) if rig.legs is not None else [])
         warn(told)
         batches = iter_synthesize(morphology, frames=args.frames, fps=args.fps, seed=args.seed, config=config,
                                   progress=not args.no_progress)

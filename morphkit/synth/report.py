@@ -43,10 +43,12 @@ from typing import Any
 
 import numpy as np
 
+from morphkit.graph import JointType, Morphology
 from morphkit.model import compile_model
 from morphkit.motion.motion import Motion
+from morphkit.synth.analysis import Limb
 
-__all__ = ["REPORT_KEYS", "format_report", "quality_report"]
+__all__ = ["REPORT_KEYS", "format_report", "limit_advice", "quality_report"]
 
 WARN_SLIDING_CM_S = 1.0
 """A leg whose stance foot slides faster than this on average [cm/s] is named in the warnings."""
@@ -96,6 +98,15 @@ def _ground_allowance(m, model, feet: np.ndarray) -> np.ndarray:
             on = np.isin(shape_link, [m.link_index(n) for n in below])
             allow[on] = np.maximum(allow[on], np.maximum(ee_z[e] - low[on], 0.0))
     return allow
+
+
+def limit_advice(m: Morphology, leg: Limb) -> str:
+    """The fix for a leg that cannot reach: widen the limits it has, else (joints that turn freely) its geometry."""
+    limited = [m.joint(n).name for n in leg.joints if m.joint(n).type in (JointType.REVOLUTE, JointType.PRISMATIC)]
+    if limited:
+        return f"widen the limits of {', '.join(limited)} or lengthen the leg's segments in the description"
+    return ("its joints turn freely, so the segments are what limit it: lengthen them, or give a rest pose with the "
+            "knees bent (YAML rest_pose, URDF <rest_pose>, an MJCF keyframe 'home')")
 
 
 def _swings(h: np.ndarray, xy: np.ndarray, contact: np.ndarray) -> list[tuple[int, float, float]]:
@@ -298,16 +309,15 @@ def quality_report(result: Any, *, height_threshold: float = 0.02, collision_tol
             if entry["sliding_cm_s"] > WARN_SLIDING_CM_S:
                 warnings.append(f"leg {leg.end_effector}: its stance foot slides {entry['sliding_cm_s']:.2g} cm/s "
                                 "on average: IK cannot hold it where it stands at the body's dips and tilts (a joint "
-                                "at its limit, or the foot out of reach): widen the leg's joint limits or lengthen "
-                                "its segments in the description")
+                                f"at its limit, or the foot out of reach): {limit_advice(m, leg)}")
             if entry["swings"] and entry["step_length_m"] < WARN_STEP_FRACTION * leg.reach:
                 warnings.append(f"leg {leg.end_effector}: steps {100 * entry['step_length_m']:.2g} cm on average, "
-                                f"under a tenth of its {100 * leg.reach:.3g} cm reach: widen its hip's limits, or "
-                                "space the legs further apart if they would collide")
+                                f"under a tenth of its {100 * leg.reach:.3g} cm reach: {limit_advice(m, leg)}"
+                                ", or space the legs further apart if they would collide")
             if entry["swings"] and entry["step_height_m"] < WARN_STEP_HEIGHT_M:
                 warnings.append(f"leg {leg.end_effector}: lifts its foot {100 * entry['step_height_m']:.2g} cm "
-                                "on average: a higher foot is out of reach (bend the knee in the rest pose, or widen "
-                                "its limits)")
+                                "on average: a higher foot is out of reach (bend the knee in the rest pose, or "
+                                f"{limit_advice(m, leg)})")
         out["legs"] = legs
     if hasattr(result, "gait") and getattr(result, "gait_names", ()):
         g = np.concatenate(result.gait)
