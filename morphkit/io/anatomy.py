@@ -322,7 +322,8 @@ class _Tree:
                 uses[ji] = uses.get(ji, 0) + 1
         for e in out:
             e.own = [ji for ji in e.joints if uses[ji] == 1]
-        return [e for e in out if e.joints]
+        # An end none of whose own joints moves by itself (a mimic follower) is no limb.
+        return [e for e in out if any(self.m.joints[ji].mimic is None for ji in e.own)]
 
 
 # ---------------------------------------------------------------------------------------------

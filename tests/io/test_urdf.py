@@ -84,7 +84,10 @@ J_AB = '<joint name="j" type="continuous"><parent link="a"/><child link="b"/></j
         ("planar", "", BaseType.PLANAR),
         ("fixed", "", BaseType.FIXED),
         ("planar", '<base type="wheeled"/>', BaseType.WHEELED),  # the extension element wins
-        (None, "", BaseType.FLOATING),
+        # Nothing said and no chain that carries the body (an arm): fixed, as issue 46 asks;
+        # a body with legs floats (tests/io/test_anatomy.py).
+        (None, "", BaseType.FIXED),
+        (None, '<base type="floating"/>', BaseType.FLOATING),
         (None, '<base type="fixed"/>', BaseType.FIXED),
     ],
 )
