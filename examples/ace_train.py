@@ -63,6 +63,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"error: {args.creature}: no end-effectors found; name them in the description (YAML end_effectors, "
               "URDF <end_effector>, MJCF side file <model>.morphkit.yaml)", file=sys.stderr)
         return 2
+    _warn_unrealistic_data(creature, cfg)
     out = Path(args.out) if args.out else Path("runs") / f"ace_{creature.name}_{name}"
     train_ace(out, creature, cfg, human_data=args.human_data)
 
@@ -90,6 +91,20 @@ def run(args: argparse.Namespace) -> int:
     _videos(results[: 1 if args.smoke else args.videos], out / "videos", sheet=args.smoke)
     print(f"done in {time.perf_counter() - started:.0f} s: {out}")
     return 0
+
+
+def _warn_unrealistic_data(creature, cfg) -> None:
+    """Warn before training when the synthesised data ACE learns from are unrealistic (UFR above 5 %)."""
+    from morphkit.metrics import UnrealisticFrames, unrealistic_frame_ratio
+    from morphkit.retarget.training_data import character_motions
+
+    character = character_motions(creature, cfg.data)  # cached: training reads the same motions
+    ufr = UnrealisticFrames.concatenate([unrealistic_frame_ratio(m) for m in character])
+    if ufr.ratio > 0.05:
+        causes = ", ".join(f"{k.replace('_', ' ')} {100 * v:.1f} %" for k, v in ufr.cause_ratios().items() if v)
+        print(f"warning: {creature.name}: {100 * ufr.ratio:.1f} % of the synthesised training frames are unrealistic "
+              f"({causes}); ACE learns what it is shown. Check the stance and feet with `morphkit info` and "
+              "`morphkit synth --report`, then give a rest pose or name the feet in the description", file=sys.stderr)
 
 
 def _videos(results: list, folder: Path, *, sheet: bool) -> None:

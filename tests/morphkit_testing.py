@@ -218,3 +218,42 @@ def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return s.getsockname()[1]
+
+
+# ---- robots from the field's model libraries (issue 46's development set) ----------------------
+def pybullet_data_file(relative: str) -> str:
+    """A file of the ``pybullet`` wheel's ``pybullet_data`` (e.g. ``aliengo/aliengo.urdf``); skips without it."""
+    import os
+
+    pybullet_data = pytest.importorskip("pybullet_data", reason="pybullet (the dev extra) ships the URDFs")
+    path = os.path.join(pybullet_data.getDataPath(), relative)
+    if not os.path.isfile(path):
+        pytest.skip(f"pybullet_data has no {relative}")
+    return path
+
+
+def playground_xml(robot: str, file: str) -> str:
+    """An MJCF of MuJoCo Playground's locomotion robots (``berkeley_humanoid``, ``op3``); skips without it.
+
+    The ``playground`` wheel pulls JAX, so it is not in the dev extra; ``pip install playground --no-deps``
+    gives the files (their meshes point into a Menagerie checkout and are missing: the reader leaves them out).
+    """
+    import importlib.util
+    import os
+
+    spec = importlib.util.find_spec("mujoco_playground")
+    if spec is None or not spec.submodule_search_locations:
+        pytest.skip("mujoco_playground not installed (pip install playground --no-deps)")
+    path = os.path.join(next(iter(spec.submodule_search_locations)), "_src", "locomotion", robot, "xmls", file)
+    if not os.path.isfile(path):
+        pytest.skip(f"mujoco_playground has no {robot}/xmls/{file}")
+    return path
+
+
+def dm_suite_xml(name: str) -> str:
+    """An MJCF of dm_control's suite (``dog.xml``, ``quadruped.xml``); skips without dm_control."""
+    import os
+
+    pytest.importorskip("mujoco")
+    dm_control = pytest.importorskip("dm_control")
+    return os.path.join(os.path.dirname(dm_control.__file__), "suite", name)

@@ -240,7 +240,14 @@ class _Shapes:
         R, p = poses[li, :3, :3], poses[li, :3, 3]
         world = pts @ R.T + p
         z = world[:, 2]
-        low = world[z <= z.min() + max(_GROUND_TOL, 0.05 * float(np.ptp(z)))]
+        if len(pts) == 8 and r == 0.0:
+            # A box (or a mesh's bounds): the middle of the face that looks most downward, so that a flat
+            # foot tilted a little at the reference pose stands on its sole, not on its heel's edge.
+            corner = np.array(list(np.ndindex(2, 2, 2)))
+            faces = [corner[:, axis] == side for axis in range(3) for side in (0, 1)]
+            low = world[min(faces, key=lambda f: float(z[f].mean()))]
+        else:
+            low = world[z <= z.min() + max(_GROUND_TOL, 0.05 * float(np.ptp(z)))]
         return R.T @ (low.mean(axis=0) - np.array([0.0, 0.0, r]) - p)
 
 
@@ -287,6 +294,15 @@ class _Tree:
         o = self.rest[g, :3, 3]
         return max(float(np.linalg.norm(self.rest[li, :3, 3] - o)) for li in self.members[tip])
 
+    def chain_length(self, g: int) -> float:
+        """Length [m] of the chain from the root to link ``g`` (its joints' offsets: the same in any pose,
+        where a folded q = 0 brings a wrist close to the base)."""
+        out, li = 0.0, g
+        while li:
+            out += float(np.linalg.norm(self.m.joints[li - 1].origin.xyz))
+            li = self.m.link_parent[li]
+        return out
+
     def path(self, g: int) -> list[int]:
         """Moving joints from the root to group ``g``'s top link."""
         out = []
@@ -307,7 +323,7 @@ class _Tree:
                 out.append(_End(attach, g, [g], self.path(g), []))
                 return
             if g and len(kids) > 1:
-                depth = float(np.linalg.norm(self.rest[g, :3, 3]))
+                depth = self.chain_length(g)
                 tips = self.tips_below(g)
                 if max(self.spread(g, t) for t in tips) < _MERGE_FRACTION * depth:
                     out.append(_End(attach, g, tips, self.path(g), []))
@@ -702,7 +718,10 @@ def _complete(m: Morphology, kin: _Kinematics, shapes: _Shapes, poses: np.ndarra
     rest_note = f"rest pose: {reference}"
     if legs and base == BaseType.FLOATING:
         why = _reference_stands(m, kin, shapes, legs, poses)
-        if why is not None:
+        if why is not None and m.rest_pose:
+            # The file's own stance (a keyframe, a YAML rest_pose) is kept; the note says what looks off.
+            rest_note += f" (kept as the file gives it, though {why})"
+        elif why is not None:
             found = _find_stance(m, kin, shapes, legs, poses)
             if found is not None:
                 values, how = found

@@ -26,16 +26,20 @@ the compiled model, so morphkit sees exactly the kinematics MuJoCo simulates:
   (radius: the mean of the other two) or a sphere when the semi-axes are equal within 1 %; a mesh keeps
   its file (scale and MuJoCo's re-centring undone in its origin), or its bounding box where it was given
   inline; planes and height fields (the ground) are skipped.
-- End-effectors: sites and childless bodies whose names hold a limb keyword (foot, toe, hand, palm,
-  head, … as the BVH reader guesses), one per limb (the lowest foot, the farthest hand); a hand resting
-  on the ground (below 35 % of the root's height) is a front paw and becomes a foot. A side file
-  ``<model>.morphkit.yaml`` beside the model replaces the guess::
+- End-effectors: decided from the body by :func:`morphkit.io.anatomy.complete_anatomy` (feet at the
+  soles of the chains that carry it, hands and tools at the ends of the others, a head ahead of the
+  body), with sites and names as hints. A side file ``<model>.morphkit.yaml`` beside the model
+  replaces the guess::
 
       body: torso                      # which world body is the creature
       end_effectors:
         front_left: {site: palm_L, role: foot}
         nose: {link: skull, offset: [0.1, 0, 0], role: head}
 
+- A keyframe named ``home``, ``stand``, ``standing``, ``default``, ``init`` or ``rest`` (first found in
+  that order) is the rest pose; ``<contact><exclude>`` pairs are never checked for self-collision.
+  Mesh files that are missing (a Playground robot without its Menagerie checkout) are left out with
+  one warning; primitive geoms carry the kinematics and contacts.
 - ``equality joint`` with a linear polynomial and a second joint becomes a mimic; other equality
   constraints (tendons, welds, connects) do not act on kinematics and are skipped with a warning.
 
@@ -201,12 +205,53 @@ def _compile(path: Path) -> Any:
     try:
         return mujoco.MjModel.from_xml_path(str(path))
     except ValueError as exc:
+        model = _compile_without_missing_meshes(path) if "Error opening file" in str(exc) else None
+        if model is None:
+            raise _compiler_error(exc, path) from None
+        return model
+
+
+def _compile_without_missing_meshes(path: Path) -> Any:
+    """The model with the geoms of missing mesh files left out (one warning), or None where none is missing.
+
+    Files are often shipped without their visual meshes (MuJoCo Playground's robots point into a
+    Menagerie checkout); their collision geoms are primitives, which is all kinematics needs.
+    """
+    import mujoco
+
+    try:
+        spec = mujoco.MjSpec.from_file(str(path))
+    except ValueError:
+        return None
+    folder = path.resolve().parent / (spec.meshdir or "")
+    missing = [m for m in spec.meshes if m.file and not (folder / m.file).is_file()]
+    if not missing:
+        return None
+    names = {m.name for m in missing}
+    geoms = [g for g in spec.worldbody.find_all(mujoco.mjtObj.mjOBJ_GEOM)
+             if g.type == mujoco.mjtGeom.mjGEOM_MESH and g.meshname in names]
+    for g in geoms:
+        spec.delete(g)
+    for m in missing:
+        spec.delete(m)
+    warnings.warn(
+        f"{path}: {len(missing)} mesh file(s) not found (first: {missing[0].file}); reading without their "
+        f"{len(geoms)} geom(s) — primitive shapes stay, so kinematics and contacts hold; renders lose those meshes",
+        stacklevel=4,
+    )
+    try:
+        return spec.compile()
+    except ValueError as exc:
         raise _compiler_error(exc, path) from None
 
 
 # ---------------------------------------------------------------------------------------------
 # compiled model -> graph
 # ---------------------------------------------------------------------------------------------
+_STANCE_KEYS = ("home", "stand", "standing", "default", "init", "rest")
+"""Keyframe names read as the rest pose, in order of preference (Menagerie and Playground use ``home``)."""
+
+
 def _pose(pos: Any, quat_wxyz: Any) -> np.ndarray:
     return np.array([*np.asarray(pos, dtype=float), *quat_wxyz_to_xyzw(np.asarray(quat_wxyz, dtype=float))])
 
@@ -304,7 +349,30 @@ class _Builder:
                 self._body(i)
         for i in bodies:
             self._shapes(i)
+        self.rest_key = self._rest_from_keyframe(bodies)
+        for sig in np.asarray(m.exclude_signature, dtype=np.int64)[: m.nexclude]:
+            pair = [self.body_link.get(int(b)) for b in (sig >> 16, sig & 0xFFFF)]
+            if None not in pair and pair[0] != pair[1]:
+                self.b.exclude_collision(*pair)  # type: ignore[arg-type]
         return self.b, bodies
+
+    def _rest_from_keyframe(self, bodies: list[int]) -> str | None:
+        """Set the rest pose from the first keyframe named like a stance; its name, or None where none is."""
+        m = self.model
+        keys = {_name(m, self.mj.mjtObj.mjOBJ_KEY, k, "").lower(): k for k in range(m.nkey)}
+        name = next((n for n in _STANCE_KEYS if n in keys), None)
+        if name is None:
+            return None
+        qpos = np.asarray(m.key_qpos[keys[name]], dtype=float)
+        inside = set(bodies)
+        rest = {}
+        for j in range(m.njnt):
+            if int(m.jnt_bodyid[j]) in inside and int(m.jnt_type[j]) in (_HINGE, _SLIDE) and j not in self.mimic_of:
+                adr = int(m.jnt_qposadr[j])
+                if abs(qpos[adr] - m.qpos0[adr]) > 1e-12:
+                    rest[self._joint_name(j)] = float(qpos[adr] - m.qpos0[adr])
+        self.b.set_rest_pose(rest, location=self.loc)
+        return _name(m, self.mj.mjtObj.mjOBJ_KEY, keys[name], name)
 
     def _body(self, i: int) -> None:
         m = self.model
@@ -539,7 +607,8 @@ def morphology_from_mjmodel(
     if side_doc is not None and "end_effectors" in side_doc[0]:
         _side_end_effectors(bld, Path(side), *side_doc)  # type: ignore[arg-type]
         return bld.b.build()
-    return complete_anatomy(bld.b.build(), frames=bld.sites(bodies), base_declared=True)
+    reference = f"keyframe {bld.rest_key!r}" if bld.rest_key else "q = 0"
+    return complete_anatomy(bld.b.build(), frames=bld.sites(bodies), base_declared=True, reference=reference)
 
 
 def _model_name(model: Any) -> str | None:
@@ -689,7 +758,8 @@ def dump_mjcf(m: Morphology, *, target: str | os.PathLike[str] | None = None) ->
     floating base is a ``freejoint`` on the root; a fixed base's root link named ``world`` (what the
     reader makes of a fixed model) is MuJoCo's world body. Shapes become geoms (density 1000 gives
     masses); shape-less bodies get a tiny inertial so that MuJoCo's compiler accepts them.
-    End-effectors become sites named like them (roles are not kept: MJCF has none).
+    End-effectors become sites named like them (roles are not kept: MJCF has none); a rest pose
+    becomes the keyframe ``home``.
 
     Args:
         m: The creature.
@@ -711,6 +781,8 @@ def dump_mjcf(m: Morphology, *, target: str | os.PathLike[str] | None = None) ->
         ees.setdefault(ee.link, []).append(ee)
     meshes: dict[str, str] = {}
     body_lines: list[str] = []
+    rest = dict(m.rest_pose)
+    qpos: list[float] = []  # the rest pose as MuJoCo's qpos, in the order the joints are written
 
     def body(name: str, joint: Any, depth: int) -> None:
         pad = "  " * depth
@@ -724,9 +796,12 @@ def dump_mjcf(m: Morphology, *, target: str | os.PathLike[str] | None = None) ->
             body_lines.append(f"{pad}<body name={quoteattr(name)}{pose}>")
         if joint is None and m.base == BaseType.FLOATING:
             body_lines.append(f'{pad}  <freejoint name="base"/>')
+            qpos.extend([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0])
         elif joint is not None and joint.type == JointType.SPHERICAL:
             body_lines.append(f"{pad}  <joint name={quoteattr(joint.name)} type=\"ball\"/>")
+            qpos.extend([1.0, 0.0, 0.0, 0.0])
         elif joint is not None and joint.type != JointType.FIXED:
+            qpos.append(rest.get(joint.name, 0.0))
             kind = "slide" if joint.type == JointType.PRISMATIC else "hinge"
             rng = ""
             if joint.limit is not None:
@@ -767,6 +842,12 @@ def dump_mjcf(m: Morphology, *, target: str | os.PathLike[str] | None = None) ->
                 f' polycoef="{_fmt([mm.offset, mm.multiplier, 0, 0, 0])}"/>'
             )
         lines.append("  </equality>")
+    if m.collision_excludes:
+        lines.append("  <contact>")
+        lines += [f"    <exclude body1={quoteattr(a)} body2={quoteattr(b)}/>" for a, b in m.collision_excludes]
+        lines.append("  </contact>")
+    if rest:  # the reader takes a keyframe named "home" as the rest pose
+        lines += ["  <keyframe>", f'    <key name="home" qpos="{_fmt(qpos)}"/>', "  </keyframe>"]
     lines.append("</mujoco>")
     return "\n".join(lines) + "\n"
 

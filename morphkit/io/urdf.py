@@ -243,6 +243,10 @@ class _Reader:
         if wheels is not None:
             names = self.attr(wheels, "joints", "wheels").split()
             b.set_wheels(names, self.number(wheels, "radius", "wheels"), location=self.loc(wheels))
+        rest = root.findall("rest_pose")
+        if rest:
+            b.set_rest_pose({self.name(el, "joint", "rest_pose"): self.number(el, "value", "rest_pose") for el in rest},
+                            location=self.loc(rest[0]))
         m = warn_wheeled_without_wheels(
             b.build(), self.loc(base_el) if base_el is not None else None, how='<wheels joints="..." radius="R"/>'
         )
@@ -393,7 +397,7 @@ def dump_urdf(m: Morphology, *, target: str | os.PathLike[str] | None = None) ->
                 location=j.location,
             )
     out = ['<?xml version="1.0"?>', f"<robot name={quoteattr(m.name)}>"]
-    out.append("  <!-- morphkit extensions: base, end_effector, wheels (other URDF tools ignore them) -->")
+    out.append("  <!-- morphkit extensions: base, end_effector, wheels, rest_pose (other URDF tools ignore them) -->")
     out.append(f'  <base type="{m.base.name.lower()}"/>')
     for link in m.links:
         if not link.shapes:
@@ -433,6 +437,8 @@ def dump_urdf(m: Morphology, *, target: str | os.PathLike[str] | None = None) ->
     if m.wheels is not None:
         joints = quoteattr(" ".join(m.wheels.joints))
         out.append(f"  <wheels joints={joints} radius={quoteattr(_num(m.wheels.radius))}/>")
+    for n, v in m.rest_pose:
+        out.append(f"  <rest_pose joint={quoteattr(n)} value={quoteattr(_num(v))}/>")
     out.append("</robot>")
     return "\n".join(out) + "\n"
 

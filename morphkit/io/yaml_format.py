@@ -68,7 +68,7 @@ from morphkit.io._source import read_text, relative_mesh_path, resolve_mesh_path
 
 __all__ = ["DocumentReader", "dump_yaml", "load_document", "parse_yaml", "read_yaml", "write_yaml"]
 
-_TOP_KEYS = ("name", "base", "root", "body_length", "links", "joints", "end_effectors", "wheels")
+_TOP_KEYS = ("name", "base", "root", "body_length", "links", "joints", "end_effectors", "wheels", "rest_pose")
 _LINK_KEYS = ("shapes",)
 _JOINT_KEYS = ("type", "parent", "child", "origin", "axis", "limit", "mimic")
 _LIMIT_KEYS = ("lower", "upper", "velocity", "effort")
@@ -395,6 +395,12 @@ class DocumentReader:
             names = [self.name(v, "wheels joint", jl.item_lines[i]) for i, v in enumerate(jl)]
             radius = self.number(m["radius"], "wheels radius", self.line_of(m, "radius"))
             b.set_wheels(names, radius, location=self.loc(line))
+        if "rest_pose" in top:
+            line = self.line_of(top, "rest_pose")
+            rp = self.mapping(top["rest_pose"], "rest_pose", line)
+            b.set_rest_pose({self.name(k, "rest_pose joint", self.line_of(rp, k)):
+                             self.number(v, f"rest_pose {k}", self.line_of(rp, k)) for k, v in rp.items()},
+                            location=self.loc(line))
         return warn_wheeled_without_wheels(
             b.build(), self.loc(self.line_of(top, "base")), how="wheels: {joints: [...], radius: R}"
         )
@@ -589,6 +595,9 @@ def dump_yaml(m: Morphology, *, target: str | os.PathLike[str] | None = None) ->
     if m.wheels is not None:
         names = ", ".join(_str(n) for n in m.wheels.joints)
         out.append(f"wheels: {{joints: [{names}], radius: {_num(m.wheels.radius)}}}")
+    if m.rest_pose:
+        out.append("rest_pose:  # 1-DoF joint values at rest [rad or m]; others rest at 0")
+        out += [f"  {_str(n)}: {_num(v)}" for n, v in m.rest_pose]
     return "\n".join(out) + "\n"
 
 

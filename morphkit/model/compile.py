@@ -139,5 +139,8 @@ def compile_model(m: Morphology, *, device: Any = None) -> KinematicModel:
         wheel_radius=float(m.wheels.radius) if m.wheels is not None and m.base == BaseType.WHEELED else 0.0,
         wheel_lateral=_readonly(wheel_lateral, np.float64),
         wheel_sign=_readonly(wheel_sign, np.float64),
+        collision_exclude=_readonly(
+            np.array([(m.link_names.index(a), m.link_names.index(b)) for a, b in m.collision_excludes],
+                     dtype=np.int32).reshape(-1, 2), np.int32),
         device=None if device is None else str(device),
     )

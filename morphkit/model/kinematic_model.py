@@ -159,6 +159,8 @@ class KinematicModel:
     wheel_sign: np.ndarray
     """+1 where a positive wheel angle rolls the wheel forward, -1 where its axis points right, shape [W]."""
 
+    collision_exclude: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=np.int32))
+    """Link pairs never checked for self-collision (MJCF ``<contact><exclude>``), shape [X, 2], int32."""
     device: str | None = None
     """Default Warp device for :meth:`arrays` and launchers (``None``: Warp's default device)."""
     _cache: dict = field(default_factory=dict, repr=False, compare=False)

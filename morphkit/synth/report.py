@@ -329,6 +329,7 @@ def quality_report(result: Any, *, height_threshold: float = 0.02, collision_tol
     for name, dd in sorted(link_depth.items(), key=lambda kv: -kv[1]):
         if dd > WARN_PENETRATION_M:
             warnings.append(f"link {name}: goes {100 * dd:.2g} cm below the ground")
+    out["base"] = m.base.name.lower()
     out["warnings"] = list(dict.fromkeys(warnings))
     return out
 
@@ -342,18 +343,20 @@ def format_report(r: dict[str, Any]) -> str:
         # a fraction printed as 1 or 0 reads like a count of frames
         return "n/a" if v is None else f"{100 * float(v):.3g} %"
 
+    moves = r.get("base") != "fixed"  # a bolted arm has no feet on the ground and no path to track
     lines = [
         f"frames                 {r['frames']}"
         + (f"  ({fmt(r['frames_per_s'])} frames/s)" if r.get("frames_per_s") else ""),
-        f"foot sliding           {fmt(r['foot_sliding_cm_s'])} cm/s mean in contact"
-        f" (p95 {fmt(r.get('foot_sliding_p95_cm_s'))})",
+        *([f"foot sliding           {fmt(r['foot_sliding_cm_s'])} cm/s mean in contact"
+           f" (p95 {fmt(r.get('foot_sliding_p95_cm_s'))})"] if moves else []),
         f"penetration            {fmt(r['penetration_mm'])} mm max over every shape"
         + (f" ({r['deepest_link']})" if r.get("deepest_link") else "")
-        + f"; feet {fmt(r.get('foot_penetration_mm'))} mm max, mean {fmt(r.get('penetration_mean_mm'))}",
+        + (f"; feet {fmt(r.get('foot_penetration_mm'))} mm max, mean {fmt(r.get('penetration_mean_mm'))}"
+           if moves else ""),
         f"self-collision         {pct(r['self_collision_frac'])} of frames",
         f"limit violations       {pct(r['limit_violation_frac'])} of frames",
-        f"tracking error         {fmt(r['tracking_error'])} (relative, settled commands;"
-        f" yaw {fmt(r.get('yaw_rate_error'))})",
+        *([f"tracking error         {fmt(r['tracking_error'])} (relative, settled commands;"
+           f" yaw {fmt(r.get('yaw_rate_error'))})"] if moves else []),
     ]
     if r.get("swing_clearance_frac") is not None:
         lines.append(f"swing clearance        {pct(r['swing_clearance_frac'])} of airborne frames above 1 cm")

@@ -209,12 +209,6 @@ _BAD = {
         4,
         "invalid keyword: 'twist'",
     ),
-    "missing mesh": (
-        '<mujoco>\n  <asset>\n    <mesh name="m" file="nope.stl"/>\n  </asset>\n  <worldbody>\n'
-        '    <body name="a">\n      <geom type="mesh" mesh="m"/>\n    </body>\n  </worldbody>\n</mujoco>\n',
-        3,
-        "nope.stl",
-    ),
     "bad number": (
         '<mujoco>\n  <worldbody>\n    <body name="a" pos="0 0 zero">\n      <geom type="sphere" size="0.1"/>\n'
         "    </body>\n  </worldbody>\n</mujoco>\n",
@@ -234,6 +228,25 @@ def test_malformed_file_names_line(tmp_path: Path, case: str) -> None:
     with pytest.raises(DescriptionError, match=words) as info:
         read_morphology(path)
     assert info.value.location.path == str(path) and info.value.location.line == line
+
+
+def test_missing_mesh_files_are_left_out_with_one_warning(tmp_path: Path) -> None:
+    """Issue 46: files shipped without their visual meshes (Playground's robots) read, the primitives kept,
+    one warning naming the count and the first file; a mesh that is present stays a mesh."""
+    import trimesh
+
+    trimesh.creation.box((0.1, 0.1, 0.1)).export(tmp_path / "here.stl")
+    (tmp_path / "robot.xml").write_text(
+        '<mujoco>\n  <asset>\n    <mesh name="m" file="nope.stl"/>\n    <mesh name="h" file="here.stl"/>\n'
+        '  </asset>\n  <worldbody>\n    <body name="a"><freejoint/><geom type="box" size="0.1 0.1 0.1"/>\n'
+        '      <geom type="mesh" mesh="m" contype="0" conaffinity="0"/>\n'
+        '      <body name="b" pos="0.3 0 0"><joint name="j"/><geom type="mesh" mesh="h"/></body>\n'
+        "    </body>\n  </worldbody>\n</mujoco>\n")
+    with pytest.warns(UserWarning, match=r"1 mesh file\(s\) not found \(first: nope.stl\)") as record:
+        m = read_mjcf(tmp_path / "robot.xml")
+    assert len([w for w in record if "not found" in str(w.message)]) == 1
+    assert [s.type.name for s in m.link("a").shapes] == ["BOX"]
+    assert [s.type.name for s in m.link("b").shapes] == ["MESH"]
 
 
 def test_include_loop_and_error_inside_include(tmp_path: Path) -> None:

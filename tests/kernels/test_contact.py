@@ -213,7 +213,7 @@ def test_pair_filter_skips_same_body_adjacent_rest_overlap_and_meshes():
     """On a small creature: fixed-joint links are one body, parent–child and rest-overlapping pairs are skipped."""
     model = compile_model(small_creature())
     pairs = ck.self_collision_pairs(model)
-    assert pairs.skipped == {"same_body": 1, "adjacent": 8, "rest_overlap": 2, "unsupported": 7}
+    assert pairs.skipped == {"same_body": 1, "adjacent": 8, "excluded": 0, "rest_overlap": 2, "unsupported": 7}
     names = model.link_names
     kept = {tuple(sorted((names[a], names[b]))) for a, b in zip(pairs.link_a, pairs.link_b, strict=True)}
     assert len(kept) == pairs.pair_count == 10
