@@ -366,7 +366,7 @@ def format_report(r: dict[str, Any]) -> str:
         for name, leg in r["legs"].items():
             lines.append(f"  {name:<20} {fmt(leg['step_length_m'])} m long, {fmt(leg['step_height_m'])} m high, "
                          f"sliding {fmt(leg['sliding_cm_s'])} cm/s, {leg['swings']} swings")
-    if r.get("command_clamped_frac") is not None:
+    if r.get("command_clamped_frac") is not None and moves:
         lines.append(f"commands clamped       {pct(r['command_clamped_frac'])} of frames (to the creature's top speed)")
     if r.get("gait_frac"):
         lines.append("gaits                  " + ", ".join(f"{k} {v:.0%}" for k, v in r["gait_frac"].items()))

@@ -91,6 +91,16 @@ def test_base_type_by_body():
     assert _read(pybullet_data_file("aliengo/aliengo.urdf")).base == BaseType.FLOATING
 
 
+def test_a_bolted_arms_report_has_no_locomotion_lines():
+    """Issue 46: a Panda's synthesis report says nothing of feet, tracking or commanded speeds."""
+    from morphkit.synth.report import format_report
+
+    _, r = _synth(_read(pybullet_data_file("franka_panda/panda.urdf")), frames=30)
+    text = format_report(r)
+    assert r["base"] == "fixed" and "penetration" in text
+    assert not any(word in text for word in ("foot sliding", "tracking error", "commands clamped", "feet "))
+
+
 def test_a_keyframe_named_like_a_stance_is_the_rest_pose():
     """Berkeley Humanoid's keyframe 'home': morphkit's rest q is MuJoCo's key qpos less qpos0, joint by joint."""
     from morphkit.io.mjcf import mujoco_model
