@@ -687,8 +687,8 @@ def complete_anatomy(m: Morphology, *, frames: Sequence[Frame] = (), base_declar
         its :attr:`~morphkit.graph.EndEffector.reason`), maybe a fixed base and a found
         :attr:`~morphkit.graph.Morphology.rest_pose`, and :attr:`~morphkit.graph.Morphology.notes`.
     """
-    if m.end_effectors or m.joint_count == 0:
-        return m
+    if m.end_effectors or all(j.type == JointType.FIXED for j in m.joints):
+        return m  # named by the file, or one rigid body: nothing moves to decide on
     kin = _Kinematics(m)
     poses = kin.poses(kin.rest[None])[0]
     return _complete(m, kin, _Shapes(m), poses, _frames_of(m, _Tree(m, poses), frames), base_declared, reference)

@@ -96,6 +96,7 @@ from morphkit.graph import (
 )
 from morphkit.graph.types import parse_enum
 from morphkit.io._source import relative_mesh_path, resolve_mesh_path
+from morphkit.io.anatomy import complete_anatomy
 from morphkit.rotations import quat_between_vectors
 
 __all__ = ["USD_SUFFIXES", "load_usd_mesh", "read_usd", "write_usd"]
@@ -749,7 +750,7 @@ def _read_stage(r: _Reader) -> Morphology:
             if radius is None:
                 raise r.error(f"{_NS}wheelJoints needs {_NS}wheelRadius", info)
             b.set_wheels(wheel_joints, radius, location=r.loc(info))
-    return b.build()
+    return complete_anatomy(b.build(), base_declared=base_attr is not None or bool(world_joints))
 
 
 def _descendants(prim: Any, links: set[Any]) -> list[Any]:

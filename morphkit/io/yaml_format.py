@@ -65,6 +65,7 @@ from morphkit.graph import (
 )
 from morphkit.graph.types import parse_enum
 from morphkit.io._source import read_text, relative_mesh_path, resolve_mesh_path, warn_wheeled_without_wheels
+from morphkit.io.anatomy import complete_anatomy
 
 __all__ = ["DocumentReader", "dump_yaml", "load_document", "parse_yaml", "read_yaml", "write_yaml"]
 
@@ -401,9 +402,12 @@ class DocumentReader:
             b.set_rest_pose({self.name(k, "rest_pose joint", self.line_of(rp, k)):
                              self.number(v, f"rest_pose {k}", self.line_of(rp, k)) for k, v in rp.items()},
                             location=self.loc(line))
-        return warn_wheeled_without_wheels(
+        m = warn_wheeled_without_wheels(
             b.build(), self.loc(self.line_of(top, "base")), how="wheels: {joints: [...], radius: R}"
         )
+        if "end_effectors" in top:  # the file decided, even on none (`end_effectors: {}`)
+            return m
+        return complete_anatomy(m, base_declared="base" in top)
 
     def joint(self, b: MorphologyBuilder, joints: _Map, joint_name: Any, value: Any) -> None:
         line = joints.key_lines[joint_name]
@@ -586,8 +590,8 @@ def dump_yaml(m: Morphology, *, target: str | os.PathLike[str] | None = None) ->
             out.append(
                 f"    mimic: {{joint: {_str(mm.joint)}, multiplier: {_num(mm.multiplier)}, offset: {_num(mm.offset)}}}"
             )
-    if m.end_effectors:
-        out.append("end_effectors:")
+    # written even when empty: `end_effectors: {}` tells the reader not to decide them from the body
+    out.append("end_effectors:" if m.end_effectors else "end_effectors: {}")
     for ee in m.end_effectors:
         out.append(
             f"  {_str(ee.name)}: {{link: {_str(ee.link)}, offset: {_vec(ee.offset)}, role: {ee.role.name.lower()}}}"
