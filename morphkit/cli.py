@@ -29,6 +29,7 @@ COMMANDS = [
     "render",
     "map",
     "synth",
+    "generate",
     "train",
     "retarget",
     "contacts",

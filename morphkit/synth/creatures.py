@@ -1,0 +1,167 @@
+"""Random creatures of a family: a body with 2, 4 or 6 legs, with or without an arm, a tail, a neck and head.
+
+Evaluation needs creatures no one tuned for (issue 48): :func:`random_creature` draws one from a
+family — proportions, leg segment lengths, joint limits and where the limbs sit — from a seed, so a
+test split of creatures can be generated that the development never saw. Every creature has
+primitive shapes (box body, capsule segments, sphere feet) and joint limits a real robot would have
+(knees that bend one way).
+
+The end-effectors the generator labels (feet at the sole of each foot ball, the hand at the hand
+ball, the head; a tail carries none) are its own ground truth; ``labelled=False`` leaves them out,
+so that the readers' body-based guess (:mod:`morphkit.io.anatomy`) can be checked against them.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from morphkit.errors import ConfigError
+from morphkit.graph import Limit, Morphology, MorphologyBuilder, Shape, ShapeType, Transform
+from morphkit.rotations import quat_conjugate, quat_from_rpy, quat_rotate
+
+__all__ = ["CreatureFamily", "random_creature"]
+
+
+@dataclass(frozen=True)
+class CreatureFamily:
+    """What a generated creature has; its proportions are drawn from the seed."""
+
+    legs: int = 4
+    """2, 4 or 6."""
+    arm: bool = False
+    """A four-joint arm on the front of the body, ending in a hand."""
+    tail: bool = False
+    """A two-segment tail at the back (no end-effector: nothing of a human's maps to it)."""
+    neck: bool = False
+    """A neck and a head at the front."""
+    size: float = 1.0
+    """Scale of every length (1: a body about 0.6 m long)."""
+
+    def __post_init__(self) -> None:
+        if self.legs not in (2, 4, 6):
+            raise ConfigError(f"a generated creature has 2, 4 or 6 legs, not {self.legs}")
+        if not (math.isfinite(self.size) and 0.05 <= self.size <= 20.0):
+            raise ConfigError(f"creature size must be within [0.05, 20], got {self.size}")
+
+    @property
+    def name(self) -> str:
+        parts = [f"{self.legs}legs"] + [k for k in ("arm", "tail", "neck") if getattr(self, k)]
+        return "_".join(parts)
+
+
+def _capsule_along(axis: str, length: float, radius: float) -> Shape:
+    """A capsule from the link origin ``length`` along ``axis`` (``"x"`` or ``"-z"``), caps included."""
+    core = max(length - 2.0 * radius, 1e-3)
+    if axis == "-z":
+        return Shape(ShapeType.CAPSULE, Transform((0.0, 0.0, -0.5 * length)), radius=radius, length=core)
+    quat = tuple(float(v) for v in quat_from_rpy(np.array([0.0, math.pi / 2, 0.0])))
+    return Shape(ShapeType.CAPSULE, Transform((0.5 * length, 0.0, 0.0), quat), radius=radius,  # type: ignore[arg-type]
+                 length=core)
+
+
+def random_creature(family: CreatureFamily, seed: int = 0, *, labelled: bool = True) -> Morphology:
+    """A creature of ``family`` with proportions drawn from ``seed`` (same seed, same creature).
+
+    Args:
+        family: Leg count, limbs, size.
+        seed: Random seed of the proportions.
+        labelled: Give the end-effectors (feet, hand, head); False leaves them to the readers' guess
+            from the body.
+
+    Returns:
+        A floating-base :class:`~morphkit.graph.Morphology` standing at ``q = 0`` with bent knees.
+    """
+    rng = np.random.default_rng(seed)
+    s = family.size
+    u = rng.uniform
+    length = s * u(0.45, 0.8) * (0.6 if family.legs == 2 else 1.0)
+    width, height = s * u(0.18, 0.3), s * u(0.1, 0.18)
+    thigh, shin = s * u(0.2, 0.32), s * u(0.2, 0.32)
+    foot_r = s * u(0.02, 0.035)
+    b = MorphologyBuilder(f"generated_{family.name}_{seed}")
+    b.set_base("floating")
+    b.add_link("body", shapes=[Shape(ShapeType.BOX, Transform(), size=(length, width, height))])
+
+    # legs in pairs along the body, knees bent at q = 0 (front knees back, as most quadrupeds)
+    pairs = family.legs // 2
+    xs = [0.0] if pairs == 1 else list(np.linspace(0.4 * length, -0.4 * length, pairs))
+    knee = u(0.6, 1.0)  # rest bend [rad]
+    for i, x in enumerate(xs):
+        for side, y in (("l", 0.5 * width), ("r", -0.5 * width)):
+            n = f"leg{i}_{side}"
+            b.add_link(f"{n}_hip")
+            b.add_link(f"{n}_thigh", shapes=[_capsule_along("-z", thigh, 0.025 * s)])
+            b.add_link(f"{n}_shin", shapes=[_capsule_along("-z", shin, 0.02 * s),
+                                             Shape(ShapeType.SPHERE, Transform((0.0, 0.0, -shin)), radius=foot_r)])
+            b.add_joint_revolute(f"{n}_abduct", "body", f"{n}_hip", origin=Transform((float(x), y, -0.5 * height)),
+                                 axis=(1, 0, 0), limit=Limit(-0.5, 0.5))
+            # thigh pitched forward by half the knee bend, the shin back by all of it: the foot under the hip
+            b.add_joint_revolute(f"{n}_hip_pitch", f"{n}_hip", f"{n}_thigh",
+                                 origin=Transform(quat=_pitch(-0.5 * knee)), axis=(0, 1, 0), limit=Limit(-1.2, 1.2))
+            b.add_joint_revolute(f"{n}_knee", f"{n}_thigh", f"{n}_shin",
+                                 origin=Transform((0.0, 0.0, -thigh), _pitch(knee)), axis=(0, 1, 0),
+                                 limit=Limit(-knee + 0.05, 2.4 - knee))
+            if labelled:
+                b.add_end_effector(f"{n}_foot", f"{n}_shin", offset=_sole(knee, shin, foot_r), role="foot")
+
+    if family.arm:
+        upper, fore = s * u(0.18, 0.3), s * u(0.15, 0.25)
+        front = (0.5 * length - 0.05 * s, 0.0, 0.5 * height)
+        b.add_link("arm_base")
+        b.add_link("arm_upper", shapes=[_capsule_along("x", upper, 0.02 * s)])
+        b.add_link("arm_fore", shapes=[_capsule_along("x", fore, 0.018 * s)])
+        b.add_link("arm_hand", shapes=[Shape(ShapeType.SPHERE, Transform((0.04 * s, 0.0, 0.0)), radius=0.03 * s)])
+        b.add_joint_revolute("arm_yaw", "body", "arm_base", origin=Transform(front), axis=(0, 0, 1),
+                             limit=Limit(-1.5, 1.5))
+        b.add_joint_revolute("arm_shoulder", "arm_base", "arm_upper", origin=Transform(quat=_pitch(-0.6)),
+                             axis=(0, 1, 0), limit=Limit(-1.5, 0.8))
+        b.add_joint_revolute("arm_elbow", "arm_upper", "arm_fore", origin=Transform((upper, 0.0, 0.0), _pitch(1.2)),
+                             axis=(0, 1, 0), limit=Limit(-1.0, 1.5))
+        b.add_joint_revolute("arm_wrist", "arm_fore", "arm_hand", origin=Transform((fore, 0.0, 0.0)), axis=(0, 1, 0),
+                             limit=Limit(-1.2, 1.2))
+        if labelled:
+            b.add_end_effector("hand", "arm_hand", offset=(0.07 * s, 0.0, 0.0), role="hand")
+
+    if family.neck:
+        neck = s * u(0.12, 0.25)
+        head = 0.06 * s
+        b.add_link("neck", shapes=[_capsule_along("x", neck, 0.03 * s)])
+        b.add_link("head", shapes=[Shape(ShapeType.SPHERE, Transform((head, 0.0, 0.0)), radius=head)])
+        front_top = (0.5 * length, 0.0, 0.3 * height)
+        b.add_joint_revolute("neck_pitch", "body", "neck", origin=Transform(front_top, _pitch(-0.6)), axis=(0, 1, 0),
+                             limit=Limit(-0.6, 0.6))
+        b.add_joint_revolute("head_pitch", "neck", "head", origin=Transform((neck, 0.0, 0.0), _pitch(0.6)),
+                             axis=(0, 1, 0), limit=Limit(-0.8, 0.8))
+        if labelled:
+            b.add_end_effector("head_tip", "head", offset=(2.0 * head, 0.0, 0.0), role="head")
+
+    if family.tail:
+        seg = s * u(0.12, 0.22)
+        back = (-0.5 * length, 0.0, 0.2 * height)
+        b.add_link("tail_base")
+        b.add_link("tail_1", shapes=[_capsule_along("x", seg, 0.02 * s)])
+        b.add_link("tail_2", shapes=[_capsule_along("x", seg, 0.015 * s)])
+        b.add_joint_revolute("tail_yaw", "body", "tail_base", origin=Transform(back, _yaw(math.pi)), axis=(0, 0, 1),
+                             limit=Limit(-0.8, 0.8))
+        b.add_joint_revolute("tail_pitch", "tail_base", "tail_1", origin=Transform(quat=_pitch(-0.4)),
+                             axis=(0, 1, 0), limit=Limit(-0.8, 0.8))
+        b.add_joint_revolute("tail_bend", "tail_1", "tail_2", origin=Transform((seg, 0.0, 0.0)), axis=(0, 1, 0),
+                             limit=Limit(-0.8, 0.8))
+    return b.build()
+
+
+def _pitch(angle: float) -> tuple[float, float, float, float]:
+    return tuple(float(v) for v in quat_from_rpy(np.array([0.0, angle, 0.0])))  # type: ignore[return-value]
+
+
+def _yaw(angle: float) -> tuple[float, float, float, float]:
+    return tuple(float(v) for v in quat_from_rpy(np.array([0.0, 0.0, angle])))  # type: ignore[return-value]
+
+
+def _sole(knee: float, shin: float, radius: float) -> tuple[float, float, float]:
+    """The bottom of the foot ball in the shin frame: the shin is pitched by ``knee / 2`` at q = 0."""
+    down = quat_rotate(quat_conjugate(np.asarray(_pitch(0.5 * knee))), np.array([0.0, 0.0, -radius]))
+    return float(down[0]), float(down[1]), float(down[2] - shin)
