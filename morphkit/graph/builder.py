@@ -57,6 +57,7 @@ class MorphologyBuilder:
         self._wheels_location: SourceLocation | None = None
         self._body_length: float | None = None
         self._rest_pose: dict[str, float] = {}
+        self._rest_location: SourceLocation | None = None
         self._excludes: list[tuple[str, str]] = []
 
     def _loc(self, location: SourceLocation | None) -> SourceLocation | None:
@@ -206,6 +207,7 @@ class MorphologyBuilder:
         loc = self._loc(location)
         names = list(values)
         self._rest_pose = dict(zip(names, _finite([values[n] for n in names], "rest pose", loc), strict=True))
+        self._rest_location = loc
 
     def exclude_collision(self, link_a: str, link_b: str) -> None:
         """Never check the pair ``link_a``–``link_b`` for self-collision (MJCF ``<contact><exclude>``)."""
@@ -347,10 +349,15 @@ class MorphologyBuilder:
                     raise GraphError(f"wheel {w!r} must name a continuous joint", location=self._wheels_location)
                 if self._joints[w].mimic is not None:
                     raise GraphError(f"wheel {w!r} cannot also be a mimic joint", location=self._wheels_location)
-        for name in self._rest_pose:
+        for name, value in self._rest_pose.items():
             j = self._joints.get(name)
+            at = self._rest_location or where
             if j is None or j.type not in (JointType.REVOLUTE, JointType.CONTINUOUS, JointType.PRISMATIC):
-                raise GraphError(f"rest pose names {name!r}, which is not a 1-DoF joint", location=where)
+                raise GraphError(f"rest pose names {name!r}, which is not a 1-DoF joint", location=at)
+            # a keyframe a hair outside its range is MuJoCo's rounding; further out is a mistake
+            if j.limit is not None and not j.limit.lower - 1e-3 <= value <= j.limit.upper + 1e-3:
+                raise GraphError(f"rest pose {name} = {value:g} is outside its limits "
+                                 f"[{j.limit.lower:g}, {j.limit.upper:g}]", location=at)
         for pair in self._excludes:
             for link in pair:
                 if link not in self._links:

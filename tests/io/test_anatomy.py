@@ -248,3 +248,18 @@ def test_rest_pose_round_trips_through_every_writer(tmp_path):
         again = _read(str(path))
         assert dict(again.rest_pose) == pytest.approx(dict(m.rest_pose), abs=1e-9), suffix
         assert np.allclose(again.rest_q(), m.rest_q(), atol=1e-9)
+
+
+@pytest.mark.parametrize(("entry", "words"), [("nope: 0.3", "names 'nope', which is not a 1-DoF joint"),
+                                              ("j: 5", r"j = 5 is outside its limits \[-1, 1\]"),
+                                              ("j: .nan", "non-finite")])
+def test_a_bad_rest_pose_is_one_error_at_its_line(tmp_path, entry, words):
+    from morphkit.errors import MorphkitError
+
+    path = tmp_path / "rp.yaml"
+    path.write_text("name: rp\nbase: fixed\nlinks:\n  a: {}\n  b: {}\njoints:\n"
+                    "  j: {type: revolute, parent: a, child: b, limit: {lower: -1, upper: 1}}\n"
+                    f"end_effectors: {{}}\nrest_pose:\n  {entry}\n")
+    with pytest.raises(MorphkitError, match=words) as info:
+        read_morphology(path)
+    assert info.value.location.path == str(path) and info.value.location.line in (9, 10)
