@@ -33,6 +33,14 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(f"{args.out}: exists; generate writes a new file (remove it or name another)")
     family = CreatureFamily(legs=args.legs, arm=args.arm, tail=args.tail, neck=args.neck, size=args.size)
     m = random_creature(family, args.seed, labelled=not args.unlabelled)
-    write_morphology(m, args.out)
+    if args.unlabelled and suffix in (".yaml", ".yml"):
+        # YAML writes `end_effectors: {}` for "none, decided"; unlabelled means "left to the reader's guess"
+        from morphkit._atomic import atomic_write_text
+        from morphkit.io.yaml_format import dump_yaml
+
+        text = dump_yaml(m, target=args.out).replace("end_effectors: {}\n", "")
+        atomic_write_text(args.out, text)
+    else:
+        write_morphology(m, args.out)
     print(f"wrote {args.out} ({m.name}: {m.link_count} links, {len(m.end_effectors)} end-effectors)")
     return 0

@@ -72,3 +72,8 @@ def test_cli_writes_a_new_file_and_refuses_to_overwrite(tmp_path, capsys):
     before = out.read_text()
     assert main(["generate", "--out", str(out)]) == 2
     assert "exists" in capsys.readouterr().err and out.read_text() == before
+    unlabelled = tmp_path / "u.yaml"
+    assert main(["generate", "--legs", "6", "--arm", "--seed", "2", "--unlabelled", "--out", str(unlabelled)]) == 0
+    guessed = read_morphology(unlabelled)  # the reader's guess, from the body alone
+    assert sorted((e.link, e.role) for e in guessed.end_effectors) == sorted(
+        (e.link, e.role) for e in want.end_effectors)
