@@ -6,8 +6,9 @@ and their ``q = 0`` is often not a standing pose (legs folded flat, straight or 
 
 1. **Ends.** Links joined by fixed joints form one rigid group; the root's group is the body. A
    group with no moving joint below it is a tip. Tips that branch off one group close to it (a
-   gripper's fingers, a paw's toes, a jaw on a skull: every branch shorter than half the group's
-   distance from the root) are one end at that group; other branches are ends of their own.
+   gripper's fingers, a paw's toes, a jaw on a skull: every branch shorter than half the chain length
+   from the root to that group) are one end at that group; other branches are ends of their own. An
+   end moved only by mimic joints (a gripper's follower finger) is no limb.
 2. **Roles.** On a fixed base every end is an arm's: a tool where fingers meet (a frame there named
    like ``grasp``/``tcp``/``tool``, else between the fingertips), else a hand at its farthest point.
    On a floating base, feet are the ends that carry the body: each end's lowest reachable point
@@ -18,13 +19,14 @@ and their ``q = 0`` is often not a standing pose (legs folded flat, straight or 
    three joints, is a head.
 3. **Base.** A floating base nobody declared (a URDF without a ``world`` link) whose creature has no
    feet is an arm bolted down: fixed.
-4. **Stance.** Unless the reference pose (an MJCF keyframe, else ``q = 0``) already stands — feet
+4. **Stance.** A rest pose the file gives (an MJCF keyframe, YAML ``rest_pose``) is kept, with a note
+   where it does not look like a stance. Otherwise, unless ``q = 0`` already stands — feet
    lowest, every other shape above them, legs bent — one is searched for: the body level, each foot
    under its hip on the ground at :data:`STANCE_EXTENSION` of the shortest leg's reach, knees bent the
    way the joint limits allow (multi-start damped least squares per leg; among solutions, those that
    keep every link above the ground, then knees backwards for four or more legs and forwards for two).
-5. **Feet** sit on the sole: the lowest point of the tip's shapes at the stance (a sphere's bottom, the
-   middle of a box's lowest face).
+5. **Feet** sit on the sole of the distal shape of the leg's last rigid group with shapes, at the stance:
+   a sphere's bottom, the middle of the box face that looks most downward.
 
 Every decision is kept as a reason (:attr:`EndEffector.reason`, :attr:`Morphology.notes`) that
 ``morphkit info`` prints. A side file or the description's own end-effectors always win.
