@@ -37,7 +37,8 @@ the compiled model, so morphkit sees exactly the kinematics MuJoCo simulates:
         nose: {link: skull, offset: [0.1, 0, 0], role: head}
 
 - A keyframe named ``home``, ``stand``, ``standing``, ``default``, ``init`` or ``rest`` (first found in
-  that order) is the rest pose; ``<contact><exclude>`` pairs are never checked for self-collision.
+  that order) is the rest pose; ``<contact><exclude>`` pairs, and a multi-joint body with its parent
+  body (MuJoCo's parent–child filter), are never checked for self-collision.
   Mesh files that are missing (a Playground robot without its Menagerie checkout) are left out with
   one warning; primitive geoms carry the kinematics and contacts.
 - ``equality joint`` with a linear polynomial and a second joint becomes a mimic; other equality
@@ -350,6 +351,12 @@ class _Builder:
         for i in bodies:
             self._shapes(i)
         self.rest_key = self._rest_from_keyframe(bodies)
+        # MuJoCo never checks a body against its parent body; where a body has several joints, morphkit's
+        # shape-less links between the two hide that adjacency, so it is written as an exclude.
+        for i in bodies:
+            parent = int(m.body_parentid[i])
+            if i != self.root_body and int(m.body_jntnum[i]) > 1 and parent in self.body_link:
+                self.b.exclude_collision(self.body_link[parent], self.body_link[i])
         for sig in np.asarray(m.exclude_signature, dtype=np.int64)[: m.nexclude]:
             pair = [self.body_link.get(int(b)) for b in (sig >> 16, sig & 0xFFFF)]
             if None not in pair and pair[0] != pair[1]:

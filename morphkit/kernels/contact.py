@@ -531,9 +531,8 @@ def self_collision_pairs(model: KinematicModel, *, rest_margin: float = 0.0, ski
 
     - both shapes are on the same rigid body (one link, or links joined by fixed joints):
       their distance never changes;
-    - their bodies are joined by one moving joint (parent–child, seen through shape-less links as
-      MuJoCo sees one body per ``<body>``), when ``skip_adjacent``: neighbouring shapes touch at the
-      joint by design;
+    - their bodies are joined by one moving joint (parent–child), when ``skip_adjacent``:
+      neighbouring shapes touch at the joint by design;
     - their links are a pair of ``model.collision_exclude`` (MJCF ``<contact><exclude>``);
     - they are closer than ``rest_margin`` [m] at the rest pose (overlapping there for a
       margin of 0): such overlaps are part of the design, not collisions.
@@ -550,18 +549,11 @@ def self_collision_pairs(model: KinematicModel, *, rest_margin: float = 0.0, ski
     from morphkit.kernels.fk import eval_fk  # the FK launcher lives beside; imported here to keep this module light
 
     body = _rigid_bodies(model)
-    has_shape = np.zeros(model.link_count, dtype=bool)
-    has_shape[body[np.asarray(model.shape_link, dtype=int)]] = True
     parent_body = np.full(model.link_count, -1)
     for j in range(model.joint_count):
         child = j + 1
         if body[child] == child:  # the child starts a new body: its parent body is across a moving joint
-            parent = body[int(model.joint_parent[j])]
-            # Through shape-less bodies (a MuJoCo body with two hinges, a URDF hip's virtual link) to the
-            # first body with shapes, as MuJoCo's parent-child filter sees one body per <body>.
-            while not has_shape[parent] and parent_body[parent] >= 0:
-                parent = parent_body[parent]
-            parent_body[child] = parent
+            parent_body[child] = body[int(model.joint_parent[j])]
     excluded = {frozenset((int(body[a]), int(body[b]))) for a, b in np.asarray(model.collision_exclude)}
     supported = {int(t) for t in (ShapeType.SPHERE, ShapeType.CAPSULE, ShapeType.BOX, ShapeType.CYLINDER)}
     S = model.shape_count

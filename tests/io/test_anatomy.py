@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from morphkit_testing import dm_suite_xml, playground_xml, pybullet_data_file
 
-from morphkit.graph import BaseType, EndEffectorRole, MorphologyBuilder, Shape, ShapeType, Transform
+from morphkit.graph import BaseType, EndEffectorRole, Shape, ShapeType, Transform
 from morphkit.io import read_morphology
 
 FOOT, HAND, TOOL, HEAD = EndEffectorRole.FOOT, EndEffectorRole.HAND, EndEffectorRole.TOOL, EndEffectorRole.HEAD
@@ -184,34 +184,27 @@ def _ball(r: float = 0.05) -> Shape:
     return Shape(ShapeType.SPHERE, Transform(), radius=r)
 
 
-def _chain(two_hinges_in_b: bool):
-    """a -- b -- c, 0.3 m apart along x, a ball on each; b's body turns about two hinges when asked
-    (a shape-less link between, as the MJCF reader makes a multi-joint body)."""
-    b = MorphologyBuilder("chain")
-    b.set_base("fixed")
-    for n in ("a", "b", "c"):
-        b.add_link(n)
-        b.add_shape(n, _ball())
-    parent = "a"
-    if two_hinges_in_b:
-        b.add_link("b__j1")
-        b.add_joint_continuous("j1", "a", "b__j1", origin=Transform((0.3, 0, 0)), axis=(0, 0, 1))
-        b.add_joint_continuous("j2", "b__j1", "b", axis=(0, 1, 0))
-    else:
-        b.add_joint_continuous("j1", parent, "b", origin=Transform((0.3, 0, 0)), axis=(0, 0, 1))
-    b.add_joint_continuous("j3", "b", "c", origin=Transform((0.3, 0, 0)), axis=(0, 0, 1))
-    return b
-
-
-@pytest.mark.parametrize("two_hinges_in_b", [False, True])
-def test_parent_child_pairs_are_no_self_collision_through_shapeless_links(two_hinges_in_b):
+def test_a_multi_joint_mjcf_body_and_its_parent_are_no_self_collision(tmp_path):
+    """MuJoCo filters parent and child bodies; b turns on two hinges, so morphkit puts a shape-less link
+    between a and b and the reader writes the pair as an exclude; a and c stay checked."""
+    pytest.importorskip("mujoco")
+    from morphkit.io.mjcf import read_mjcf
     from morphkit.kernels import self_collision_pairs
     from morphkit.model import compile_model
 
-    pairs = self_collision_pairs(compile_model(_chain(two_hinges_in_b).build()))
-    # MuJoCo's rule: a-b and b-c are parent and child bodies; only a-c is checked
-    assert sorted(zip(pairs.link_a.tolist(), pairs.link_b.tolist(), strict=False)) == [(0, pairs.link_b.max())]
-    assert pairs.skipped["adjacent"] == 2
+    xml = tmp_path / "chain.xml"
+    xml.write_text("""<mujoco><worldbody>
+      <body name="a"><geom type="sphere" size="0.05"/>
+        <body name="b" pos="0.3 0 0"><joint name="j1" axis="0 0 1"/><joint name="j2" axis="0 1 0"/>
+          <geom type="sphere" size="0.05"/>
+          <body name="c" pos="0.3 0 0"><joint name="j3" axis="0 0 1"/><geom type="sphere" size="0.05"/>
+            <site name="tip" pos="0.1 0 0"/></body></body></body>
+      </worldbody></mujoco>""")
+    m = read_mjcf(xml)
+    assert ("a", "b") in m.collision_excludes
+    pairs = self_collision_pairs(compile_model(m))
+    names = {(m.link_names[a], m.link_names[b]) for a, b in zip(pairs.link_a, pairs.link_b, strict=True)}
+    assert names == {("a", "c")}
 
 
 def test_mjcf_contact_exclude_is_read_written_and_skipped(tmp_path):
