@@ -84,6 +84,23 @@ def test_each_ablation_removes_exactly_its_term(tmp_path, human_dir, dog, cache,
     assert (_column(path, "feature_loss") > 0).all()
 
 
+def test_ace_contact_on_a_preset_trains_with_the_contact_term(tmp_path, human_dir, dog, cache):
+    from morphkit.retarget.ace.config import CONTACT_WEIGHT
+
+    cfg = replace_config(preset("smoke"), TINY)
+    assert cfg.retarget.w_contact == 0  # the preset leaves it off: the variant alone turns it on
+    stage = train_ace(tmp_path / "run", read_morphology(dog), cfg, variant="ace-contact", human_data=human_dir,
+                      progress=False, log=lambda s: None)
+    assert stage.name == "retarget_contact"
+    assert yaml.safe_load((stage / "config.yaml").read_text())["w_contact"] == CONTACT_WEIGHT > 0
+    assert (_column(stage / "metrics.csv", "loss_g_contact") > 0).all()
+    # the contact term asked for in a variant without it is refused before anything trains
+    with pytest.raises(ConfigError, match=r"w_contact=2.0 is ACE\+contact, not ACE"):
+        train_ace(tmp_path / "plain", read_morphology(dog), replace_config(cfg, ["retarget.w_contact=2"]),
+                  human_data=human_dir, progress=False, log=lambda s: None)
+    assert not (tmp_path / "plain").exists()
+
+
 _SCRIPT = """
 import sys
 from morphkit.io import read_morphology

@@ -26,7 +26,9 @@ from enum import Enum
 from morphkit.errors import ConfigError
 from morphkit.retarget.training_data import DataConfig
 
-__all__ = ["PRESETS", "AceConfig", "AceVariant", "DataConfig", "PriorConfig", "RetargetConfig", "preset"]
+__all__ = [
+    "CONTACT_WEIGHT", "PRESETS", "AceConfig", "AceVariant", "DataConfig", "PriorConfig", "RetargetConfig", "preset",
+]
 
 
 @dataclass(frozen=True)
@@ -353,10 +355,15 @@ def preset(name: str) -> AceConfig:
     return preset_config(PRESETS, name)
 
 
+CONTACT_WEIGHT = 2.0
+"""``retarget.w_contact`` of ACE+contact where the config leaves it 0 (Table 1's ``--contact-weight``: on Spot 1 gave
+UFR 12.1 %, 2 gave 4.4 %; docs/guides/evaluate.md)."""
+
+
 class AceVariant(str, Enum):
     """A retargeter of Table 1: its trainer name (the value), stage folder, label and ablation flags.
 
-    ``ACE_CONTACT`` is ACE with ``retarget.w_contact > 0`` (beyond the paper).
+    ``ACE_CONTACT`` is ACE with ``retarget.w_contact > 0`` (beyond the paper); every other variant trains with 0.
     """
 
     ACE = "ace"
@@ -386,21 +393,37 @@ class AceVariant(str, Enum):
         """Whether it trains with the adversarial loss."""
         return self is not AceVariant.WO_ADV
 
+    @property
+    def contact(self) -> bool:
+        """Whether it trains with G's contact term (``retarget.w_contact``)."""
+        return self is AceVariant.ACE_CONTACT
+
     def configure(self, cfg: RetargetConfig) -> RetargetConfig:
-        """``cfg`` with this variant's ablation flags, so its ``config.yaml`` records what was trained.
+        """``cfg`` with every flag of this variant, so its ``config.yaml`` records what was trained.
+
+        ACE+contact keeps ``cfg.w_contact`` where it is > 0, else takes :data:`CONTACT_WEIGHT`.
 
         Raises:
             ConfigError: ``cfg`` turns off a loss this variant trains with (``--set retarget.adversarial=false``
-                asks for ACEwoAdv, a variant of its own, and was silently trained as ACE).
+                asks for ACEwoAdv, a variant of its own, and was silently trained as ACE), or turns on the
+                contact term in a variant without it.
         """
         for flag, option in (("feature_loss", "--no-feature-loss"), ("adversarial", "--no-adversarial")):
             if getattr(self, flag) and not getattr(cfg, flag):
                 other = AceVariant.of_flags(**{flag: False})
                 raise ConfigError(f"retarget.{flag}=false is the {other.label} ablation, not {self.label}: train it "
                                   f"as its own variant ({option} in morphkit train ace, variant={other.value!r})")
+        if cfg.w_contact < 0:
+            raise ConfigError(f"retarget.w_contact must be >= 0, got {cfg.w_contact}")
+        if cfg.w_contact > 0 and not self.contact:
+            raise ConfigError(f"retarget.w_contact={cfg.w_contact} is {AceVariant.ACE_CONTACT.label}, not "
+                              f"{self.label}: train it as its own variant (--contact-weight in morphkit train ace, "
+                              f"variant={AceVariant.ACE_CONTACT.value!r})")
+        w_contact = (cfg.w_contact or CONTACT_WEIGHT) if self.contact else 0.0
         # ACEwoFea's G is not chosen by the feature loss it ablates (it would borrow what it leaves out): its last epoch
         share = cfg.validation_share if self.feature_loss else 0.0
-        return replace(cfg, feature_loss=self.feature_loss, adversarial=self.adversarial, validation_share=share)
+        return replace(cfg, feature_loss=self.feature_loss, adversarial=self.adversarial, w_contact=w_contact,
+                       validation_share=share)
 
     @staticmethod
     def parse(name: str | AceVariant) -> AceVariant:
