@@ -67,8 +67,9 @@ def run(args: argparse.Namespace) -> int:
     from morphkit.errors import ConfigError
     from morphkit.io import read_morphology
     from morphkit.io.shipped import resolve_morphology
-    from morphkit.retarget.ace.config import AceVariant, preset
+    from morphkit.retarget.ace.config import preset
     from morphkit.retarget.ace.train import train_ace
+    from morphkit.retarget.ace.variants import AceVariant
     from morphkit.retarget.config import replace_config
 
     if args.trainer == "nkn":

@@ -85,7 +85,7 @@ def test_each_ablation_removes_exactly_its_term(tmp_path, human_dir, dog, cache,
 
 
 def test_ace_contact_on_a_preset_trains_with_the_contact_term(tmp_path, human_dir, dog, cache):
-    from morphkit.retarget.ace.config import CONTACT_WEIGHT
+    from morphkit.retarget.ace.variants import CONTACT_WEIGHT
 
     cfg = replace_config(preset("smoke"), TINY)
     assert cfg.retarget.w_contact == 0  # the preset leaves it off: the variant alone turns it on
@@ -924,7 +924,7 @@ def test_best_generator_keeps_the_weights_of_the_lowest_loss_and_survives_its_st
 
 
 def test_acewofea_is_not_chosen_by_the_feature_loss_it_ablates():
-    from morphkit.retarget.ace.config import AceVariant
+    from morphkit.retarget.ace.variants import AceVariant
 
     rc = preset("default").retarget
     assert rc.validation_share > 0

@@ -9,7 +9,7 @@ An ACE run folder::
     mapping.json           end-effector mapping (Eq. 11) with every KL value
     start_states.npz       character states a retargeting rollout may start from, with their Ψ
     prior/                 the motion prior's Run folder (trainer "ace-prior")
-    retarget*/             one Run folder per retargeter variant (:class:`~.config.AceVariant`)
+    retarget*/             one Run folder per retargeter variant (:class:`~.variants.AceVariant`)
 
 :class:`AceArtifact` is written once by training (:func:`~.train.prepare`) and read by
 retargeting, evaluation and the examples; nothing else opens these files. The pattern is Brax's

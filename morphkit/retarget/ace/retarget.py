@@ -41,9 +41,10 @@ from morphkit.motion import (
     to_canonical,
 )
 from morphkit.retarget.ace.checkpoint import AceArtifact, retargeting_generator_state
-from morphkit.retarget.ace.config import AceVariant, PriorConfig, RetargetConfig
+from morphkit.retarget.ace.config import PriorConfig, RetargetConfig
 from morphkit.retarget.ace.model import FeatureMap, Generator, build_vae
 from morphkit.retarget.ace.train import PRIOR_TRAINER, completion, rollout
+from morphkit.retarget.ace.variants import AceVariant
 from morphkit.retarget.checkpoint import load_checkpoint
 from morphkit.retarget.config import read_config
 from morphkit.retarget.retargeter import RetargetedClip, check_finite

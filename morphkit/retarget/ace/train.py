@@ -41,7 +41,7 @@ from morphkit.motion import (
     world_end_effectors,
 )
 from morphkit.retarget.ace.checkpoint import AVERAGE_STATE, BEST_STATE, META_FILE, PRIOR_STAGE, AceArtifact
-from morphkit.retarget.ace.config import AceConfig, AceVariant, PriorConfig, RetargetConfig
+from morphkit.retarget.ace.config import AceConfig, PriorConfig, RetargetConfig
 from morphkit.retarget.ace.model import (
     Discriminator,
     FeatureMap,
@@ -52,6 +52,7 @@ from morphkit.retarget.ace.model import (
     foot_view,
 )
 from morphkit.retarget.ace.networks import MotionVAE, kl_divergence
+from morphkit.retarget.ace.variants import AceVariant
 from morphkit.retarget.distributed import average_gradients, broadcast_parameters, joined_group
 from morphkit.retarget.run import Run
 from morphkit.retarget.training_data import StateWindows, character_data, human_motions, validation_split
@@ -401,7 +402,7 @@ def train_retargeter(
     """Train (or resume, or load when finished) G and D (Eq. 3–10) from a trained prior π (kept frozen).
 
     Args:
-        variant: The retargeter (:class:`~.config.AceVariant`); its ablation flags are set in the
+        variant: The retargeter (:class:`~.variants.AceVariant`); its ablation flags are set in the
             retarget config, so the stage's ``config.yaml`` records what was trained.
         log: Where the G chosen on held-out clips is reported (``retarget.validation_share``).
     """
