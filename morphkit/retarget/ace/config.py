@@ -9,6 +9,7 @@ retarget.discriminate_exported=false --set retarget.w_gp=0.1`` trains the paper'
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from typing import Any, ClassVar
 
 from morphkit.retarget.training_data import DataConfig
 
@@ -18,6 +19,13 @@ __all__ = ["PRESETS", "AceConfig", "DataConfig", "PriorConfig", "RetargetConfig"
 @dataclass(frozen=True)
 class PriorConfig:
     """The motion prior: encoder c(x_{t-1}, x_t) → z and MANN π(z, x_{t-1}) → x_t (§4, §6.4)."""
+
+    retired: ClassVar[dict[str, Any]] = {
+        "residual": False, "contact_flags": False, "contact_weight": ..., "derive_slots": False,
+        "root_height_from_feet": False, "root_step_from_feet": False,
+    }
+    """Deleted experiments and their off values: a run's config naming them is read where they are off
+    (docs/experiments/bringing-back.md; ``...``: inert at any value)."""
 
     latent: int = 32
     """Latent size Z (§6.4)."""
@@ -34,8 +42,6 @@ class PriorConfig:
     kl_beta: float = 0.1
     """β of the VAE's KL term, averaged per latent element. Ours: MotionVAE's 1 collapses z on these states
     (docs/experiments/kl-beta.md)."""
-    residual: bool = False
-    """π predicts x_t − x_{t-1} (off: x_t, as the paper; docs/experiments/residual-prior.md)."""
     foot_weight: float = 30.0
     """Weight of the prior's foot term: the feet's ground-frame step and height through FK of π's joints against the
     data's [body lengths²]. Ours (0: the paper's prior; docs/experiments/prior-foot-term.md)."""
@@ -43,18 +49,6 @@ class PriorConfig:
     """Extra weight of the foot term's step error where the data's foot is planted (ours, as motion diffusion)."""
     planted_step: float = 0.002
     """A data foot is planted over a transition when its ground step is below this [m] and below 2 cm height."""
-    contact_flags: bool = False
-    """States end with per-foot stance flags that π predicts (off: the paper's states;
-    docs/experiments/stance-flags-and-derived-slots.md)."""
-    contact_weight: float = 1.0
-    """Weight of the logistic loss on π's stance flags (with ``contact_flags``)."""
-    derive_slots: bool = False
-    """π's end-effector and velocity slots derived by FK inside the forward pass (off: π predicts every slot;
-    docs/experiments/stance-flags-and-derived-slots.md)."""
-    root_height_from_feet: bool = False
-    """π's root height derived so its lowest foot stands on the ground (off; docs/experiments/root-from-feet.md)."""
-    root_step_from_feet: bool = False
-    """π's root step derived so planted feet stay put (off; docs/experiments/root-from-feet.md)."""
     rollout: int = 8
     """Steps of a scheduled-sampling rollout (MotionVAE: 8)."""
     teacher_fraction: float = 0.15
@@ -77,6 +71,10 @@ class PriorConfig:
 class RetargetConfig:
     """The adversarial correspondence embedding: G(x^h_t, x^r_{t-1}) → ẑ, D(x^r_{t-1}, x^r_t) (§5, §6.4)."""
 
+    retired: ClassVar[dict[str, Any]] = {"ground_drift_weight": 0.0, "discriminator_feet": False,
+                                         "lr_final_fraction": 1.0}
+    """Deleted experiments and their off values (as :attr:`PriorConfig.retired`)."""
+
     generator_hidden: tuple[int, ...] = (512, 512, 512)
     """G's layer widths (§6.4)."""
     discriminator_hidden: tuple[int, ...] = (512, 512, 512)
@@ -91,17 +89,12 @@ class RetargetConfig:
     hand_weight: float = 1.0
     """Factor on Ψ's hand and tool end-effector blocks in G's feature term; ours, 1: Eq. 9
     (docs/experiments/hand-weight.md)."""
-    ground_drift_weight: float = 0.0
-    """Weight (× ``w_fea``) of a term on the window-mean root motion over the ground (0: off;
-    docs/experiments/ground-drift.md)."""
     w_gp: float = 1.0
     """Gradient-penalty weight on real transitions (Eq. 5 gives 0.1, kept by ``paper``; ours:
     docs/experiments/adversarial-weights.md)."""
     discriminate_exported: bool = True
     """D judges the exported motion: the end-effectors of FK of the generated joints, G's adversarial gradient
     through FK (ours; False: the paper's D)."""
-    discriminator_feet: bool = False
-    """D also sees each foot's ground step and height (off: the paper's D; docs/experiments/discriminator-feet.md)."""
     w_contact: float = 0.0
     """Weight of foot sliding [m/s] + 10 × penetration [m] of the FK'd motion in G's loss; beyond the paper, set by
     ``AceVariant`` (ACE+contact only)."""
@@ -129,9 +122,6 @@ class RetargetConfig:
     """G's Adam learning rate (§6.4)."""
     lr_discriminator: float = 1e-4
     """D's Adam learning rate (§6.4)."""
-    lr_final_fraction: float = 1.0
-    """G's and D's learning rates at the last step as a fraction of the first (1: constant, as the paper;
-    docs/experiments/lr-decay.md)."""
     generator_average: float = 0.0
     """Decay of an exponential moving average of G's weights, the G that retargets; ours, 0: the last step's G
     (docs/experiments/generator-average.md)."""
