@@ -3,6 +3,7 @@
 * :func:`build_vae` — encoder c and MANN prior π (§4, §6.4), from :mod:`morphkit.retarget.ace.networks`.
 * :class:`Generator` — G(x^h_t, x^r_{t-1}) → ẑ_t, an MLP with LeakyReLU (§5.1, §6.4).
 * :class:`Discriminator` — D(x^r_{t-1}, x^r_t) → logit, an MLP with SiLU (§5.2, §6.4).
+* :func:`rollout` — G and π rolled over a human clip (Eq. 4): training and retargeting alike.
 * :class:`FeatureMap` — Ψ (§6.3) of human states and of generated character states, with the
   character's end-effectors taken from **morphkit's FK of the generated joint coordinates** (through
   :mod:`morphkit.torch`), so what the feature loss scores is what is exported.
@@ -24,7 +25,7 @@ from morphkit.retarget.ace.config import PriorConfig, RetargetConfig
 from morphkit.retarget.ace.networks import MotionEncoder, MotionPrior, MotionVAE
 from morphkit.retarget.networks import MLP
 
-__all__ = ["Discriminator", "FeatureMap", "Generator", "build_vae", "foot_indices"]
+__all__ = ["Discriminator", "FeatureMap", "Generator", "build_vae", "foot_indices", "rollout"]
 
 
 def foot_indices(creature: Morphology) -> list[int]:
@@ -162,3 +163,32 @@ class FeatureMap:
     def psi_of_fixed(self, fixed: torch.Tensor) -> torch.Tensor:
         """Ψ of denormalised states whose ee block is already FK's (:meth:`creature_with_fk`)."""
         return self.pairing.creature_psi_of_states(fixed, self.creature_layout)
+
+
+def rollout(
+    generator: torch.nn.Module,
+    prior: torch.nn.Module,
+    x_h: torch.Tensor,
+    start: torch.Tensor,
+    *,
+    tbptt: int = 0,
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """Autoregressive retargeting: ẑ_t = G(x^h_t, x^r_{t-1}), x̂^r_t = π(ẑ_t, x^r_{t-1}) (Eq. 4).
+
+    Args:
+        x_h: Normalised human states [B, T, Sh].
+        start: Normalised character start states x^r_0 [B, Sr].
+        tbptt: Detach the carried state every this many frames (0: never).
+
+    Returns:
+        ``(previous, generated)``, each [B, T, Sr]: the states each step was conditioned on, and its output.
+    """
+    x_prev, prevs, outs = start, [], []
+    for t in range(x_h.shape[1]):
+        if tbptt and t and t % tbptt == 0:
+            x_prev = x_prev.detach()
+        x = prior(generator(x_h[:, t], x_prev), x_prev)
+        prevs.append(x_prev)
+        outs.append(x)
+        x_prev = x
+    return torch.stack(prevs, dim=1), torch.stack(outs, dim=1)

@@ -39,10 +39,9 @@ from morphkit.motion import (
     human_state_layout,
     to_canonical,
 )
-from morphkit.retarget.ace.checkpoint import AceArtifact, retargeting_generator_state
+from morphkit.retarget.ace.checkpoint import PRIOR_TRAINER, AceArtifact, retargeting_generator_state
 from morphkit.retarget.ace.config import PriorConfig, RetargetConfig
-from morphkit.retarget.ace.model import FeatureMap, Generator, build_vae
-from morphkit.retarget.ace.train import PRIOR_TRAINER, rollout
+from morphkit.retarget.ace.model import FeatureMap, Generator, build_vae, rollout
 from morphkit.retarget.ace.variants import AceVariant
 from morphkit.retarget.checkpoint import load_checkpoint
 from morphkit.retarget.config import read_config

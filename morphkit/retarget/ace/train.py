@@ -40,9 +40,16 @@ from morphkit.motion import (
     map_end_effectors,
     world_end_effectors,
 )
-from morphkit.retarget.ace.checkpoint import AVERAGE_STATE, BEST_STATE, META_FILE, PRIOR_STAGE, AceArtifact
+from morphkit.retarget.ace.checkpoint import (
+    AVERAGE_STATE,
+    BEST_STATE,
+    META_FILE,
+    PRIOR_STAGE,
+    PRIOR_TRAINER,
+    AceArtifact,
+)
 from morphkit.retarget.ace.config import AceConfig, PriorConfig, RetargetConfig
-from morphkit.retarget.ace.model import Discriminator, FeatureMap, Generator, build_vae, foot_indices
+from morphkit.retarget.ace.model import Discriminator, FeatureMap, Generator, build_vae, foot_indices, rollout
 from morphkit.retarget.ace.networks import MotionVAE, kl_divergence
 from morphkit.retarget.ace.variants import AceVariant
 from morphkit.retarget.distributed import average_gradients, broadcast_parameters, joined_group
@@ -58,15 +65,12 @@ __all__ = [
     "latent_range",
     "prepare",
     "prior_foot_term",
-    "rollout",
     "sampling_probability",
     "train_ace",
     "train_prior",
     "train_retargeter",
 ]
 
-PRIOR_TRAINER = "ace-prior"
-"""The prior stage's trainer name (its ``run.yaml``)."""
 START_STATES = 512
 """Character states kept in a run as rollout starts for retargeting (chosen by Ψ nearest the human's first frame)."""
 
@@ -254,35 +258,6 @@ def latent_range(vae: MotionVAE, transitions: StateWindows, *, batch: int = 8192
         mus.append(encoder(w[:, 0], w[:, 1])[0])
     mu = torch.cat(mus)
     return mu.mean(0), mu.std(0).clamp_min(1e-6)
-
-
-def rollout(
-    generator: torch.nn.Module,
-    prior: torch.nn.Module,
-    x_h: torch.Tensor,
-    start: torch.Tensor,
-    *,
-    tbptt: int = 0,
-) -> tuple[torch.Tensor, torch.Tensor]:
-    """Autoregressive retargeting: ẑ_t = G(x^h_t, x^r_{t-1}), x̂^r_t = π(ẑ_t, x^r_{t-1}) (Eq. 4).
-
-    Args:
-        x_h: Normalised human states [B, T, Sh].
-        start: Normalised character start states x^r_0 [B, Sr].
-        tbptt: Detach the carried state every this many frames (0: never).
-
-    Returns:
-        ``(previous, generated)``, each [B, T, Sr]: the states each step was conditioned on, and its output.
-    """
-    x_prev, prevs, outs = start, [], []
-    for t in range(x_h.shape[1]):
-        if tbptt and t and t % tbptt == 0:
-            x_prev = x_prev.detach()
-        x = prior(generator(x_h[:, t], x_prev), x_prev)
-        prevs.append(x_prev)
-        outs.append(x)
-        x_prev = x
-    return torch.stack(prevs, dim=1), torch.stack(outs, dim=1)
 
 
 def gradient_penalty(disc: torch.nn.Module, real: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:

@@ -12,8 +12,8 @@ __all__ = ["CONTACT_WEIGHT", "AceVariant"]
 
 
 CONTACT_WEIGHT = 2.0
-"""``retarget.w_contact`` of ACE+contact where the config leaves it 0 (Table 1's ``--contact-weight``: on Spot 1 gave
-UFR 12.1 %, 2 gave 4.4 %; docs/guides/evaluate.md)."""
+"""``retarget.w_contact`` of ACE+contact where the config leaves it 0 (Table 1's ``--contact-weight`` default, measured
+against 1 in docs/guides/evaluate.md)."""
 
 
 class AceVariant(str, Enum):
