@@ -74,7 +74,7 @@ def _adversarial_step(data: Any, preset: str, batch: int, repeats: int, gflops: 
     from morphkit.metrics import feature_loss
     from morphkit.retarget.ace import train as T
     from morphkit.retarget.ace.config import preset as get_preset
-    from morphkit.retarget.ace.model import Discriminator, Generator, build_vae
+    from morphkit.retarget.ace.model import Discriminator, Generator, build_vae, rollout
     from morphkit.retarget.networks import matmul_flops
 
     cfg = get_preset(preset)
@@ -89,7 +89,7 @@ def _adversarial_step(data: Any, preset: str, batch: int, repeats: int, gflops: 
     real = torch.randn(batch * window, 2 * sr)
 
     def step() -> None:
-        prev, fake = T.rollout(gen, prior, x_h, x0, tbptt=rc.tbptt)
+        prev, fake = rollout(gen, prior, x_h, x0, tbptt=rc.tbptt)
         ft = torch.cat([prev, fake], -1).flatten(0, 1)
         d_real, gp = T.gradient_penalty(disc, real)
         loss_d = F.softplus(-d_real).mean() + F.softplus(disc(ft.detach())).mean() + 0.5 * rc.w_gp * gp

@@ -25,7 +25,6 @@ def measure(run: Path, iterations: int = 150, seconds: float = 3.0, seed: int = 
 
     from morphkit.graph import EndEffectorRole
     from morphkit.retarget.ace.retarget import AceRetargeter
-    from morphkit.retarget.ace.train import completion
     from morphkit.retarget.training_data import character_motions
     from morphkit.synth import default_human_motion
 
@@ -41,7 +40,6 @@ def measure(run: Path, iterations: int = 150, seconds: float = 3.0, seed: int = 
     lo, hi = np.percentile(data, [10, 90])
     human = model.intake(next(iter(default_human_motion(frames=60, seed=seed, fps=model.fps))))
     fmap = model.feature_map(human)  # only its creature side (FK, statistics) is used
-    complete = completion(fmap, model.fps, model.prior_config)
     T = round(seconds * model.fps)
     t = torch.arange(T, dtype=torch.float32) / model.fps
     target = float(lo + hi) / 2 + float(hi - lo) / 2 * torch.sin(2 * np.pi * t / seconds)
@@ -54,7 +52,7 @@ def measure(run: Path, iterations: int = 150, seconds: float = 3.0, seed: int = 
         x, heights = x0, []
         for k in range(T):
             z = gen.latent(g[k : k + 1])
-            x = complete(x, model.prior(z, x))[0]
+            x = model.prior(z, x)
             d = stats.denormalize(x)
             heights.append(d[0, lay.slice("root_height")][0] + fmap.fk_end_effectors(d)[0, hand, 2])
         height = torch.stack(heights)

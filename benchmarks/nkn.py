@@ -38,6 +38,7 @@ def main(argv: list[str] | None = None) -> int:
     from morphkit.retarget.config import replace_config
     from morphkit.retarget.nkn import preset
     from morphkit.retarget.nkn import train as T
+    from morphkit.retarget.nkn.networks import build_networks
     from morphkit.retarget.run import Run
 
     torch.set_num_threads(args.threads)
@@ -50,7 +51,7 @@ def main(argv: list[str] | None = None) -> int:
                 setup = T.prepare(Path(tmp) / f"{name}_{backend}", cfg, human_data=data, log=lambda s: None)
                 with Run(Path(tmp) / f"{name}_{backend}", trainer="nkn", config=cfg, progress=False,
                          tensorboard=False, handle_signals=False) as r:
-                    nets = T.build_networks(cfg, setup.template, setup.source_features, setup.source_offsets)
+                    nets = build_networks(cfg, setup.template, setup.source_features, setup.source_offsets)
                     g_params = list(nets["generator"].parameters())
                     opt_g = torch.optim.Adam(g_params, lr=cfg.lr, betas=cfg.betas)
                     opt_d = torch.optim.Adam(nets["discriminator"].parameters(), lr=cfg.lr, betas=cfg.betas)

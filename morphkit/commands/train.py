@@ -67,8 +67,9 @@ def run(args: argparse.Namespace) -> int:
     from morphkit.errors import ConfigError
     from morphkit.io import read_morphology
     from morphkit.io.shipped import resolve_morphology
-    from morphkit.retarget.ace.config import AceVariant, preset
+    from morphkit.retarget.ace.config import preset
     from morphkit.retarget.ace.train import train_ace
+    from morphkit.retarget.ace.variants import AceVariant
     from morphkit.retarget.config import replace_config
 
     if args.trainer == "nkn":
@@ -88,8 +89,9 @@ def run(args: argparse.Namespace) -> int:
         sets.append(f"retarget.w_contact={args.contact_weight}")
     if sets:
         cfg = replace_config(cfg, sets)
+    # --set retarget.w_contact=W asks for ACE+contact as --contact-weight W does
     variant = AceVariant.of_flags(feature_loss=not args.no_feature_loss, adversarial=not args.no_adversarial,
-                         contact_weight=args.contact_weight)
+                                  contact_weight=cfg.retarget.w_contact)
     out = Path(args.out) if args.out else Path("runs") / f"ace_{creature.name}_{args.preset}"
     stage = train_ace(out, creature, cfg, variant=variant, human_data=args.human_data,
                       mapping_override=parse_pairs(args.map, args.map_file), prior_dir=args.prior,

@@ -1,7 +1,7 @@
 """The methods of a comparison: every finished retargeter of the given run folders, by Table-1 name.
 
 An ACE run folder gives one method per finished retargeter stage (one per
-:class:`~morphkit.retarget.ace.config.AceVariant`: ACE, ACEwoFea, ACEwoAdv, ACE+contact); a stage
+:class:`~morphkit.retarget.ace.variants.AceVariant`: ACE, ACEwoFea, ACEwoAdv, ACE+contact); a stage
 folder given directly gives that stage only. An NKN run folder of the cross-morphology mode gives
 NKN. A folder that holds run folders gives all of theirs. Runs of one method and several seeds are
 averaged in the report.
@@ -17,7 +17,7 @@ from pathlib import Path
 
 from morphkit.errors import RunError, SourceLocation
 from morphkit.retarget.ace.checkpoint import AceArtifact
-from morphkit.retarget.ace.config import AceVariant
+from morphkit.retarget.ace.variants import AceVariant
 from morphkit.retarget.nkn.checkpoint import NknArtifact
 from morphkit.retarget.run import CHECKPOINT_FILE, RUN_FILE, Run
 

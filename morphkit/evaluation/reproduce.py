@@ -46,9 +46,10 @@ from morphkit.evaluation.report import write_report
 from morphkit.evaluation.stages import DONE_FILE, Stage, lanes_at_once, run_stages, stage_done  # noqa: F401
 from morphkit.graph import Morphology
 from morphkit.retarget.ace.checkpoint import PRIOR_STAGE
-from morphkit.retarget.ace.config import AceConfig, AceVariant
+from morphkit.retarget.ace.config import AceConfig
 from morphkit.retarget.ace.config import preset as ace_preset
 from morphkit.retarget.ace.train import prepare, train_ace, train_prior
+from morphkit.retarget.ace.variants import AceVariant
 from morphkit.retarget.config import config_to_dict, replace_config
 from morphkit.retarget.nkn import NknConfig, train_nkn
 from morphkit.retarget.nkn import preset as nkn_preset

@@ -187,6 +187,7 @@ def _build(cls: type[C], data: Any, prefix: str, lines: _LineMap, source: str | 
         )
     fields = {f.name: f for f in dataclasses.fields(cls) if f.init}  # type: ignore[arg-type]
     hints = typing.get_type_hints(cls)
+    data = _without_retired(cls, data, prefix, lines, source)
     unknown = [k for k in data if k not in fields]
     if unknown:
         raise ConfigError(
@@ -205,6 +206,22 @@ def _build(cls: type[C], data: Any, prefix: str, lines: _LineMap, source: str | 
         return cls(**kwargs)
     except (TypeError, ValueError) as exc:  # a __post_init__ check
         raise ConfigError(f"{where}: {exc}", location=lines.at(source, prefix)) from exc
+
+
+def _without_retired(cls: type, data: Mapping[str, Any], prefix: str, lines: _LineMap,
+                     source: str | None) -> Mapping[str, Any]:
+    """``data`` without the keys of deleted options that ``cls.retired`` names (``{name: off value}``, ``...``: any
+    value), so a run written before they were deleted still reads; one that trained with an option on cannot."""
+    retired: Mapping[str, Any] = getattr(cls, "retired", {})
+    for name in data:
+        off = retired.get(name, ...)
+        if name in retired and off is not ... and data[name] != off:
+            raise ConfigError(
+                f"config field {prefix + name!r} is {data[name]!r}: that option was deleted (off: {off!r}) and this "
+                "version cannot use a run trained with it; docs/experiments/bringing-back.md says how to bring it back",
+                location=lines.at(source, f"{prefix}{name}"),
+            )
+    return {k: v for k, v in data.items() if k not in retired}
 
 
 def _coerce(value: Any, hint: Any, path: str, lines: _LineMap, source: str | None) -> Any:

@@ -37,7 +37,8 @@ class RetargetedClip:
     """Joint coordinates decoding had to clamp into their limits (nothing, for methods that do not clamp)."""
     stance: np.ndarray | None = None
     """[T, F] the method's own stance flags of the creature's feet (:func:`~morphkit.motion.foot_names` order),
-    where it predicts them (ACE with stance flags); the ``lock`` export holds them."""
+    where a method predicts them (none shipped does since ACE's stance flags were deleted); the ``lock`` export holds
+    them."""
 
 
 def check_finite(motion: Motion, *, run: str | os.PathLike[str], clip: str) -> Motion:

@@ -22,7 +22,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 import torch
@@ -67,6 +67,10 @@ CONVENTION_FILE = "convention.yaml"
 class DataConfig:
     """Where the training states come from."""
 
+    retired: ClassVar[dict[str, Any]] = {"forward_speed": None}
+    """Deleted options and their off values: a run's config naming them is read where they are off
+    (docs/experiments/bringing-back.md)."""
+
     character_frames: int = 200_000
     """Synthesised character frames (§7.1: 200k states per character)."""
     fps: float = 30.0
@@ -80,14 +84,6 @@ class DataConfig:
     and tail keep moving: in-place upper-body motion); ``None``: the synthesis' own default
     (:attr:`morphkit.synth.CommandConfig.stand_probability`, 0.1). Ours: the paper draws random
     commands only, while held-out humans mostly stand, bend and reach."""
-    forward_speed: tuple[float, float] | None = None
-    """Forward speed range [m/s] of the synthesised commands at the synthesis' reference size; ``None``: the
-    synthesis' own (:attr:`morphkit.synth.CommandConfig.forward_speed`, −1.5 to 5, which gives the shipped quadruped
-    with an arm 29 % of its frames walking backwards faster than 0.3 m/s). Ours. Measured on it (``default``,
-    seed 0, CMU): with (−0.5, 5) ACE's slow walk backwards where the human stands turns into a faster walk
-    forwards (+0.12 to +0.26 body lengths/s per standing clip, against −0.02 to −0.13), forward follow 0.58 → 0.51,
-    matched FID 1.005 → 0.914 (each against its own data set): the adversarial term pulls G towards the data's
-    common speeds whichever way they go. Unset."""
     arm_hang_share: float | None = None
     """Share of the synthesised arm moves that go to the lowest-hanging neighbouring pose
     (:attr:`morphkit.synth.ArmConfig.hang_share`); ``None``: the synthesis' own (0, every move random). Ours."""
@@ -104,7 +100,7 @@ class DataConfig:
     ones, and G learnt to turn the quadruped with an arm left whichever way the human turned (see the docs)."""
 
 
-SYNTHESIS_OPTIONS: tuple[str, ...] = ("stand_probability", "forward_speed", "arm_hang_share", "full_arm_travel")
+SYNTHESIS_OPTIONS: tuple[str, ...] = ("stand_probability", "arm_hang_share", "full_arm_travel")
 """The :class:`DataConfig` fields that shape the creature's synthesised data besides its length, frame rate and
 seed. Another trainer that synthesises the creature (NKN's cross-morphology mode) carries the same fields and
 copies them from ACE's config (:func:`synthesis_options`) when a table compares both, so both see one data set."""
@@ -135,7 +131,6 @@ def _morphology_key(morphology: Morphology) -> str:
 
 def _synth_key(data: DataConfig) -> str:
     key = "" if data.stand_probability is None else f"|stand={data.stand_probability!r}"
-    key += "" if data.forward_speed is None else f"|forward={tuple(map(float, data.forward_speed))!r}"
     key += "" if data.arm_hang_share is None else f"|hang={float(data.arm_hang_share)!r}"
     return key + ("|arms=full" if data.full_arm_travel else "|arms=partial")
 
@@ -146,8 +141,6 @@ def _synth_config(data: DataConfig) -> Any:
     changed: dict[str, Any] = {}
     if data.stand_probability is not None:
         changed["stand_probability"] = data.stand_probability
-    if data.forward_speed is not None:
-        changed["forward_speed"] = tuple(map(float, data.forward_speed))
     commands = CommandConfig(**changed)
     arms = ArmConfig() if data.full_arm_travel else ArmConfig.partial_travel()
     if data.arm_hang_share is not None:

@@ -84,6 +84,23 @@ def test_each_ablation_removes_exactly_its_term(tmp_path, human_dir, dog, cache,
     assert (_column(path, "feature_loss") > 0).all()
 
 
+def test_ace_contact_on_a_preset_trains_with_the_contact_term(tmp_path, human_dir, dog, cache):
+    from morphkit.retarget.ace.variants import CONTACT_WEIGHT
+
+    cfg = replace_config(preset("smoke"), TINY)
+    assert cfg.retarget.w_contact == 0  # the preset leaves it off: the variant alone turns it on
+    stage = train_ace(tmp_path / "run", read_morphology(dog), cfg, variant="ace-contact", human_data=human_dir,
+                      progress=False, log=lambda s: None)
+    assert stage.name == "retarget_contact"
+    assert yaml.safe_load((stage / "config.yaml").read_text())["w_contact"] == CONTACT_WEIGHT > 0
+    assert (_column(stage / "metrics.csv", "loss_g_contact") > 0).all()
+    # the contact term asked for in a variant without it is refused before anything trains
+    with pytest.raises(ConfigError, match=r"w_contact=2.0 is ACE\+contact, not ACE"):
+        train_ace(tmp_path / "plain", read_morphology(dog), replace_config(cfg, ["retarget.w_contact=2"]),
+                  human_data=human_dir, progress=False, log=lambda s: None)
+    assert not (tmp_path / "plain").exists()
+
+
 _SCRIPT = """
 import sys
 from morphkit.io import read_morphology
@@ -356,10 +373,10 @@ def test_prior_foot_term_is_zero_on_data_and_the_squared_step_error_otherwise(do
     assert prior_foot_term(fmap, feet, prev, pred, prev, data).item() == pytest.approx(want, rel=1e-5)
 
 
-def test_residual_prior_foot_term_and_exported_discriminator_train_and_log(tmp_path, human_dir, dog, cache):
-    """Our options (residual π, the prior's foot term, D on the exported motion): the logged prior loss is
+def test_prior_foot_term_and_exported_discriminator_train_and_log(tmp_path, human_dir, dog, cache):
+    """Our options (the prior's foot term, D on the exported motion): the logged prior loss is
     exactly its weighted terms, and the adversarial stage still decomposes into its logged terms."""
-    cfg = replace_config(preset("smoke"), [*TINY, "prior.residual=true", "prior.foot_weight=30",
+    cfg = replace_config(preset("smoke"), [*TINY, "prior.foot_weight=30",
                                            "retarget.discriminate_exported=true"])
     stage = train_ace(tmp_path / "run", read_morphology(dog), cfg, human_data=human_dir, progress=False,
                       log=lambda s: None)
@@ -396,26 +413,6 @@ def test_character_data_cache_is_keyed_by_the_synthesis_source(tmp_path, dog, mo
     assert len(list(tmp_path.glob("synth_*.npz"))) == 3
 
 
-def test_character_data_walk_only_forwards_when_asked(tmp_path, dog):
-    """``data.forward_speed`` reaches the synthesis' commands: with (0, 5) m/s no frame's root moves backwards
-    along its heading, while it does walk forwards; the option keys the cache."""
-    from morphkit.retarget.training_data import DataConfig, character_motions
-    from morphkit.rotations import yaw_from_quat
-
-    m = read_morphology(dog)
-    motions = character_motions(m, DataConfig(character_frames=600, forward_speed=(0.0, 5.0)), cache_dir=tmp_path,
-                                progress=False)
-    forward = []
-    for x in motions:
-        step = np.diff(x.q[:, :2], axis=0) * x.fps
-        yaw = yaw_from_quat(x.q[1:, 3:7])
-        forward.append(step[:, 0] * np.cos(yaw) + step[:, 1] * np.sin(yaw))
-    forward = np.concatenate(forward)
-    assert forward.min() > -1e-4 and forward.max() > 0.1
-    character_motions(m, DataConfig(character_frames=600), cache_dir=tmp_path, progress=False)
-    assert len(list(tmp_path.glob("synth_*.npz"))) == 2
-
-
 def test_generator_latent_stays_inside_its_bound_for_any_output():
     """ẑ = μ + b·σ·tanh(g/b): inside μ ± b·σ however large G's raw output, ≈ μ + σ·g for small g, g itself at b = 0."""
     from dataclasses import replace
@@ -447,35 +444,6 @@ def test_generator_latent_stays_inside_its_bound_for_any_output():
     torch.testing.assert_close(unbounded(x_h, x_prev), small)
 
 
-def test_discriminator_sees_a_planted_foot_slide_of_7mm(dog):
-    """D's foot view of constructed transitions: a creature standing still shows steps of 0 and its feet's
-    heights as tanh(z / 5 cm); the same stance carried 7 mm forward per frame shows every foot's step as
-    tanh(0.7) along the heading and 0 across, whichever way the creature faces."""
-    from morphkit.motion import Motion, character_state_from_motion, character_state_layout
-    from morphkit.retarget.ace.model import FOOT_HEIGHT_SCALE, FOOT_STEP_SCALE, foot_view
-    from morphkit.retarget.ace.train import foot_indices
-    from morphkit.rotations import quat_from_yaw
-
-    m = read_morphology(dog)
-    feet = foot_indices(m)
-    lay = character_state_layout(m)
-    q = np.repeat(m.rest_q()[None], 4, axis=0)
-    q[:, 3:7] = quat_from_yaw(np.array(0.8))  # facing 0.8 rad off the world's x axis
-    still = Motion(m, 30.0, q.copy())
-    z = still.end_effector_positions()[0, feet, 2]
-    moving = q.copy()
-    moving[:, 0] += 0.007 * np.cos(0.8) * np.arange(4)
-    moving[:, 1] += 0.007 * np.sin(0.8) * np.arange(4)
-    for motion, step in ((still, 0.0), (Motion(m, 30.0, moving), 0.007)):
-        x = torch.as_tensor(character_state_from_motion(motion))
-        view = foot_view(lay, feet, x[:-1], x[1:]).numpy()
-        steps = view[:, : 2 * len(feet)].reshape(len(x) - 1, len(feet), 2)
-        np.testing.assert_allclose(steps[..., 0], np.tanh(step / FOOT_STEP_SCALE), atol=1e-6)
-        np.testing.assert_allclose(steps[..., 1], 0.0, atol=1e-6)
-        np.testing.assert_allclose(view[:, 2 * len(feet):], np.tanh(z / FOOT_HEIGHT_SCALE)[None].repeat(len(x) - 1, 0),
-                                   atol=1e-6)
-
-
 def test_character_data_keep_arms_within_partial_travel_when_asked(tmp_path):
     """With ``data.full_arm_travel`` off, ACE's character data draw arm poses within 70 % of each joint's span
     about rest (``ArmConfig.partial_travel``); by default they take the whole travel — the two data sets
@@ -495,62 +463,6 @@ def test_character_data_keep_arms_within_partial_travel_when_asked(tmp_path):
     slack = 0.1 * (upper[arm] - lower[arm])  # IK follows the tips on straight lines between pooled poses
     assert (part[:, arm] >= inner_lo - slack).all() and (part[:, arm] <= inner_hi + slack).all()
     assert np.ptp(full[:, arm], axis=0).sum() > np.ptp(part[:, arm], axis=0).sum()
-
-
-def test_completed_states_are_the_encoding_of_the_motion_they_decode_to(dog):
-    """π's outputs (data plus noise) completed step by step: every derived slot — end-effectors (FK of the
-    predicted tilt and joints), their velocities, the root velocities — equals, to 1e-5 m, what the NumPy
-    encoder gives the decoded motion; the stance flags are 0/1 from the logits, with σ's gradient."""
-    from morphkit.motion import (
-        NormStats,
-        Pairing,
-        character_state_from_motion,
-        character_state_layout,
-        decode_character_states,
-        stance_flags_of,
-    )
-    from morphkit.retarget.ace.model import FeatureMap, StateCompletion
-
-    _, _, motion = _dog_feature_map(dog, frames=60)
-    m = motion.morphology
-    lay = character_state_layout(m, contacts=True)
-    flags = np.ones((motion.frame_count, 4))
-    flags[::3, 0] = 0.0
-    x = character_state_from_motion(motion, contacts=flags)
-    stats = NormStats.fit([x])
-    ees = tuple(e.name for e in m.end_effectors)
-    fmap = FeatureMap(m, lay, lay, stats, stats, Pairing(ees, ees, 0.4, 0.4))
-    complete = StateCompletion(fmap, motion.fps, derive=True, contacts=True)
-    rng = np.random.default_rng(0)
-    noisy = x + 0.05 * stats.std * rng.normal(size=x.shape)
-    lower, upper = m.coordinate_limits
-    b = m.base_coordinate_count
-    js = lay.slice("joint_q")
-    noisy[:, js] = np.clip(noisy[:, js], lower[b:] + 1e-6, upper[b:] - 1e-6)  # decoding clamps nothing
-    logit = rng.normal(size=(len(x), 4)) * 3
-    raw = torch.as_tensor(stats.normalize(noisy), dtype=torch.float64)
-    raw[:, lay.slice("foot_contacts")] = torch.as_tensor(logit)
-    raw.requires_grad_(True)
-    states = [torch.as_tensor(stats.normalize(x[:1]), dtype=torch.float64)[0]]
-    for t in range(1, len(x)):
-        states.append(complete(states[-1], raw[t])[0])
-    out = torch.stack(states)
-    done = stats.denormalize(out.detach().numpy())
-    np.testing.assert_array_equal(stance_flags_of(done[1:], lay), logit[1:] > 0)
-    back, report = decode_character_states(done, m, motion.fps, layout=lay)
-    assert not report.coordinates
-    again = character_state_from_motion(back, contacts=stance_flags_of(done, lay).astype(float))
-    for name in ("ee_positions", "ee_velocities", "root_linear_velocity", "root_angular_velocity",
-                 "previous_root_orientation", "root_orientation", "joint_q", "foot_contacts"):
-        s = lay.slice(name)
-        scale = 1.0 / motion.fps if "velocit" in name else 1.0  # velocities compared as per-frame steps
-        np.testing.assert_allclose(done[1:, s] * scale, again[1:, s] * scale, atol=1e-5, err_msg=name)
-    # straight-through flags: d flag / d logit = σ'(logit), through the normalisation
-    fs = lay.slice("foot_contacts")
-    out[5, fs].sum().backward()
-    p = torch.sigmoid(torch.as_tensor(logit[5]))
-    want = (p * (1 - p)) / torch.as_tensor(stats.std[fs])
-    torch.testing.assert_close(raw.grad[5, fs], want, rtol=1e-9, atol=0)
 
 
 def _noisy_outputs(fmap, x: np.ndarray, *, seed: int) -> np.ndarray:
@@ -573,137 +485,6 @@ def _completed_rollout(complete, start: np.ndarray, raw_states: np.ndarray) -> n
     for t in range(1, len(raw)):
         states.append(complete(states[-1], raw[t])[0])
     return stats.denormalize(torch.stack(states).detach().numpy())
-
-
-@pytest.mark.parametrize("derive", [False, True])
-def test_root_height_from_feet_stands_the_lowest_foot_on_the_ground(dog, derive):
-    """``root_height_from_feet``: π's outputs (data plus noise) completed step by step decode to a motion whose
-    lowest foot (world FK of the decoded coordinates) is at z = 0 to 1e-5 m on every frame; on the synthesised
-    data themselves the derived height is the data's (to 1e-5 m) wherever the synthesis has a foot on the
-    ground; every other slot is what the completion without it gives."""
-    from morphkit.motion import decode_character_states
-    from morphkit.retarget.ace.model import StateCompletion, foot_indices
-
-    fmap, x, motion = _dog_feature_map(dog, frames=60)
-    m, lay = motion.morphology, fmap.creature_layout
-    feet = foot_indices(m)
-    noisy = _noisy_outputs(fmap, x, seed=0)
-    h = lay.slice("root_height")
-
-    def completed(raw_states: np.ndarray, ground: bool) -> np.ndarray:
-        return _completed_rollout(StateCompletion(fmap, motion.fps, derive=derive, contacts=False, ground_feet=ground),
-                                  x[0], raw_states)
-
-    done = completed(noisy, True)
-    back, _ = decode_character_states(done, m, motion.fps, layout=lay)
-    lowest = back.end_effector_positions()[1:, feet, 2].min(axis=1)
-    np.testing.assert_allclose(lowest, 0.0, atol=1e-5)
-    assert np.abs(noisy[1:, h] - done[1:, h]).max() > 1e-3  # the noise moved π's own height
-    without = completed(noisy, False)
-    rest = np.ones(lay.dim, dtype=bool)
-    rest[h] = False
-    if derive:  # the height enters the root's vertical velocity, and through it the ee velocities
-        for name in ("root_linear_velocity", "ee_velocities"):
-            rest[lay.slice(name)] = False
-    np.testing.assert_allclose(done[1:, rest], without[1:, rest], atol=1e-9)
-    on_data = completed(x, True)
-    planted = motion.end_effector_positions()[1:, feet, 2].min(axis=1) < 1e-6
-    assert planted.mean() > 0.9
-    np.testing.assert_allclose(on_data[1:, h][planted], x[1:, h][planted], atol=1e-5)
-
-
-@pytest.mark.parametrize("ground", [False, True])
-def test_root_step_from_feet_keeps_the_feet_on_the_ground_still(dog, ground):
-    """``root_step_from_feet``: π's outputs (data plus noise) completed step by step decode to a motion in which
-    the feet within the stance band at both frames of a transition (world FK of the decoded coordinates) do not
-    move on average — their weighted mean world step is under 0.1 mm wherever one is down — while without it the noise
-    alone moves them millimetres; on the synthesised data the derived step is the data's to 1e-5 m; the root
-    velocity slot is the step times the frame rate."""
-    from morphkit.motion import decode_character_states
-    from morphkit.retarget.ace.model import STANCE_BAND, STANCE_SOFTNESS, StateCompletion, foot_indices
-
-    fmap, x, motion = _dog_feature_map(dog, frames=60)
-    m, lay = motion.morphology, fmap.creature_layout
-    feet = foot_indices(m)
-    noisy = _noisy_outputs(fmap, x, seed=1)
-
-    def completed(raw_states: np.ndarray, step: bool) -> np.ndarray:
-        complete = StateCompletion(fmap, motion.fps, derive=False, contacts=False, ground_feet=ground, step_feet=step)
-        return _completed_rollout(complete, x[0], raw_states)
-
-    def down_steps(states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        back, _ = decode_character_states(states, m, motion.fps, layout=lay)
-        p = back.end_effector_positions()[:, feet]
-        near = 1.0 / (1.0 + np.exp(-(STANCE_BAND - p[..., 2]) / STANCE_SOFTNESS))
-        w = near[1:] * near[:-1]  # [T-1, F]
-        mean = (w[..., None] * (p[1:, :, :2] - p[:-1, :, :2])).sum(1) / np.maximum(w.sum(1), 1e-12)[:, None]
-        return np.linalg.norm(mean, axis=-1), w.sum(1)
-
-    done = completed(noisy, True)
-    held, weight = down_steps(done)
-    free, _ = down_steps(completed(noisy, False))
-    assert (weight > 0.5).mean() > 0.5
-    assert held[weight > 0.5].max() < 1e-4
-    assert free[weight > 0.5].max() > 0.003
-    vel = lay.slice("root_linear_velocity")
-    np.testing.assert_allclose(done[1:, vel][:, :2], done[1:, lay.slice("root_displacement")] * motion.fps, atol=1e-9)
-    on_data = completed(x, True)
-    down = motion.end_effector_positions()[:, feet, 2] < 1e-6
-    planted = (down[1:] & down[:-1]).any(axis=1)
-    assert planted.mean() > 0.8
-    d = lay.slice("root_displacement")
-    np.testing.assert_allclose(on_data[1:, d][planted], x[1:, d][planted], atol=1e-5)
-
-
-def test_stance_flags_and_derived_slots_train_retarget_and_lock(tmp_path, human_dir, dog, cache):
-    """With both options: the logged prior loss is exactly its weighted terms (the stance term among them);
-    retargeted clips carry 0/1 stance flags per foot, their states' ee block is FK of the decoded motion,
-    and ``lock`` holds those flags."""
-    from morphkit.motion import character_state_from_motion
-    from morphkit.retarget import WithContacts, load
-
-    cfg = replace_config(preset("smoke"), [*TINY, "prior.contact_flags=true", "prior.derive_slots=true",
-                                           "prior.contact_weight=2"])
-    train_ace(tmp_path / "run", read_morphology(dog), cfg, human_data=human_dir, progress=False, log=lambda s: None)
-    prior = tmp_path / "run" / "prior" / "metrics.csv"
-    loss, recon, kl, foot, stance = (_column(prior, k) for k in ("prior_loss", "prior_recon", "prior_kl",
-                                                                   "prior_foot", "prior_stance"))
-    np.testing.assert_allclose(loss, recon + cfg.prior.kl_beta * kl + cfg.prior.foot_weight * foot + 2 * stance,
-                               rtol=1e-5)
-    assert (stance > 0).all()
-    model = load(tmp_path / "run")
-    from morphkit.motion import load_motions
-
-    raw = model.retarget(load_motions(human_dir)[:1])[0]
-    assert raw.stance is not None and raw.stance.shape == (raw.motion.frame_count, 4)
-    lay = model.layout
-    ee = lay.slice("ee_positions")
-    again = character_state_from_motion(raw.motion)
-    np.testing.assert_allclose(raw.states[1:, ee], again[1:, ee], atol=1e-4)  # flags come last: same slice
-    locked = WithContacts(model, "lock").export(raw)
-    assert locked.motion.frame_count == raw.motion.frame_count and np.isfinite(locked.motion.q).all()
-
-
-def test_a_prior_from_before_stance_flags_reads_with_both_options_off(tmp_path):
-    """A prior stage's config.yaml written before the two options existed (no such keys) reads as trained:
-    flag-less states, π's own slots; one that names them keeps them."""
-    from dataclasses import asdict
-
-    import yaml
-
-    from morphkit.retarget.ace.config import PriorConfig
-    from morphkit.retarget.ace.retarget import read_prior_config
-
-    old = {k: v for k, v in asdict(PriorConfig()).items() if k not in ("contact_flags", "contact_weight",
-                                                                         "derive_slots")}
-    path = tmp_path / "config.yaml"
-    path.write_text(yaml.safe_dump({k: list(v) if isinstance(v, tuple) else v for k, v in old.items()}))
-    pc = read_prior_config(path)
-    assert not pc.contact_flags and not pc.derive_slots
-    path.write_text(yaml.safe_dump({**{k: list(v) if isinstance(v, tuple) else v for k, v in old.items()},
-                                    "contact_flags": True, "derive_slots": True}))
-    pc = read_prior_config(path)
-    assert pc.contact_flags and pc.derive_slots
 
 
 def test_prior_reach_benchmark_moves_the_hand_towards_its_target(tmp_path, human_dir, cache):
@@ -775,19 +556,15 @@ def test_generator_average_is_the_moving_average_of_gs_weights_and_the_g_that_re
     # A run trained with it retargets with the average, not the last step's G; the run keeps its synthesis
     # options, so an evaluation rebuilds the data set it trained on.
     cfg = replace_config(preset("smoke"), [*TINY, "retarget.generator_average=0.5", "data.arm_hang_share=0.4",
-                                           "retarget.ground_motion_weight=3", "retarget.ground_drift_weight=0.5",
-                                           "data.forward_speed=[-0.5, 3.0]", "data.stand_probability=0.2",
+                                           "retarget.ground_motion_weight=3", "data.stand_probability=0.2",
                                            "data.human_mirror=true"])
     train_ace(tmp_path / "run", read_morphology(dog), cfg, human_data=human_dir, progress=False, log=lambda s: None)
     from morphkit.retarget.ace.checkpoint import AceArtifact
 
     data = AceArtifact.load(tmp_path / "run").data
-    assert (data.arm_hang_share, tuple(data.forward_speed), data.stand_probability, data.human_mirror) == (
-        0.4, (-0.5, 3.0), 0.2, True)
-    assert replace(data, forward_speed=None) == replace(cfg.data, forward_speed=None)
+    assert (data.arm_hang_share, data.stand_probability, data.human_mirror) == (0.4, 0.2, True)
+    assert data == cfg.data
     assert "ground_motion_weight: 3.0" in (tmp_path / "run" / "retarget" / "config.yaml").read_text()
-    assert "ground_drift_weight: 0.5" in (tmp_path / "run" / "retarget" / "config.yaml").read_text()
-    assert "ground_drift" in (tmp_path / "run" / "retarget" / "metrics.csv").read_text().splitlines()[0]
     states = torch.load(tmp_path / "run" / "retarget" / "checkpoint.pt", weights_only=True)["states"]
     kept = retargeting_generator_state(states)
     assert AVERAGE_STATE in states and set(kept) == set(states["generator"])
@@ -795,29 +572,6 @@ def test_generator_average_is_the_moving_average_of_gs_weights_and_the_g_that_re
     loaded = AceRetargeter(tmp_path / "run").generator.state_dict()
     for k, v in kept.items():
         torch.testing.assert_close(loaded[k].cpu(), v)
-
-
-def test_ground_drift_compares_window_means_of_the_ground_motion_columns():
-    """Against a naive loop over windows; a difference that averages out over the window is no drift."""
-    from morphkit.motion import GROUND_MOTION_FEATURES
-    from morphkit.retarget.ace.train import ground_drift
-
-    g = torch.Generator().manual_seed(0)
-    h, r = torch.randn(4, 12, 17, generator=g), torch.randn(4, 12, 17, generator=g)
-    naive = []
-    for b in range(4):
-        d = [float(h[b, :, c].mean() - r[b, :, c].mean()) for c in GROUND_MOTION_FEATURES]
-        naive.append(np.sqrt(np.sum(np.square(d))))
-    assert float(ground_drift(h, r)) == pytest.approx(np.mean(naive), rel=1e-6)
-    wobble = h.clone()
-    wobble[:, :, list(GROUND_MOTION_FEATURES)] += torch.tensor([0.3, -0.3]).repeat(6)[:, None]  # ± per frame
-    assert float(ground_drift(h, wobble)) == pytest.approx(0.0, abs=1e-6)
-    others = [c for c in range(17) if c not in GROUND_MOTION_FEATURES]
-    shifted = h.clone()
-    shifted[:, :, others] += 1.0  # only the ground-motion columns count
-    assert float(ground_drift(h, shifted)) == pytest.approx(0.0, abs=1e-6)
-    shifted[:, :, GROUND_MOTION_FEATURES[0]] += 0.25
-    assert float(ground_drift(h, shifted)) == pytest.approx(0.25, rel=1e-5)
 
 
 def test_feature_weights_weigh_the_hand_and_tool_blocks_and_the_ground_motion():
@@ -858,7 +612,7 @@ def test_validation_split_holds_out_a_share_of_the_clips_with_their_mirror_image
 def test_the_g_that_retargets_is_the_epoch_with_the_lowest_held_out_feature_loss(tmp_path, human_dir, dog, cache):
     from morphkit.retarget.ace.checkpoint import BEST_STATE, retargeting_generator_state
     from morphkit.retarget.ace.retarget import AceRetargeter
-    from morphkit.retarget.ace.train import Validation, completion, frozen_prior, prepare, train_prior
+    from morphkit.retarget.ace.train import Validation, frozen_prior, prepare, train_prior
     from morphkit.retarget.training_data import StateWindows, validation_split
 
     cfg = replace_config(preset("smoke"), [*TINY, "retarget.epochs=4", "retarget.generator_average=0.5",
@@ -879,7 +633,7 @@ def test_the_g_that_retargets_is_the_epoch_with_the_lowest_held_out_feature_loss
     validation = Validation.build([data.human_states[i] for i in val], starts, cfg.retarget.window, data.features,
                                   torch.device("cpu"), seed=cfg.seed)
     gen = AceRetargeter(tmp_path / "run").generator.cpu()
-    score = validation.feature_loss(gen, frozen_prior(vae), completion(data.features, cfg.data.fps, cfg.prior))
+    score = validation.feature_loss(gen, frozen_prior(vae))
     assert score == pytest.approx(scores[best], rel=1e-5)
     for k, v in retargeting_generator_state(states).items():
         torch.testing.assert_close(gen.state_dict()[k], v)
@@ -907,7 +661,7 @@ def test_best_generator_keeps_the_weights_of_the_lowest_loss_and_survives_its_st
 
 
 def test_acewofea_is_not_chosen_by_the_feature_loss_it_ablates():
-    from morphkit.retarget.ace.config import AceVariant
+    from morphkit.retarget.ace.variants import AceVariant
 
     rc = preset("default").retarget
     assert rc.validation_share > 0

@@ -127,3 +127,33 @@ def test_config_diff_lists_dotted_fields():
         "prior.experts": (8, 2),
         "prior.hidden": ([512, 512], [16]),
     }
+
+
+def test_a_deleted_option_reads_where_it_is_off_and_is_refused_where_it_was_on(tmp_path: Path):
+    """A run written before an option was deleted (``retired``) reads where the option was off, naming it nowhere
+    after; where it was on the run cannot be used, and the error names the field, its line and how to go on."""
+    from morphkit.retarget.ace.config import AceConfig, PriorConfig, RetargetConfig
+    from morphkit.retarget.training_data import DataConfig
+
+    path = tmp_path / "config.yaml"
+    old = write_config(path, AceConfig()).read_text()
+    old = old.replace("  latent: 32\n", "  latent: 32\n  residual: false\n  contact_flags: false\n"
+                                        "  contact_weight: 2.0\n")
+    old = old.replace("  window: 32\n", "  window: 32\n  lr_final_fraction: 1.0\n  discriminator_feet: false\n")
+    old = old.replace("  human_frames: 6000\n", "  human_frames: 6000\n  forward_speed: null\n")
+    path.write_text(old)
+    assert read_config(AceConfig, path) == AceConfig()
+    for text, field_name in ((old.replace("residual: false", "residual: true"), "prior.residual"),
+                             (old.replace("lr_final_fraction: 1.0", "lr_final_fraction: 0.1"),
+                              "retarget.lr_final_fraction"),
+                             (old.replace("forward_speed: null", "forward_speed: [-0.5, 5.0]"), "data.forward_speed")):
+        path.write_text(text)
+        with pytest.raises(ConfigError, match=f"'{field_name}' is .*deleted.*bringing-back") as info:
+            read_config(AceConfig, path)
+        line = next(i for i, s in enumerate(text.splitlines(), 1) if s.strip().startswith(field_name.split(".")[1]))
+        assert info.value.location is not None and info.value.location.line == line
+    # a deleted option cannot be set again, and the tables name only options that are gone
+    with pytest.raises(ConfigError, match=r"unknown config field 'prior\.residual'"):
+        replace_config(AceConfig(), ["prior.residual=false"])
+    for cls in (PriorConfig, RetargetConfig, DataConfig):
+        assert not set(cls.retired) & set(cls.__dataclass_fields__)

@@ -9,7 +9,7 @@ An ACE run folder::
     mapping.json           end-effector mapping (Eq. 11) with every KL value
     start_states.npz       character states a retargeting rollout may start from, with their Ψ
     prior/                 the motion prior's Run folder (trainer "ace-prior")
-    retarget*/             one Run folder per retargeter variant (:class:`~.config.AceVariant`)
+    retarget*/             one Run folder per retargeter variant (:class:`~.variants.AceVariant`)
 
 :class:`AceArtifact` is written once by training (:func:`~.train.prepare`) and read by
 retargeting, evaluation and the examples; nothing else opens these files. The pattern is Brax's
@@ -36,7 +36,10 @@ from morphkit.motion import CANONICAL_HUMAN, ActiveHand, NormStats, Pairing, can
 from morphkit.retarget.config import config_from_dict, config_to_dict
 from morphkit.retarget.training_data import DataConfig
 
-__all__ = ["AVERAGE_STATE", "BEST_STATE", "META_FILE", "PRIOR_STAGE", "AceArtifact", "retargeting_generator_state"]
+__all__ = [
+    "AVERAGE_STATE", "BEST_STATE", "META_FILE", "PRIOR_STAGE", "PRIOR_TRAINER", "AceArtifact",
+    "retargeting_generator_state",
+]
 
 META_FILE = "ace.yaml"
 """The file that makes a folder an ACE run."""
@@ -47,6 +50,8 @@ AVERAGE_STATE = "generator_average"
 BEST_STATE = "generator_best"
 """The retargeter checkpoint's state of the G chosen on held-out clips (``retarget.validation_share``), when trained
 with them: ``loss``, ``epoch`` and the ``weights`` of G (of its average, where kept) at that epoch."""
+PRIOR_TRAINER = "ace-prior"
+"""The prior stage's trainer name (its ``run.yaml``)."""
 _CREATURE = "creature.yaml"
 _CHARACTER_STATS = "stats_character.npz"
 _HUMAN_STATS = "stats_human.npz"

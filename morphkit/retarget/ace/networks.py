@@ -26,7 +26,7 @@ Choices the paper leaves open, and what is done here (sources: ``trainer-referen
   gate (the ACE author's MANN port); the latent is never dropped.
 * **Initialisation.** Expert weights as ``nn.Linear``'s default (uniform, ±1/√fan_in), expert
   biases zero (MANN).
-* **Output.** $\\pi$ predicts $x_t$ directly (MotionVAE); ``residual=True`` predicts $x_t - x_{t-1}$.
+* **Output.** $\\pi$ predicts $x_t$ directly (MotionVAE).
 * **KL.** :func:`kl_divergence` averages over latent elements by default (MotionVAE's ``kl_beta``
   convention); the weight β is the trainer's config.
 """
@@ -192,7 +192,6 @@ class MotionPrior(nn.Module):
         dropout: Expert-layer dropout.
         gate_dropout: Gate dropout.
         latent_every_layer: Concatenate z at every expert layer (MotionVAE) or at the first only.
-        residual: Predict $x_t - x_{t-1}$ and add $x_{t-1}$ back.
     """
 
     def __init__(
@@ -206,10 +205,9 @@ class MotionPrior(nn.Module):
         dropout: float = 0.3,
         gate_dropout: float = 0.0,
         latent_every_layer: bool = True,
-        residual: bool = False,
     ) -> None:
         super().__init__()
-        self.state_features, self.latent_features, self.residual = state_features, latent_features, residual
+        self.state_features, self.latent_features = state_features, latent_features
         self.mann = MixtureOfExperts(
             state_features,
             state_features,
@@ -227,7 +225,7 @@ class MotionPrior(nn.Module):
         """``z`` [..., Z], ``x_prev`` [..., S] → predicted $x_t$ [..., S]."""
         out = self.mann(x_prev, torch.cat([z, x_prev], dim=-1), z)
         assert isinstance(out, torch.Tensor)
-        return x_prev + out if self.residual else out
+        return out
 
 
 class MotionEncoder(nn.Module):

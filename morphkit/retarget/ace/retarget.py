@@ -37,13 +37,12 @@ from morphkit.motion import (
     decode_character_states,
     human_state_from_motion,
     human_state_layout,
-    stance_flags_of,
     to_canonical,
 )
-from morphkit.retarget.ace.checkpoint import AceArtifact, retargeting_generator_state
-from morphkit.retarget.ace.config import AceVariant, PriorConfig, RetargetConfig
-from morphkit.retarget.ace.model import FeatureMap, Generator, build_vae
-from morphkit.retarget.ace.train import PRIOR_TRAINER, completion, rollout
+from morphkit.retarget.ace.checkpoint import PRIOR_TRAINER, AceArtifact, retargeting_generator_state
+from morphkit.retarget.ace.config import PriorConfig, RetargetConfig
+from morphkit.retarget.ace.model import FeatureMap, Generator, build_vae, rollout
+from morphkit.retarget.ace.variants import AceVariant
 from morphkit.retarget.checkpoint import load_checkpoint
 from morphkit.retarget.config import read_config
 from morphkit.retarget.retargeter import RetargetedClip, check_finite
@@ -67,17 +66,8 @@ def _stage_trainer(stage: Path) -> str:
 
 
 def read_prior_config(path: str | os.PathLike[str]) -> PriorConfig:
-    """A prior stage's ``config.yaml``; one written before stance flags, derived slots or the derived root
-    height existed has none of them that it does not name."""
-    pc = read_config(PriorConfig, path)
-    named = yaml.safe_load(Path(path).read_text(encoding="utf-8")) or {}
-    if "derive_slots" not in named:
-        pc = dataclasses.replace(pc, contact_flags=False, derive_slots=False)
-    if "root_height_from_feet" not in named:
-        pc = dataclasses.replace(pc, root_height_from_feet=False)
-    if "root_step_from_feet" not in named:
-        pc = dataclasses.replace(pc, root_step_from_feet=False)
-    return pc
+    """A prior stage's ``config.yaml`` (one naming a deleted option at its off value reads: ``PriorConfig.retired``)."""
+    return read_config(PriorConfig, path)
 
 
 def _stage_dir(run: Path, stage: str | os.PathLike[str] | None) -> Path:
@@ -140,7 +130,7 @@ class AceRetargeter:
         self.stage = retarget_dir
         pc = read_prior_config(_need(prior_dir / CONFIG_FILE))
         self.prior_config = pc
-        self.layout = character_state_layout(self.creature, contacts=pc.contact_flags)
+        self.layout = character_state_layout(self.creature)
         rc = read_config(RetargetConfig, _need(retarget_dir / CONFIG_FILE))
         vae = build_vae(self.layout.dim, pc)
         vae.load_state_dict(load_checkpoint(_need(prior_dir / CHECKPOINT_FILE))["states"]["model"])
@@ -170,14 +160,13 @@ class AceRetargeter:
 
     def feature_map(self, human_layout_of: Motion) -> FeatureMap:
         """The run's Ψ pairing, for clips of ``human_layout_of``'s skeleton."""
-        return FeatureMap(self.creature, self.layout,
-                          human_state_layout(human_layout_of.morphology, contacts=self.prior_config.contact_flags),
-                          self._c_stats, self._h_stats, self.pairing)
+        return FeatureMap(self.creature, self.layout, human_state_layout(human_layout_of.morphology), self._c_stats,
+                          self._h_stats, self.pairing)
 
     def _human_states(self, clip: Motion) -> np.ndarray:
         if abs(clip.fps - self.fps) > 1e-6:
             clip = clip.resample(self.fps)
-        x = human_state_from_motion(clip, contacts=self.prior_config.contact_flags)
+        x = human_state_from_motion(clip)
         if x.shape[1] != self._h_dim:
             raise MotionFormatError(
                 f"clip {clip.name!r} has human states of {x.shape[1]} dims; this run was trained on "
@@ -215,7 +204,7 @@ class AceRetargeter:
         nearest = np.argmin(((self.artifact.start_psi[None] - psi_h[:, None]) ** 2).sum(-1), axis=1)
         x0 = torch.as_tensor(self._c_stats.normalize(self.artifact.start_states[nearest]), dtype=torch.float32,
                              device=self.device)
-        _, gen = rollout(self.generator, self.prior, x_h, x0, complete=completion(fmap, self.fps, self.prior_config))
+        _, gen = rollout(self.generator, self.prior, x_h, x0)
         gen_np = self._c_stats.denormalize(gen.double().cpu().numpy())
         result = []
         for clip, n, x in zip(clips, lengths, gen_np, strict=True):
@@ -224,6 +213,5 @@ class AceRetargeter:
             motion, clamp = decode_character_states(x[:n], self.creature, self.fps, initial_pose=start,
                                                     name=f"{clip.name}_{self.creature.name}", layout=self.layout)
             check_finite(motion, run=self.dir, clip=clip.name)
-            stance = stance_flags_of(x[:n], self.layout) if self.prior_config.contact_flags else None
-            result.append(RetargetedClip(clip, motion, x[:n], clamp, stance))
+            result.append(RetargetedClip(clip, motion, x[:n], clamp))
         return result

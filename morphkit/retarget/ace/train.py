@@ -40,25 +40,24 @@ from morphkit.motion import (
     map_end_effectors,
     world_end_effectors,
 )
-from morphkit.retarget.ace.checkpoint import AVERAGE_STATE, BEST_STATE, META_FILE, PRIOR_STAGE, AceArtifact
-from morphkit.retarget.ace.config import AceConfig, AceVariant, PriorConfig, RetargetConfig
-from morphkit.retarget.ace.model import (
-    Discriminator,
-    FeatureMap,
-    Generator,
-    StateCompletion,
-    build_vae,
-    foot_indices,
-    foot_view,
+from morphkit.retarget.ace.checkpoint import (
+    AVERAGE_STATE,
+    BEST_STATE,
+    META_FILE,
+    PRIOR_STAGE,
+    PRIOR_TRAINER,
+    AceArtifact,
 )
+from morphkit.retarget.ace.config import AceConfig, PriorConfig, RetargetConfig
+from morphkit.retarget.ace.model import Discriminator, FeatureMap, Generator, build_vae, foot_indices, rollout
 from morphkit.retarget.ace.networks import MotionVAE, kl_divergence
+from morphkit.retarget.ace.variants import AceVariant
 from morphkit.retarget.distributed import average_gradients, broadcast_parameters, joined_group
 from morphkit.retarget.run import Run
 from morphkit.retarget.training_data import StateWindows, character_data, human_motions, validation_split
 
 __all__ = [
     "AceData",
-    "completion",
     "disc_logits",
     "foot_indices",
     "frozen_prior",
@@ -66,15 +65,12 @@ __all__ = [
     "latent_range",
     "prepare",
     "prior_foot_term",
-    "rollout",
     "sampling_probability",
     "train_ace",
     "train_prior",
     "train_retargeter",
 ]
 
-PRIOR_TRAINER = "ace-prior"
-"""The prior stage's trainer name (its ``run.yaml``)."""
 START_STATES = 512
 """Character states kept in a run as rollout starts for retargeting (chosen by Ψ nearest the human's first frame)."""
 
@@ -118,7 +114,7 @@ def prepare(
     if existing is not None and existing != creature.name:
         raise RunError(f"run folder is of creature {existing!r}, not {creature.name!r}",
                        location=SourceLocation(str(run / META_FILE)))
-    character, stance = character_data(creature, cfg.data, cache_dir=cache_dir, progress=progress, log=log)
+    character, _ = character_data(creature, cfg.data, cache_dir=cache_dir, progress=progress, log=log)
     human = human_motions(human_data, cfg.data)
     human_m = human[0].morphology
     if not human_m.end_effectors:
@@ -126,10 +122,8 @@ def prepare(
     log(f"human data: {len(human)} clips, {sum(m.frame_count for m in human)} frames"
         f"{' (half of them mirror images)' if cfg.data.human_mirror else ''}"
         f" ({'embedded default' if human_data is None else human_data})")
-    flags = cfg.prior.contact_flags
-    c_states = [character_state_from_motion(m, contacts=c if flags else None) for m, c in zip(character, stance,
-                                                                                            strict=True)]
-    h_states = [human_state_from_motion(m, contacts=flags) for m in human]
+    c_states = [character_state_from_motion(m) for m in character]
+    h_states = [human_state_from_motion(m) for m in human]
     c_len, h_len = body_length(creature, character), body_length(human_m, human)
     c_dist = ee_distributions(character, length=c_len, max_frames_per_clip=300)
     h_dist = ee_distributions(human, length=h_len, max_frames_per_clip=300)
@@ -140,8 +134,8 @@ def prepare(
     pairing = Pairing.from_mapping(mapping.mapping, c_len, h_len, mapping.active_hand)
     if cfg.centre_features:
         pairing = pairing.with_centres(character, human)
-    fmap = FeatureMap(creature, character_state_layout(creature, contacts=flags),
-                      human_state_layout(human_m, contacts=flags), c_stats, h_stats, pairing)
+    fmap = FeatureMap(creature, character_state_layout(creature), human_state_layout(human_m), c_stats, h_stats,
+                      pairing)
     if _main_process():
         starts, start_psi = _start_states(c_states, fmap, cfg.seed)
         AceArtifact(creature, c_stats, h_stats, pairing, mapping.to_json(), starts, start_psi, cfg.data,
@@ -160,12 +154,6 @@ def _start_states(states: Sequence[np.ndarray], fmap: FeatureMap, seed: int) -> 
     pick = rng.choice(flat.shape[0], size=min(START_STATES, flat.shape[0]), replace=False)
     x = flat[np.sort(pick)]
     return x, fmap.pairing.creature_psi_of_states(x, fmap.creature_layout)
-
-
-def completion(fmap: FeatureMap, fps: float, cfg: PriorConfig) -> StateCompletion:
-    """The :class:`~.model.StateCompletion` of π's outputs that ``cfg`` asks for."""
-    return StateCompletion(fmap, float(fps), cfg.derive_slots, cfg.contact_flags, cfg.root_height_from_feet,
-                           cfg.root_step_from_feet)
 
 
 # ---- stage 1: the motion prior ----------------------------------------------------------------
@@ -206,7 +194,6 @@ def train_prior(
     windows = StateWindows.build(data.character_states, pc.rollout + 1, data.features.creature_stats)
     feet = foot_indices(data.creature)
     use_feet = pc.foot_weight > 0 and bool(feet)
-    complete = completion(data.features, cfg.data.fps, pc)
     with Run(prior_dir, trainer=PRIOR_TRAINER, config=pc, creature=data.creature.name, seed=cfg.seed, device=device,
              progress=progress) as run:
         vae = build_vae(windows.states.shape[1], pc).to(run.device)
@@ -220,15 +207,12 @@ def train_prior(
             for _ in run.steps(pc.steps_per_epoch):
                 idx = torch.randint(len(windows), (pc.batch_size,), generator=run.generator)
                 w = windows.windows(idx, run.device)
-                x_prev, recon, kl, stance = w[:, 0], 0.0, 0.0, w.new_zeros(())
-                mask = complete.regression_mask.to(w)
+                x_prev, recon, kl = w[:, 0], 0.0, 0.0
                 prevs, preds = [], []
                 for t in range(1, w.shape[1]):
                     out = model(x_prev, w[:, t], generator=None)
-                    x_hat, logits = complete(x_prev, out.x)
-                    recon = recon + ((x_hat - w[:, t]).square() * mask).sum(-1).mean() / mask.sum()
-                    if logits is not None:
-                        stance = stance + F.binary_cross_entropy_with_logits(logits, complete.flags_of(w[:, t]))
+                    x_hat = out.x
+                    recon = recon + (x_hat - w[:, t]).square().sum(-1).mean() / w.shape[-1]
                     kl = kl + kl_divergence(out.mu, out.logvar)
                     prevs.append(x_prev)
                     preds.append(x_hat)
@@ -239,15 +223,14 @@ def train_prior(
                 if use_feet:
                     foot = steps * prior_foot_term(data.features, feet, torch.stack(prevs, 1), torch.stack(preds, 1),
                                                    w[:, :-1], w[:, 1:], planted_boost=pc.foot_planted_boost,
-                                                   planted_step=pc.planted_step, fk=not complete.derive)
-                loss = (recon + pc.kl_beta * kl + pc.foot_weight * foot + pc.contact_weight * stance) / steps
+                                                   planted_step=pc.planted_step)
+                loss = (recon + pc.kl_beta * kl + pc.foot_weight * foot) / steps
                 opt.zero_grad(set_to_none=True)
                 loss.backward()
                 opt.step()
                 sched.step()
                 run.log(prior_loss=loss.detach(), prior_recon=recon.detach() / steps, prior_kl=kl.detach() / steps,
-                        prior_foot=foot.detach() / steps, prior_stance=stance.detach() / steps,
-                        p_own=p_own, lr=sched.get_last_lr()[0])
+                        prior_foot=foot.detach() / steps, p_own=p_own, lr=sched.get_last_lr()[0])
     vae.eval()
     return vae
 
@@ -277,48 +260,6 @@ def latent_range(vae: MotionVAE, transitions: StateWindows, *, batch: int = 8192
     return mu.mean(0), mu.std(0).clamp_min(1e-6)
 
 
-def rollout(
-    generator: torch.nn.Module,
-    prior: torch.nn.Module,
-    x_h: torch.Tensor,
-    start: torch.Tensor,
-    *,
-    tbptt: int = 0,
-    complete: StateCompletion | None = None,
-) -> tuple[torch.Tensor, torch.Tensor]:
-    """Autoregressive retargeting: ẑ_t = G(x^h_t, x^r_{t-1}), x̂^r_t = π(ẑ_t, x^r_{t-1}) (Eq. 4).
-
-    Args:
-        x_h: Normalised human states [B, T, Sh].
-        start: Normalised character start states x^r_0 [B, Sr].
-        tbptt: Detach the carried state every this many frames (0: never).
-        complete: Completes each of π's outputs (flags, derived slots) before it is output and carried.
-
-    Returns:
-        ``(previous, generated)``, each [B, T, Sr]: the states each step was conditioned on, and its output.
-    """
-    x_prev, prevs, outs = start, [], []
-    for t in range(x_h.shape[1]):
-        if tbptt and t and t % tbptt == 0:
-            x_prev = x_prev.detach()
-        x = prior(generator(x_h[:, t], x_prev), x_prev)
-        if complete is not None:
-            x = complete(x_prev, x)[0]
-        prevs.append(x_prev)
-        outs.append(x)
-        x_prev = x
-    return torch.stack(prevs, dim=1), torch.stack(outs, dim=1)
-
-
-def exported_states(fmap: FeatureMap, complete: StateCompletion,
-                    fake: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-    """The denormalised states that are exported from π's normalised outputs ``fake`` [..., Sr], and the gap [...]
-    between π's end-effector slots and FK of its joints (zero where the completion already derives them by FK)."""
-    if complete.derive:  # ee slots already FK's
-        return fmap.creature_stats.denormalize(fake), fake.new_zeros(())
-    return fmap.creature_with_fk(fake)  # what is exported: ee from FK of the joints
-
-
 def gradient_penalty(disc: torch.nn.Module, real: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
     """D's logits on real transitions [N, 2 Sr] and E‖∇_x D(x)‖² over them (Eq. 5, before the w_gp/2 weight)."""
     real = real.detach().requires_grad_(True)
@@ -344,7 +285,7 @@ def feature_weights(creature: Morphology, ees: Sequence[str], rc: RetargetConfig
 
 def prior_foot_term(fmap: FeatureMap, feet: Sequence[int], prev: torch.Tensor, pred: torch.Tensor,
                     prev_data: torch.Tensor, data: torch.Tensor, *, planted_boost: float = 0.0,
-                    planted_step: float = 0.002, contact_height: float = 0.02, fk: bool = True) -> torch.Tensor:
+                    planted_step: float = 0.002, contact_height: float = 0.02) -> torch.Tensor:
     """Beyond the paper: the prior's foot term (``PriorConfig.foot_weight``), in squared body lengths.
 
     For each transition ``prev`` → ``pred`` (normalised states [..., Sr]; ``pred`` = π's output) the
@@ -353,12 +294,10 @@ def prior_foot_term(fmap: FeatureMap, feet: Sequence[int], prev: torch.Tensor, p
     with the data's step ``prev_data`` → ``data``, and the predicted feet's height with the data's.
     A planted foot's data step is zero, so this is what keeps π's planted feet planted; feet the
     data has planted (step below ``planted_step``, below ``contact_height``) weigh ``1 + planted_boost``.
-    ``fk=False`` reads the predicted states' own ee slots (already FK's: :class:`~.model.StateCompletion`).
     """
     lay, stats = fmap.creature_layout, fmap.creature_stats
     x = stats.denormalize(torch.stack([prev, pred], dim=-2))
-    ee_hat = fmap.fk_end_effectors(x) if fk else x[..., lay.slice("ee_positions")].unflatten(-1, (-1, 3))
-    p_hat = world_end_effectors(x, lay, ee_hat)[..., feet, :]
+    p_hat = world_end_effectors(x, lay, fmap.fk_end_effectors(x))[..., feet, :]
     d = stats.denormalize(torch.stack([prev_data, data], dim=-2))
     p = world_end_effectors(d, lay, d[..., lay.slice("ee_positions")].unflatten(-1, (-1, 3)))[..., feet, :]
     step = p[..., 1, :, :] - p[..., 0, :, :]
@@ -401,7 +340,7 @@ def train_retargeter(
     """Train (or resume, or load when finished) G and D (Eq. 3–10) from a trained prior π (kept frozen).
 
     Args:
-        variant: The retargeter (:class:`~.config.AceVariant`); its ablation flags are set in the
+        variant: The retargeter (:class:`~.variants.AceVariant`); its ablation flags are set in the
             retarget config, so the stage's ``config.yaml`` records what was trained.
         log: Where the G chosen on held-out clips is reported (``retarget.validation_share``).
     """
@@ -425,12 +364,10 @@ def train_retargeter(
              progress=progress) as run:
         dev = run.device
         prior = frozen_prior(vae.to(dev))
-        complete = completion(fmap, cfg.data.fps, cfg.prior)
         gen = Generator(sh, sr, vae.prior.latent_features, rc).to(dev)
         gen.set_latent_range(*latent_range(vae, reals))
-        feet = foot_indices(data.creature) if rc.discriminator_feet else []
-        disc = Discriminator(sr, rc, len(feet)).to(dev)
-        stats, lay = fmap.creature_stats, fmap.creature_layout
+        disc = Discriminator(sr, rc).to(dev)
+        stats = fmap.creature_stats
         psi_weight = feature_weights(data.creature, fmap.creature_ees, rc)
         if psi_weight is not None:
             psi_weight = psi_weight.to(dev)
@@ -440,14 +377,10 @@ def train_retargeter(
         g_model, d_model = gen, disc
         opt_g = torch.optim.Adam(gen.parameters(), lr=rc.lr_generator, betas=rc.betas)
         opt_d = torch.optim.Adam(disc.parameters(), lr=rc.lr_discriminator, betas=rc.betas)
-        sched_g, sched_d = (linear_decay(opt, rc.lr_final_fraction, rc.epochs * rc.steps_per_epoch)
-                            for opt in (opt_g, opt_d))
         run.track(generator=gen, discriminator=disc, optimizer_g=opt_g, optimizer_d=opt_d)
         average = generator_average(gen, rc.generator_average)
         if average is not None:  # off: runs from before it resume as they were
             run.track(**{AVERAGE_STATE: average})
-        if rc.lr_final_fraction != 1.0:  # a constant rate has no state: runs from before it resume as they were
-            run.track(scheduler_g=sched_g, scheduler_d=sched_d)
         best = validation = None
         if held_out is not None:
             validation = Validation.build(held_out, starts, rc.window, fmap, dev, seed=cfg.seed)
@@ -458,26 +391,20 @@ def train_retargeter(
                 b = rc.batch_size
                 x_h = humans.windows(torch.randint(len(humans), (b,), generator=run.generator), dev)
                 x0 = starts.windows(torch.randint(len(starts), (b,), generator=run.generator), dev)[:, 0]
-                prev, fake = rollout(g_model, prior, x_h, x0, tbptt=rc.tbptt, complete=complete)
-                fixed, gap = exported_states(fmap, complete, fake)
+                prev, fake = rollout(g_model, prior, x_h, x0, tbptt=rc.tbptt)
+                fixed, gap = fmap.creature_with_fk(fake)  # what is exported: ee from FK of the joints
                 if rc.discriminate_exported:
                     shown = stats.normalize(fixed)
                     prev = torch.cat([x0[:, None], shown[:, :-1]], dim=1)
                 else:
                     shown = fake
                 fake_t = torch.cat([prev, shown], dim=-1).flatten(0, 1)  # [B·T, 2 Sr]
-                if feet:
-                    shown_d = fixed if rc.discriminate_exported else stats.denormalize(fake)
-                    prev_d = torch.cat([stats.denormalize(x0)[:, None], shown_d[:, :-1]], dim=1)
-                    fake_t = torch.cat([fake_t, foot_view(lay, feet, prev_d, shown_d).flatten(0, 1)], dim=-1)
                 row: dict[str, Any] = {}
                 if use_adversarial:
                     for _ in range(rc.discriminator_steps):
                         pair = reals.windows(torch.randint(len(reals), (fake_t.shape[0],), generator=run.generator),
                                              dev)
                         real = pair.flatten(1)
-                        if feet:
-                            real = torch.cat([real, foot_view(lay, feet, *stats.denormalize(pair).unbind(-2))], dim=-1)
                         d_real, gp = gradient_penalty(d_model, real)
                         d_fake = d_model(fake_t.detach())
                         loss_d = F.softplus(-d_real).mean() + F.softplus(d_fake).mean() + 0.5 * rc.w_gp * gp
@@ -494,10 +421,6 @@ def train_retargeter(
                 g_adv = rc.w_adv * F.softplus(-disc_logits(d_model, disc, fake_t)).mean() if use_adversarial \
                     else fea.new_zeros(())
                 g_fea = rc.w_fea * fea_g if use_feature_loss else fea.new_zeros(())
-                if rc.ground_drift_weight > 0 and use_feature_loss:
-                    drift = ground_drift(psi_h, psi_r)
-                    g_fea = g_fea + rc.w_fea * rc.ground_drift_weight * drift
-                    row["ground_drift"] = drift.detach()
                 g_contact = fea.new_zeros(())
                 if rc.w_contact > 0:
                     g_contact = rc.w_contact * _contact_terms(data, fixed, cfg.data.fps)
@@ -508,14 +431,11 @@ def train_retargeter(
                 opt_g.step()
                 if average is not None:
                     average.update_parameters(gen)
-                sched_g.step()
-                if use_adversarial:  # D's schedule counts G steps too; without D it never steps
-                    sched_d.step()
                 run.log(**row, loss_g=loss_g.detach(), loss_g_adv=g_adv.detach(), loss_g_fea=g_fea.detach(),
                         loss_g_contact=g_contact.detach(), feature_loss=fea.detach(), ee_fk_gap=gap.mean())
             if validation is not None and best is not None:
                 retargeting = gen if average is None else average.module
-                score = validation.feature_loss(retargeting, prior, complete)
+                score = validation.feature_loss(retargeting, prior)
                 best.offer(score, retargeting, epoch)
                 run.log(validation_feature_loss=score, best_epoch=best.epoch)
     final = gen if average is None else average.module
@@ -553,11 +473,11 @@ class Validation:
         return Validation(human, start, fmap)
 
     @torch.no_grad()
-    def feature_loss(self, generator: torch.nn.Module, prior: torch.nn.Module, complete: StateCompletion) -> float:
+    def feature_loss(self, generator: torch.nn.Module, prior: torch.nn.Module) -> float:
         """L_fea (Eq. 9, unweighted) of ``generator``'s rollouts over the windows."""
-        _, fake = rollout(generator, prior, self.human, self.start, complete=complete)
+        _, fake = rollout(generator, prior, self.human, self.start)
         fmap = self.features
-        fixed, _ = exported_states(fmap, complete, fake)
+        fixed, _ = fmap.creature_with_fk(fake)
         return float(feature_loss(fmap.human_psi(self.human), fmap.psi_of_fixed(fixed)))
 
 
@@ -580,14 +500,6 @@ class BestGenerator:
 
     def load_state_dict(self, state: dict[str, Any]) -> None:
         self.loss, self.epoch, self.weights = float(state["loss"]), int(state["epoch"]), dict(state["weights"])
-
-
-def ground_drift(psi_h: torch.Tensor, psi_r: torch.Tensor) -> torch.Tensor:
-    """Mean over a batch of windows [B, T, D] of ‖mean_t Ψ^h_g − mean_t Ψ^r_g‖, g the ground-motion columns
-    (:data:`~morphkit.motion.GROUND_MOTION_FEATURES`): how far the root's motion over the ground, averaged over each
-    window, is from the human's [body lengths/s and rad/s together]."""
-    cols = list(GROUND_MOTION_FEATURES)
-    return (psi_h[..., cols].mean(dim=-2) - psi_r[..., cols].mean(dim=-2)).norm(dim=-1).mean()
 
 
 def generator_average(gen: torch.nn.Module, decay: float) -> AveragedModel | None:

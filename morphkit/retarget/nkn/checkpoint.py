@@ -47,6 +47,10 @@ def _need(path: Path) -> Path:
     return path
 
 
+TRAINERS = ("nkn", "nkn-cross")
+"""Trainer names of the two modes' Runs (same-topology, cross-morphology)."""
+
+
 @dataclass(eq=False)
 class NknArtifact:
     """Everything a trained NKN run needs besides its networks' checkpoint."""

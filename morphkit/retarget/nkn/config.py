@@ -26,7 +26,7 @@ What the paper and the release leave open is named here as morphkit's choice:
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from typing import Literal
+from typing import Any, ClassVar, Literal
 
 __all__ = ["PRESETS", "NknConfig", "NknDataConfig", "preset"]
 
@@ -34,6 +34,9 @@ __all__ = ["PRESETS", "NknConfig", "NknDataConfig", "preset"]
 @dataclass(frozen=True)
 class NknDataConfig:
     """Where the skeletons and their motion come from (§5 "Dataset", adapted to morphkit's data)."""
+
+    retired: ClassVar[dict[str, Any]] = {"forward_speed": None}
+    """Deleted options and their off values (as ``DataConfig.retired``)."""
 
     fps: float = 30.0
     """Frame rate of every clip [1/s] (the release: Mixamo at 30 fps)."""
@@ -55,11 +58,9 @@ class NknDataConfig:
     character_frames: int = 12_000
     """Cross-morphology mode: synthesised frames of the target creature (its real motion for D)."""
     stand_probability: float | None = None
-    """Cross-morphology mode, the creature's synthesis: ACE's ``data.stand_probability``. This and the next three
+    """Cross-morphology mode, the creature's synthesis: ACE's ``data.stand_probability``. This and the next two
     are :data:`morphkit.retarget.training_data.SYNTHESIS_OPTIONS`; Table 1 sets them to ACE's, so both methods see
     the same creature data."""
-    forward_speed: tuple[float, float] | None = None
-    """Cross-morphology mode: ACE's ``data.forward_speed``."""
     arm_hang_share: float | None = None
     """Cross-morphology mode: ACE's ``data.arm_hang_share``."""
     full_arm_travel: bool = True

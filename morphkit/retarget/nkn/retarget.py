@@ -28,12 +28,13 @@ from morphkit.io import read_morphology
 from morphkit.motion import Motion
 from morphkit.retarget.checkpoint import load_checkpoint
 from morphkit.retarget.config import read_config
-from morphkit.retarget.nkn.checkpoint import NknArtifact
+from morphkit.retarget.nkn.checkpoint import TRAINERS, NknArtifact
 from morphkit.retarget.nkn.config import NknConfig
 from morphkit.retarget.nkn.features import GLOBAL_DIM, global_motion, integrate_global_motion, local_positions
 from morphkit.retarget.nkn.fk import SkeletonFK
 from morphkit.retarget.nkn.mapping import find_link_map, map_motion
 from morphkit.retarget.nkn.model import GeneratorOutput
+from morphkit.retarget.nkn.networks import build_networks, cpu_threads
 from morphkit.retarget.nkn.skeleton import (
     EVALUATION_VARIANTS,
     bone_offsets,
@@ -41,7 +42,6 @@ from morphkit.retarget.nkn.skeleton import (
     scale_limbs,
     topology_difference,
 )
-from morphkit.retarget.nkn.train import TRAINERS, build_networks, cpu_threads
 from morphkit.retarget.retargeter import RetargetedClip, check_finite
 from morphkit.retarget.run import CHECKPOINT_FILE, CONFIG_FILE, RUN_FILE
 from morphkit.retarget.training_data import DataConfig
@@ -107,7 +107,7 @@ class NknRetargeter:
     Args:
         run_dir: The run folder (see :mod:`morphkit.retarget.nkn.train`).
         device: Torch device.
-        threads: torch's CPU threads while retargeting (:func:`~.train.cpu_threads`; ``None``: unchanged).
+        threads: torch's CPU threads while retargeting (:func:`~.networks.cpu_threads`; ``None``: unchanged).
 
     Raises:
         RunError: a folder that is not an NKN run, or a damaged checkpoint.

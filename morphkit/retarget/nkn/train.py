@@ -23,10 +23,9 @@ Re-running the same command resumes exactly (:class:`~morphkit.retarget.run.Run`
 
 from __future__ import annotations
 
-import contextlib
 import math
 import os
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -34,10 +33,10 @@ from typing import Any
 import numpy as np
 import torch
 
-from morphkit.errors import ConfigError, RunError, SourceLocation
+from morphkit.errors import RunError, SourceLocation
 from morphkit.graph import Morphology
 from morphkit.motion import NormStats
-from morphkit.retarget.nkn.checkpoint import META_FILE, NknArtifact
+from morphkit.retarget.nkn.checkpoint import META_FILE, TRAINERS, NknArtifact
 from morphkit.retarget.nkn.config import NknConfig
 from morphkit.retarget.nkn.data import Character, ClipBank, HumanData, as_folders, offset_stats, training_characters
 from morphkit.retarget.nkn.losses import (
@@ -47,16 +46,12 @@ from morphkit.retarget.nkn.losses import (
     squared_error,
     twist_loss,
 )
-from morphkit.retarget.nkn.model import NknDiscriminator, NknGenerator, Side, motion_differences
+from morphkit.retarget.nkn.model import NknGenerator, motion_differences
+from morphkit.retarget.nkn.networks import build_networks, cpu_threads
 from morphkit.retarget.run import Run
 from morphkit.retarget.training_data import DataConfig, character_motions, synthesis_options
 
-__all__ = ["TRAINERS", "NknSetup", "build_networks", "cpu_threads", "prepare", "train_nkn"]
-
-
-
-TRAINERS = ("nkn", "nkn-cross")
-"""Trainer names of the two modes' Runs (same-topology, cross-morphology)."""
+__all__ = ["NknSetup", "prepare", "train_nkn"]
 
 
 @dataclass(eq=False)
@@ -74,22 +69,6 @@ class NknSetup:
     target: ClipBank | None = None
     target_features: NormStats | None = None
     target_offsets: NormStats | None = None
-
-
-@contextlib.contextmanager
-def cpu_threads(count: int | None) -> Iterator[None]:
-    """torch's intra-op CPU threads set to ``count`` inside the block (``None``: unchanged), restored after.
-
-    NKN runs one small step per frame: on a CPU more threads gain nothing, and on a busy machine each
-    parallel region waits for a core (measured: a 32-unit GRU cell 0.2 ms on one thread, 24 ms on two).
-    """
-    before = torch.get_num_threads()
-    if count is not None:
-        torch.set_num_threads(count)
-    try:
-        yield
-    finally:
-        torch.set_num_threads(before)
 
 
 def _main_process() -> bool:
@@ -153,27 +132,6 @@ def prepare(
                     creature=None if setup.creature is None else creature,
                     target_features=setup.target_features, target_offsets=setup.target_offsets).save(run)
     return setup
-
-
-def build_networks(cfg: NknConfig, template: Morphology, source_features: NormStats, source_offsets: NormStats,
-                   creature: Morphology | None = None, target_features: NormStats | None = None,
-                   target_offsets: NormStats | None = None,
-                   creature_joint_init: np.ndarray | None = None) -> dict[str, torch.nn.Module]:
-    """The run's networks: ``generator`` (skeletons) or ``generator``/``inverse`` (cross), and ``discriminator``."""
-    source = Side(template, source_features, source_offsets, fk_backend=cfg.fk_backend)
-    frames = cfg.clip_frames - 1
-    if creature is None:
-        gen = NknGenerator(source.feature_dim, source, cfg)
-        disc = NknDiscriminator(source.feature_dim, 3 * source.joint_count, frames, cfg)
-        return {"generator": gen, "discriminator": disc}
-    if target_features is None or target_offsets is None:
-        raise ConfigError("the cross-morphology mode needs the creature's feature and offset statistics")
-    target = Side(creature, target_features, target_offsets, fk_backend=cfg.fk_backend, joint_init=creature_joint_init)
-    return {
-        "generator": NknGenerator(source.feature_dim, target, cfg),
-        "inverse": NknGenerator(target.feature_dim, source, cfg),
-        "discriminator": NknDiscriminator(target.feature_dim, 3 * target.joint_count, frames, cfg),
-    }
 
 
 def _frozen(module: torch.nn.Module) -> Any:
