@@ -41,6 +41,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="NKN runs over human skeletons: a training character's name, a bone-length variant "
                         "(short_legs, long_legs, long_arms_short_legs, tall) or a BVH/YAML skeleton (default: the "
                         "first unseen variant, short_legs)")
+    p.add_argument("--fps", "--source-fps", dest="fps", type=float, metavar="FPS",
+                   help="the clips' true frame rate, replacing their own (a BVH Frame Time that lies, which is "
+                        "refused outside 1e-4 to 1 s)")
     p.add_argument("--device", default="cpu", help="torch device (default cpu)")
     p.set_defaults(run=run)
 
@@ -67,7 +70,8 @@ def run(args: argparse.Namespace) -> int:
     for stem in stems:  # before any work: a bad output path would waste it
         for suffix in suffixes:
             check_writable(f"{stem}{suffix}")
-    clips = [c.replace(name=p.stem) for p, c in zip(paths, load_motions(paths), strict=True)]
+    rate = {"source_fps": args.fps} if args.fps is not None else {}
+    clips = [c.replace(name=p.stem) for p, c in zip(paths, load_motions(paths, **rate), strict=True)]
     model = load(args.run_dir, stage=args.stage, device=args.device, target=args.target)
     if model.creature is None and args.target is None:  # NKN between human skeletons: an unseen skeleton
         model.target = model.resolve_target(DEFAULT_NKN_TARGET)  # type: ignore[attr-defined]
