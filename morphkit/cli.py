@@ -100,9 +100,14 @@ def _run(command: Callable[[argparse.Namespace], int | None], args: argparse.Nam
     except BrokenPipeError:
         return 0
     except OSError as exc:
-        # Unreadable or unwritable paths are bad input too: one line, no traceback.
+        # Unreadable or unwritable paths, a full disk: bad input too, one line naming the file, no traceback.
         where = f"{exc.filename}: " if exc.filename else ""
         sys.stderr.write(f"error: {where}{exc.strerror or exc}\n")
+        return 2
+    except MemoryError as exc:
+        # An allocation that cannot be served (a size the bounds let through on a small machine): one line.
+        detail = f" ({exc})" if str(exc) else ""
+        sys.stderr.write(f"error: out of memory{detail}; try a smaller preset, fewer or shorter clips\n")
         return 2
     except KeyboardInterrupt:
         sys.stderr.write("interrupted\n")
