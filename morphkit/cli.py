@@ -50,6 +50,9 @@ def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every subcommand registered."""
     parser = _Parser(prog="morphkit", description="Differentiable kinematics for creatures of any morphology.")
     parser.add_argument("--version", action="version", version=f"morphkit {__version__}")
+    parser.add_argument("--allow-outside", action="store_true",
+                        help="read asset files (meshes, MJCF includes) outside a description's folder and package "
+                        "(accepted anywhere on the command line)")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True
     for name in COMMANDS:
@@ -70,9 +73,16 @@ def _show_warning(
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; returns the exit code (0 success, 2 bad input)."""
+    from morphkit.io.asset_paths import allow_outside
+
+    argv = list(sys.argv[1:] if argv is None else argv)
+    # A global flag that may follow the subcommand too: taken out before the subcommand's parser sees it.
+    outside = "--allow-outside" in argv
+    argv = [a for a in argv if a != "--allow-outside"]
     parser = build_parser()
     args = parser.parse_args(argv)
-    return run_command(args.run, args)
+    with allow_outside(outside):
+        return run_command(args.run, args)
 
 
 def run_command(command: Callable[[argparse.Namespace], int | None], args: argparse.Namespace) -> int:

@@ -81,6 +81,7 @@ from morphkit.graph import (
 )
 from morphkit.io._source import relative_mesh_path
 from morphkit.io.anatomy import Frame, complete_anatomy
+from morphkit.io.asset_paths import check_mjcf_files
 from morphkit.rotations import (
     quat_between_vectors,
     quat_wxyz_to_xyzw,
@@ -649,6 +650,7 @@ def mujoco_model(path: str | os.PathLike[str]) -> Any:
         raise DescriptionError(
             "reading MJCF needs MuJoCo: pip install 'morphkit[mujoco]'", location=SourceLocation(str(path))
         ) from None
+    check_mjcf_files(p)  # includes and asset files inside the model's folder or package, before MuJoCo reads them
     return _compile(p)
 
 
