@@ -11,8 +11,8 @@ folder. An asset path is accepted when it resolves (symbolic links followed) ins
   ``package.xml`` beside a folder above it (a sibling package of a workspace);
 * every folder of ``MORPHKIT_PACKAGE_PATH`` and ``ROS_PACKAGE_PATH`` (``os.pathsep``-separated), declared roots.
 
-Anything else is left out with a warning naming the file (meshes), or refused (MJCF: MuJoCo's compiler reads
-includes and asset files itself, and a model without one cannot compile), unless outside paths are allowed
+Anything else is left out with a warning naming the file (meshes, MJCF meshes too), or refused (MJCF includes,
+textures, height fields and skins: a model cannot be read without them), unless outside paths are allowed
 (:func:`allow_outside`, the CLI's ``--allow-outside``, or ``MORPHKIT_ALLOW_OUTSIDE=1``).
 """
 
@@ -21,6 +21,7 @@ from __future__ import annotations
 import contextlib
 import contextvars
 import os
+import warnings
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 
@@ -86,17 +87,22 @@ def is_inside(path: str | os.PathLike[str], roots: Iterable[Path]) -> bool:
 _MESH_DIR_TAGS = ("mesh", "hfield", "skin")
 
 
-def check_mjcf_files(path: str | os.PathLike[str]) -> None:
-    """Refuse an MJCF model whose includes or asset files resolve outside its asset roots, before MuJoCo reads them.
+def check_mjcf_files(path: str | os.PathLike[str]) -> list[Path]:
+    """Check an MJCF model's includes and asset files against its asset roots, before MuJoCo reads them.
 
     Paths follow MuJoCo's rules: includes relative to the main model's folder, meshes, height fields and skins
     under ``<compiler meshdir>`` (else ``assetdir``), textures under ``texturedir`` (else ``assetdir``).
 
+    Returns:
+        The mesh files outside the roots (each warned about), for the reader to leave out as it leaves out
+        missing ones; empty where outside paths are allowed.
+
     Raises:
-        DescriptionError: the first such file, at its line (unless :func:`outside_allowed`).
+        DescriptionError: an include, texture, height field or skin outside the roots (a model cannot be
+            read without it), at its line.
     """
     if outside_allowed():
-        return
+        return []
     from lxml import etree
 
     model = Path(path)
@@ -104,7 +110,7 @@ def check_mjcf_files(path: str | os.PathLike[str]) -> None:
     roots = asset_roots(base)
     parser = etree.XMLParser(recover=True, resolve_entities=False, no_network=True, load_dtd=False)
     dirs = {"meshdir": "", "texturedir": "", "assetdir": ""}
-    todo, seen = [model.resolve()], set()
+    todo, seen, meshes = [model.resolve()], set(), []
     while todo:
         current = todo.pop(0)
         if current in seen or not current.is_file():
@@ -116,8 +122,8 @@ def check_mjcf_files(path: str | os.PathLike[str]) -> None:
         for compiler in root.iter("compiler"):
             dirs.update({k: compiler.get(k) for k in dirs if compiler.get(k) is not None})
         for el in root.iter():
-            name = el.get("file")
-            if name is None or not isinstance(el.tag, str):
+            name = el.get("file") if isinstance(el.tag, str) else None
+            if name is None:
                 continue
             if el.tag in _MESH_DIR_TAGS:
                 folder = dirs["meshdir"] or dirs["assetdir"]
@@ -126,11 +132,17 @@ def check_mjcf_files(path: str | os.PathLike[str]) -> None:
             else:
                 folder = ""
             target = Path(os.path.normpath(base / folder / name))
-            if not is_inside(target, roots):
+            if is_inside(target, roots):
+                if el.tag == "include":
+                    todo.append(target)
+                continue
+            where = SourceLocation(str(current), el.sourceline)
+            if el.tag != "mesh":
                 raise DescriptionError(
                     f"<{el.tag} file={name!r}> resolves to {target}, outside the model's folder and package; refused "
-                    "(declare its package folder in MORPHKIT_PACKAGE_PATH, or pass --allow-outside)",
-                    location=SourceLocation(str(current), el.sourceline),
-                )
-            if el.tag == "include":
-                todo.append(target)
+                    "(declare its package folder in MORPHKIT_PACKAGE_PATH, or pass --allow-outside)", location=where)
+            meshes.append(target)
+            warnings.warn(f"{where}: mesh {name} resolves to {target}, outside the model's folder and package; left "
+                          "out (declare its package folder in MORPHKIT_PACKAGE_PATH, or pass --allow-outside)",
+                          stacklevel=3)
+    return meshes

@@ -74,7 +74,7 @@ def test_cli_allow_outside_flag(tmp_path, capsys):
     assert "outside" not in capsys.readouterr().err
 
 
-def test_mjcf_includes_and_assets_outside_the_model_are_refused(tmp_path):
+def test_mjcf_includes_and_assets_outside_the_model_are_refused_and_meshes_left_out(tmp_path):
     pytest.importorskip("mujoco")
     from morphkit.io.mjcf import read_mjcf
 
@@ -89,7 +89,15 @@ def test_mjcf_includes_and_assets_outside_the_model_are_refused(tmp_path):
     assert info.value.location.path == str(model.resolve()) and info.value.location.line == 2
     with allow_outside():
         assert read_mjcf(model).link_count >= 1
-    model.write_text('<mujoco>\n<asset>\n<mesh file="/etc/passwd"/>\n</asset>\n</mujoco>\n')
+    model.write_text('<mujoco>\n<asset>\n<texture name="t" type="2d" file="/etc/passwd"/>\n</asset>\n</mujoco>\n')
     with pytest.raises(DescriptionError, match="/etc/passwd"):
         read_mjcf(model)
+    # A mesh outside is left out, as a missing one is: its geom goes, the body stays.
+    model.write_text('<mujoco>\n<asset>\n<mesh name="m" file="../shared/m.stl"/>\n</asset>\n<worldbody>\n'
+                     '<body name="b"><freejoint/><geom type="sphere" size="0.1"/><geom type="mesh" mesh="m"/></body>\n'
+                     '</worldbody>\n</mujoco>\n')
+    _mesh(tmp_path / "shared" / "m.stl")
+    with pytest.warns(UserWarning, match=r"m\.xml:3: mesh \.\./shared/m\.stl resolves to .*outside") as record:
+        m = read_mjcf(model)
+    assert m.link("b") is not None and any("not found" in str(w.message) for w in record)
     assert os.environ.get("MORPHKIT_ALLOW_OUTSIDE") is None
