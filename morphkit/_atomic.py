@@ -20,7 +20,8 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     """Yield a temporary path in the target's folder; rename it onto ``path`` on success.
 
     The temporary name keeps the target's suffix, so format-sniffing writers (USD, imageio)
-    still see the right extension.
+    still see the right extension. An ``OSError`` while writing (a full disk) names ``path``, not the
+    temporary file.
     """
     target = Path(path)
     target.parent.mkdir(parents=True, exist_ok=True)
@@ -33,6 +34,11 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     try:
         yield tmp_path
         os.replace(tmp_path, target)
+    except OSError as exc:
+        # Name the user's file, not the temporary one (or none, as a full disk's write error does).
+        if exc.filename is None or os.fspath(exc.filename) == os.fspath(tmp_path):
+            raise type(exc)(exc.errno, exc.strerror or str(exc), os.fspath(path)) from exc
+        raise
     finally:
         if tmp_path.exists():
             tmp_path.unlink()

@@ -50,6 +50,9 @@ def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every subcommand registered."""
     parser = _Parser(prog="morphkit", description="Differentiable kinematics for creatures of any morphology.")
     parser.add_argument("--version", action="version", version=f"morphkit {__version__}")
+    parser.add_argument("--allow-outside", action="store_true",
+                        help="read asset files (meshes, MJCF includes) outside a description's folder and package "
+                        "(accepted anywhere on the command line)")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True
     for name in COMMANDS:
@@ -70,9 +73,16 @@ def _show_warning(
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; returns the exit code (0 success, 2 bad input)."""
+    from morphkit.io.asset_paths import allow_outside
+
+    argv = list(sys.argv[1:] if argv is None else argv)
+    # A global flag that may follow the subcommand too: taken out before the subcommand's parser sees it.
+    outside = "--allow-outside" in argv
+    argv = [a for a in argv if a != "--allow-outside"]
     parser = build_parser()
     args = parser.parse_args(argv)
-    return run_command(args.run, args)
+    with allow_outside(outside):
+        return run_command(args.run, args)
 
 
 def run_command(command: Callable[[argparse.Namespace], int | None], args: argparse.Namespace) -> int:
@@ -100,9 +110,14 @@ def _run(command: Callable[[argparse.Namespace], int | None], args: argparse.Nam
     except BrokenPipeError:
         return 0
     except OSError as exc:
-        # Unreadable or unwritable paths are bad input too: one line, no traceback.
+        # Unreadable or unwritable paths, a full disk: bad input too, one line naming the file, no traceback.
         where = f"{exc.filename}: " if exc.filename else ""
         sys.stderr.write(f"error: {where}{exc.strerror or exc}\n")
+        return 2
+    except MemoryError as exc:
+        # An allocation that cannot be served (a size the bounds let through on a small machine): one line.
+        detail = f" ({exc})" if str(exc) else ""
+        sys.stderr.write(f"error: out of memory{detail}; try a smaller preset, fewer or shorter clips\n")
         return 2
     except KeyboardInterrupt:
         sys.stderr.write("interrupted\n")

@@ -12,6 +12,7 @@ def run_nkn(args: argparse.Namespace) -> int:
     cross-morphology mode (human → CREATURE)."""
     from pathlib import Path
 
+    from morphkit.commands.train import hold_for_command
     from morphkit.errors import ConfigError
     from morphkit.retarget.config import replace_config
     from morphkit.retarget.nkn import preset, train_nkn
@@ -32,8 +33,9 @@ def run_nkn(args: argparse.Namespace) -> int:
     data = Path(args.human_data).name if args.human_data else "default"
     suffix = f"_{creature.name}" if creature else ""
     out = Path(args.out) if args.out else Path("runs") / f"nkn_{data}{suffix}_{args.preset}"
-    train_nkn(out, cfg, human_data=args.human_data, creature=creature, device=args.device,
-              progress=not args.no_progress)
+    with hold_for_command(out):
+        train_nkn(out, cfg, human_data=args.human_data, creature=creature, device=args.device,
+                  progress=not args.no_progress)
     mode = f"cross-morphology NKN onto {creature.name}" if creature else "NKN over the human skeletons"
     print(f"trained {mode}: {out}")
     print(f"retarget with: python -c \"from morphkit.retarget.nkn import NknRetargeter; NknRetargeter('{out}')\""

@@ -27,6 +27,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("input", metavar="IN", help="description or motion file, or a shipped creature name")
     p.add_argument("output", metavar="OUT", help="output file; its extension picks the format")
     p.add_argument("--fps", type=float, default=None, help="resample a motion to this frame rate")
+    p.add_argument("--source-fps", type=float, default=None, metavar="FPS",
+                   help="the motion file's true frame rate, replacing its own (a BVH Frame Time that lies)")
     p.add_argument(
         "--description-only", action="store_true", help="convert only the skeleton of a motion file, not its frames"
     )
@@ -64,7 +66,7 @@ def run(args: argparse.Namespace) -> int:
         from morphkit.motion import is_motion_file, read_motion, write_motion
 
         if is_motion_file(src):
-            motion = read_motion(src) if args.fps is None else read_motion(src, fps=args.fps)
+            motion = read_motion(src, **_rates(args))
             write_motion(motion, args.output)
             print(f"wrote {args.output} ({motion.morphology.name}: {len(motion.q)} frames at {motion.fps:g} fps)")
             return 0
@@ -109,7 +111,7 @@ def _qpos(args: argparse.Namespace) -> int:
     src = resolve_morphology(args.input)
     if not is_motion_file(src):
         raise ConfigError(f"{args.input}: a .qpos.npy output needs a motion file (.bvh, .npz with q, USD)")
-    motion = read_motion(src) if args.fps is None else read_motion(src, fps=args.fps)
+    motion = read_motion(src, **_rates(args))
     m = motion.morphology
     model_path = args.mjcf or (m.source if m.source and m.source.lower().endswith(".xml") else None)
     if model_path is None:
@@ -122,3 +124,8 @@ def _qpos(args: argparse.Namespace) -> int:
     atomic_write_bytes(args.output, buf.getvalue())
     print(f"wrote {args.output} (MuJoCo qpos {list(qpos.shape)} for {model_path}, {motion.fps:g} fps)")
     return 0
+
+
+def _rates(args: argparse.Namespace) -> dict[str, float]:
+    """``read_motion`` options of ``--fps`` (resample) and ``--source-fps`` (the file's true rate)."""
+    return {k: v for k, v in (("fps", args.fps), ("source_fps", args.source_fps)) if v is not None}

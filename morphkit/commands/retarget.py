@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 FORMATS = (".npz", ".bvh", ".usda", ".usd", ".usdc", ".csv")
 DEFAULT_NKN_TARGET = "short_legs"
@@ -40,13 +41,15 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="NKN runs over human skeletons: a training character's name, a bone-length variant "
                         "(short_legs, long_legs, long_arms_short_legs, tall) or a BVH/YAML skeleton (default: the "
                         "first unseen variant, short_legs)")
+    p.add_argument("--fps", "--source-fps", dest="fps", type=float, metavar="FPS",
+                   help="the clips' true frame rate, replacing their own (a BVH Frame Time that lies, which is "
+                        "refused outside 1e-4 to 1 s)")
     p.add_argument("--device", default="cpu", help="torch device (default cpu)")
     p.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
+    from morphkit._atomic import check_writable
     from morphkit.errors import ConfigError, MotionFormatError, SourceLocation
     from morphkit.motion import load_motions, write_motion_files
     from morphkit.motion.datasets import expand_motion_paths
@@ -59,9 +62,16 @@ def run(args: argparse.Namespace) -> int:
         if f not in FORMATS:
             raise ConfigError(f"unknown output format {f!r}; supported: {', '.join(FORMATS)}")
     paths = expand_motion_paths(args.motion)
-    clips = load_motions(paths)
-    if single and len(clips) != 1:
-        raise ConfigError(f"--out {out} names one file but {len(clips)} clips were given: pass a folder")
+    if single and len(paths) != 1:
+        raise ConfigError(f"--out {out} names one file but {len(paths)} clips were given: pass a folder")
+    # One clip into a file: OUT's own name and suffix (case kept); a folder: a file per clip and format.
+    stems = [out.with_suffix("")] if single else output_stems(paths, out)
+    suffixes = [out.suffix] if single else formats
+    for stem in stems:  # before any work: a bad output path would waste it
+        for suffix in suffixes:
+            check_writable(f"{stem}{suffix}")
+    rate = {"source_fps": args.fps} if args.fps is not None else {}
+    clips = [c.replace(name=p.stem) for p, c in zip(paths, load_motions(paths, **rate), strict=True)]
     model = load(args.run_dir, stage=args.stage, device=args.device, target=args.target)
     if model.creature is None and args.target is None:  # NKN between human skeletons: an unseen skeleton
         model.target = model.resolve_target(DEFAULT_NKN_TARGET)  # type: ignore[attr-defined]
@@ -76,11 +86,32 @@ def run(args: argparse.Namespace) -> int:
     results = model.retarget(clips)
     if not single:
         out.mkdir(parents=True, exist_ok=True)
-    for r in results:
-        # One clip into a file: OUT's own name and suffix (case kept); a folder: a file per clip and format.
-        stem, suffixes = (out.with_suffix(""), [out.suffix]) if single else (out / r.motion.name, formats)
+    for r, stem in zip(results, stems, strict=True):
         for path in write_motion_files(r.motion, stem, suffixes):
             print(path)
         if r.clamp.coordinates:
             print(f"  {r.motion.name}: {r.clamp}")
     return 0
+
+
+def output_stems(paths: list[Path], out: Path) -> list[Path]:
+    """``OUT/<input stem>`` per input, each input's own name; two inputs that would write one file are refused.
+
+    Raises:
+        ConfigError: two inputs with one stem (``a/walk.bvh`` and ``b/walk.npz``), naming both, or ``out``
+            an existing file.
+    """
+    from morphkit.errors import ConfigError, SourceLocation
+
+    if out.exists() and not out.is_dir():
+        raise ConfigError("--out is an existing file, not a folder: name a folder, or a file ending in one of "
+                          f"{', '.join(FORMATS)} for one clip", location=SourceLocation(str(out)))
+    seen: dict[str, Path] = {}
+    for path in paths:
+        # Case-folded: on a case-insensitive disk Walk.bvh and walk.bvh would write one file.
+        key = path.stem.casefold()
+        if key in seen:
+            raise ConfigError(f"two inputs would write the same output {out / path.stem}.*: {seen[key]} and {path}; "
+                              "rename one or retarget them into separate folders", location=SourceLocation(str(path)))
+        seen[key] = path
+    return [out / p.stem for p in paths]

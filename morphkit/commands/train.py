@@ -4,6 +4,9 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
+import os
+from pathlib import Path
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -59,10 +62,17 @@ def parse_pairs(items: list[str], file: str | None) -> dict[str, str] | None:
     return out or None
 
 
+def hold_for_command(out: Path) -> contextlib.AbstractContextManager[None]:
+    """The run folder's lock (:mod:`morphkit.retarget.folder_lock`) for the whole command; under torchrun rank 0
+    takes it alone (the other ranks of the job share the folder by design)."""
+    from morphkit.retarget.folder_lock import hold_run_folder
+
+    return hold_run_folder(out) if os.environ.get("RANK", "0") == "0" else contextlib.nullcontext()
+
+
 def run(args: argparse.Namespace) -> int:
     import dataclasses
     import math
-    from pathlib import Path
 
     from morphkit.errors import ConfigError
     from morphkit.io import read_morphology
@@ -93,9 +103,10 @@ def run(args: argparse.Namespace) -> int:
     variant = AceVariant.of_flags(feature_loss=not args.no_feature_loss, adversarial=not args.no_adversarial,
                                   contact_weight=cfg.retarget.w_contact)
     out = Path(args.out) if args.out else Path("runs") / f"ace_{creature.name}_{args.preset}"
-    stage = train_ace(out, creature, cfg, variant=variant, human_data=args.human_data,
-                      mapping_override=parse_pairs(args.map, args.map_file), prior_dir=args.prior,
-                      device=args.device, progress=not args.no_progress)
+    with hold_for_command(out):
+        stage = train_ace(out, creature, cfg, variant=variant, human_data=args.human_data,
+                          mapping_override=parse_pairs(args.map, args.map_file), prior_dir=args.prior,
+                          device=args.device, progress=not args.no_progress)
     print(f"trained {variant.value} for {creature.name}: {stage}")
     print(f"retarget with: morphkit retarget --run {out} --motion CLIP_OR_DIR --out OUT")
     return 0

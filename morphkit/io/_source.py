@@ -15,6 +15,7 @@ from pathlib import Path
 
 from morphkit.errors import DescriptionError, SourceLocation
 from morphkit.graph import BaseType, JointType, Morphology
+from morphkit.io.asset_paths import asset_roots, is_inside, outside_allowed
 
 __all__ = ["location", "read_text", "relative_mesh_path", "resolve_mesh_path", "warn_wheeled_without_wheels"]
 
@@ -70,7 +71,8 @@ def resolve_mesh_path(raw: str, source: str | None, *, loc: SourceLocation | Non
 
     ``package://pkg/path`` is searched for upwards from the description's folder (a folder named
     ``pkg``, or a folder containing one); ``file://`` is stripped; relative paths are taken
-    relative to the description's folder.
+    relative to the description's folder. A path that resolves outside the description's asset
+    roots (:mod:`morphkit.io.asset_paths`) is left out (returned as written) with a warning.
 
     Args:
         raw: The path as written in the file.
@@ -88,7 +90,7 @@ def resolve_mesh_path(raw: str, source: str | None, *, loc: SourceLocation | Non
         if found is None:
             warnings.warn(f"{where}mesh file not found: {raw}", stacklevel=3)
             return raw
-        return str(found)
+        return str(found) if _contained(found, base_dir, raw, where) else raw
     path = raw[len("file://") :] if raw.startswith("file://") else raw
     p = Path(path)
     if not p.is_absolute():
@@ -96,9 +98,22 @@ def resolve_mesh_path(raw: str, source: str | None, *, loc: SourceLocation | Non
             return raw
         p = base_dir / p
     p = Path(os.path.normpath(p))
+    if base_dir is not None and not _contained(p, base_dir, raw, where):
+        return raw
     if not p.exists():
         warnings.warn(f"{where}mesh file not found: {p}", stacklevel=3)
     return str(p)
+
+
+def _contained(path: Path, base_dir: Path, raw: str, where: str) -> bool:
+    """Whether mesh ``path`` may be read: inside the description's asset roots (:mod:`.asset_paths`), or
+    outside paths allowed; warns when it is left out."""
+    package = raw[len("package://") :].partition("/")[0] if raw.startswith("package://") else None
+    if outside_allowed() or is_inside(path, asset_roots(base_dir, package=package)):
+        return True
+    warnings.warn(f"{where}mesh {raw} resolves to {path}, outside the description's folder and package; left out "
+                  "(declare its package folder in MORPHKIT_PACKAGE_PATH, or pass --allow-outside)", stacklevel=4)
+    return False
 
 
 def relative_mesh_path(mesh: str, target: str | os.PathLike[str] | None) -> str:

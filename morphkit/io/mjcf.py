@@ -82,6 +82,7 @@ from morphkit.graph import (
 )
 from morphkit.io._source import relative_mesh_path
 from morphkit.io.anatomy import Frame, complete_anatomy
+from morphkit.io.asset_paths import asset_roots, check_mjcf_files, is_inside, outside_allowed
 from morphkit.rotations import (
     quat_between_vectors,
     quat_wxyz_to_xyzw,
@@ -203,6 +204,10 @@ def _find(raw: str, files: list[Path], line: int, tag: str | None) -> SourceLoca
 def _compile(path: Path) -> Any:
     import mujoco
 
+    # Includes and asset files inside the model's folder or package (morphkit.io.asset_paths), before MuJoCo
+    # reads them; meshes outside are left out as missing ones are.
+    if check_mjcf_files(path) and (model := _compile_without_missing_meshes(path)) is not None:
+        return model
     try:
         return mujoco.MjModel.from_xml_path(str(path))
     except ValueError as exc:
@@ -225,7 +230,10 @@ def _compile_without_missing_meshes(path: Path) -> Any:
     except ValueError:
         return None
     folder = path.resolve().parent / (spec.meshdir or "")
-    missing = [m for m in spec.meshes if m.file and not (folder / m.file).is_file()]
+    roots = asset_roots(path.resolve().parent)
+    readable = [m for m in spec.meshes if m.file and (folder / m.file).is_file()
+                and (outside_allowed() or is_inside(folder / m.file, roots))]  # outside ones left out too
+    missing = [m for m in spec.meshes if m.file and m not in readable]
     if not missing:
         return None
     names = {m.name for m in missing}

@@ -203,7 +203,8 @@ def read_motion(path: str | os.PathLike[str], **options: Any) -> Motion:
     Args:
         path: A ``.bvh``, ``.npz`` or ``.usd``/``.usda``/``.usdc`` file.
         **options: Passed to the format's reader (e.g. ``fps=``, ``scale=``, ``facing=`` for BVH;
-            ``fps=`` resamples any format).
+            ``fps=`` resamples any format; ``source_fps=`` replaces the file's own frame rate, for files
+            that lie).
 
     Raises:
         MotionFormatError: unknown suffix (listing the supported ones), missing file, or bad content.
@@ -222,6 +223,7 @@ def read_motion(path: str | os.PathLike[str], **options: Any) -> Motion:
     if suffix == ".bvh":
         return read_bvh_motion(path, **options)
     fps = options.pop("fps", None)
+    source_fps = options.pop("source_fps", None)
     if options:
         raise MotionFormatError(f"unknown option(s) for {suffix} motions: {', '.join(options)}", location=where)
     if suffix == ".npz":
@@ -230,6 +232,8 @@ def read_motion(path: str | os.PathLike[str], **options: Any) -> Motion:
         from morphkit.motion.io_usd import read_usd_motion
 
         motion = read_usd_motion(path)
+    if source_fps is not None:
+        motion = motion.replace(fps=source_fps)
     return motion.resample(fps) if fps is not None else motion
 
 

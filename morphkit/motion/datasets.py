@@ -2,9 +2,10 @@
 
 :func:`load_motions` reads motion files (any format :func:`~morphkit.motion.read_motion` knows)
 and keeps each converted clip as an ``.npz`` (:mod:`~morphkit.motion.io_npz`) in a cache
-folder, named by a hash of the file's *content* and the read options, so a second load skips
-parsing, unit and axis conversion, grounding and resampling. Renaming or moving a file keeps
-its cache entry; editing it makes a new one.
+folder, named by a hash of the file's *content*, its *name* and the read options, so a second load
+skips parsing, unit and axis conversion, grounding and resampling. Moving a file keeps its cache
+entry; renaming or editing it makes a new one (a clip's name is part of what is cached, so two
+byte-identical clips under different names each keep their own).
 
 :class:`MotionDataset` cuts clips into fixed-length windows of ACE states (human x^h or
 character x^r, :mod:`~morphkit.motion.states`), normalised with statistics fitted over all
@@ -102,6 +103,8 @@ def expand_motion_paths(paths: str | os.PathLike[str] | Iterable[str | os.PathLi
 def _cache_key(path: Path, options: dict[str, Any]) -> str:
     h = hashlib.sha1()
     h.update(f"morphkit {__version__} motion cache v{CACHE_VERSION} {path.suffix.lower()}\n".encode())
+    # The name too: the cached clip carries it (its name, the outputs and reports named after it).
+    h.update(f"{path.name}\n".encode())
     h.update(json.dumps(options, sort_keys=True, default=repr).encode())
     with path.open("rb") as f:
         for chunk in iter(lambda: f.read(1 << 20), b""):

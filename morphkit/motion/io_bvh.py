@@ -39,6 +39,7 @@ interpolates smoothly. Reading the file back with ``morphology=`` recovers the o
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 import warnings
@@ -70,7 +71,18 @@ from morphkit.rotations import (
     yaw_from_quat,
 )
 
-__all__ = ["bvh_to_motion", "ground_motion", "motion_to_bvh", "read_bvh_motion", "write_bvh_motion"]
+__all__ = [
+    "FRAME_TIME_RANGE",
+    "bvh_to_motion",
+    "ground_motion",
+    "motion_to_bvh",
+    "read_bvh_motion",
+    "write_bvh_motion",
+]
+
+FRAME_TIME_RANGE = (1e-4, 1.0)
+"""Frame times [s] a BVH motion may declare (10 000 to 1 fps); outside it the file most likely lies (``Frame Time:
+1000`` resampled to 30 fps asks for gigabytes, ``1e-300`` makes one frame of sixty): give ``source_fps``."""
 
 EXPORT_ROTATION_ORDER = ("Zrotation", "Xrotation", "Yrotation")
 """Rotation channels written for every joint (the Daz / Bandai Namco order; Blender reads any)."""
@@ -201,6 +213,7 @@ def bvh_to_motion(
     ground: bool = True,
     morphology: Morphology | None = None,
     name: str | None = None,
+    source_fps: float | None = None,
 ) -> Motion:
     """Turn a parsed BVH file into a :class:`Motion` (see the module docstring for the rules).
 
@@ -222,13 +235,17 @@ def bvh_to_motion(
             coordinates are recovered from its rotation (revolute, continuous, spherical) or
             translation (prismatic).
         name: The motion's name (default: the file's stem).
+        source_fps: The file's true frame rate, replacing its ``Frame Time:`` (for files that lie).
 
     Raises:
-        MotionFormatError: the file has no frames, or (with ``morphology=``) misses a link.
-        ConfigError: bad ``scale`` or ``facing``.
+        MotionFormatError: the file has no frames, a ``Frame Time:`` outside :data:`FRAME_TIME_RANGE`
+            (without ``source_fps``), a resample over the limits of :meth:`Motion.resample`, or (with
+            ``morphology=``) misses a link.
+        ConfigError: bad ``scale``, ``facing`` or ``source_fps``.
     """
     if bvh.frame_count == 0:
         raise MotionFormatError("BVH file has no frames", location=bvh.location(bvh.motion_line))
+    bvh = _with_frame_time(bvh, source_fps)
     if name is None:
         name = os.path.splitext(os.path.basename(bvh.source))[0] if bvh.source else "bvh"
     if morphology is not None:
@@ -263,6 +280,22 @@ def bvh_to_motion(
     if fps is not None:
         motion = motion.resample(fps)
     return motion
+
+
+def _with_frame_time(bvh: BvhFile, source_fps: float | None) -> BvhFile:
+    """``bvh`` at ``source_fps`` when given, else checked: its frame time within :data:`FRAME_TIME_RANGE`."""
+    lo, hi = FRAME_TIME_RANGE
+    if source_fps is not None:
+        if isinstance(source_fps, bool) or not (math.isfinite(source_fps) and 1 / hi <= source_fps <= 1 / lo):
+            raise ConfigError(f"source frame rate must be from {1 / hi:g} to {1 / lo:g} fps, got {source_fps!r}")
+        return dataclasses.replace(bvh, frame_time=1.0 / float(source_fps))
+    if not lo <= bvh.frame_time <= hi:
+        raise MotionFormatError(
+            f"Frame Time: {bvh.frame_time:g} s ({bvh.fps:.6g} fps) is outside {lo:g} to {hi:g} s; "
+            "if the file's frame time is wrong, give its true frame rate (--source-fps FPS; source_fps= in Python)",
+            location=bvh.location(bvh.frame_time_line),
+        )
+    return bvh
 
 
 def _lowest_foot(bvh: BvhFile, skeleton: Morphology, scale: float, R_skel: np.ndarray, R_world: np.ndarray) -> float:
@@ -376,6 +409,7 @@ def read_bvh_motion(
     fps: float | None = None,
     ground: bool = True,
     morphology: Morphology | None = None,
+    source_fps: float | None = None,
 ) -> Motion:
     """Read a BVH file as a :class:`Motion` (its skeleton becomes the morphology).
 
@@ -386,7 +420,8 @@ def read_bvh_motion(
         MotionFormatError: a malformed or truncated MOTION section (file and line), no frames.
     """
     return bvh_to_motion(
-        read_bvh(path), scale=scale, facing=facing, up=up, fps=fps, ground=ground, morphology=morphology
+        read_bvh(path), scale=scale, facing=facing, up=up, fps=fps, ground=ground, morphology=morphology,
+        source_fps=source_fps,
     )
 
 

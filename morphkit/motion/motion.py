@@ -18,7 +18,12 @@ from morphkit.errors import MotionFormatError
 from morphkit.graph import BaseType, JointType, Morphology
 from morphkit.rotations import quat_from_yaw, quat_normalize, quat_slerp
 
-__all__ = ["Motion", "base_pose_from_q", "quaternion_slices"]
+__all__ = ["MAX_FRAMES", "MAX_RESAMPLE_BYTES", "Motion", "base_pose_from_q", "quaternion_slices"]
+
+MAX_FRAMES = 2_000_000
+"""Most frames a motion may be resampled to (≈ 4.6 h at 120 fps): a longer one is a frame rate that lies."""
+MAX_RESAMPLE_BYTES = 2 << 30
+"""Most bytes a resampled motion's coordinates may take (float64), checked before any is computed."""
 
 
 def quaternion_slices(morphology: Morphology) -> tuple[int, ...]:
@@ -178,7 +183,16 @@ class Motion:
             raise MotionFormatError(f"motion {self.name!r}: fps must be a positive number, got {fps!r}")
         if abs(fps - self.fps) <= 1e-9 * self.fps:
             return self
-        count = math.floor(self.duration * fps + 1e-6) + 1
+        span = self.duration * fps  # may overflow to inf for a frame rate that lies
+        count = math.floor(span + 1e-6) + 1 if span < MAX_FRAMES else MAX_FRAMES + 1
+        size = (span + 1.0) * self.morphology.coordinate_count * 8
+        if count > MAX_FRAMES or size > MAX_RESAMPLE_BYTES:
+            # Refused before sampling: a frame time that lies would otherwise ask for gigabytes (or tebibytes).
+            raise MotionFormatError(
+                f"motion {self.name!r}: resampling {self.duration:.6g} s from {self.fps:.6g} to {fps:.6g} fps would "
+                f"make {span + 1:.6g} frames ({size / 2**30:.3g} GiB); the limit is {MAX_FRAMES} frames and "
+                f"{MAX_RESAMPLE_BYTES / 2**30:.3g} GiB: check the file's frame rate"
+            )
         return self.replace(q=self.sample(np.arange(count) / fps), fps=fps)
 
     @staticmethod

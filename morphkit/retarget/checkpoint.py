@@ -10,6 +10,7 @@ puts them back.
 
 from __future__ import annotations
 
+import errno
 import os
 import random
 import zipfile
@@ -26,6 +27,7 @@ __all__ = [
     "CHECKPOINT_FORMAT",
     "CHECKPOINT_VERSION",
     "load_checkpoint",
+    "load_module_state",
     "rng_state",
     "save_checkpoint",
     "set_rng_state",
@@ -43,8 +45,35 @@ def save_checkpoint(path: str | os.PathLike[str], payload: dict[str, Any]) -> Pa
     A crash while writing leaves the previous checkpoint in place.
     """
     with atomic_path(path) as tmp:
-        torch.save({"format": CHECKPOINT_FORMAT, "version": CHECKPOINT_VERSION, **payload}, tmp)
+        try:
+            torch.save({"format": CHECKPOINT_FORMAT, "version": CHECKPOINT_VERSION, **payload}, tmp)
+        except RuntimeError as exc:
+            # torch's zip writer reports a full disk as a RuntimeError ("file write failed"): an OSError naming
+            # the checkpoint instead, which the CLI prints as one line.
+            raise OSError(errno.EIO, f"cannot write checkpoint ({_reason(exc)})", os.fspath(path)) from exc
     return Path(path)
+
+
+def load_module_state(module: Any, state: dict[str, Any], *, path: str | os.PathLike[str], what: str) -> None:
+    """``module.load_state_dict(state)``, a state that does not fit (sizes, names) a :class:`RunError` naming ``path``.
+
+    Args:
+        module: The module (or optimiser) built from the run's config.
+        state: Its state from the checkpoint at ``path``.
+        path: The checkpoint file.
+        what: What the state is, for the message (``"the generator"``).
+    """
+    try:
+        module.load_state_dict(state)
+    except (RuntimeError, ValueError, KeyError) as exc:
+        lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
+        detail = next((line for line in lines if line.startswith(("size mismatch", "Missing", "Unexpected"))), "")
+        raise RunError(
+            f"checkpoint state of {what} does not fit the network its config.yaml builds"
+            + (f" ({detail.rstrip('.')})" if detail else "")
+            + ": the config was edited after training, or belongs to another run",
+            location=SourceLocation(os.fspath(path)),
+        ) from None
 
 
 def load_checkpoint(path: str | os.PathLike[str], *, map_location: str | torch.device = "cpu") -> dict[str, Any]:

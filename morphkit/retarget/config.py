@@ -7,6 +7,9 @@ value against the field's annotation and naming the file and line of a bad one. 
 a mapping ``name -> config`` holding at least :data:`PRESET_NAMES`; :func:`preset_config` picks one
 and applies overrides (``{"lr": 1e-4}`` or ``"prior.lr=1e-4"`` strings from a command line).
 
+Every number must be finite and ≥ 0, and network sizes (layer widths, layer and expert counts) within
+:data:`MAX_WIDTH` and :data:`MAX_COUNT`: a bad one is refused on load, naming the file and line.
+
 Supported field types: ``bool``, ``int``, ``float`` (ints and strings such as ``1e-4`` accepted),
 ``str``, ``Path``, ``Literal[...]``, ``X | None``, ``tuple[X, ...]``, ``tuple[X, Y]``,
 ``list[X]``, ``dict[str, X]`` and nested frozen dataclasses.
@@ -15,6 +18,7 @@ Supported field types: ``bool``, ``int``, ``float`` (ints and strings such as ``
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
 import types
 import typing
@@ -28,6 +32,8 @@ from morphkit._atomic import atomic_write_text
 from morphkit.errors import ConfigError, SourceLocation
 
 __all__ = [
+    "MAX_COUNT",
+    "MAX_WIDTH",
     "PRESET_NAMES",
     "config_diff",
     "config_from_dict",
@@ -40,6 +46,14 @@ __all__ = [
 ]
 
 C = TypeVar("C")
+
+MAX_WIDTH = 8192
+"""Largest layer width (``*hidden``, ``*channels``, ``latent``, ``hidden``) a config may ask for: 16× the paper's
+512, and one 8192² layer is 256 MiB of float32 weights; ``hidden: 1e8`` would ask for tens of gigabytes."""
+MAX_COUNT = 64
+"""Largest count of layers or experts a config may ask for."""
+_WIDTH_FIELDS = ("hidden", "channels", "latent")
+_COUNT_FIELDS = ("layers", "experts")
 
 PRESET_NAMES = ("smoke", "quick", "default", "paper")
 """Preset names every trainer provides: ``smoke`` (tests, ≤ 60 s on 2 CPU cores), ``quick`` (the main
@@ -176,7 +190,9 @@ class _LineMap:
     def at(self, source: str | None, path: str) -> SourceLocation | None:
         if source is None:
             return None
-        return SourceLocation(source, self.lines.get(path.rstrip(".")))
+        key = path.rstrip(".")
+        # An item of a list (``hidden[1]``) is on its field's line, or below it.
+        return SourceLocation(source, self.lines.get(key, self.lines.get(key.split("[", 1)[0])))
 
 
 def _build(cls: type[C], data: Any, prefix: str, lines: _LineMap, source: str | None) -> C:
@@ -257,6 +273,9 @@ def _coerce(value: Any, hint: Any, path: str, lines: _LineMap, source: str | Non
                 raise bad()
             pairs = enumerate(zip(value, args, strict=True))
             return tuple(_coerce(v, a, f"{path}[{i}]", lines, source) for i, (v, a) in pairs)
+        if path.rsplit(".", 1)[-1].endswith(_WIDTH_FIELDS) and len(value) > MAX_COUNT:
+            raise ConfigError(f"config field {path!r}: {len(value)} layers, the most is {MAX_COUNT} (a network size)",
+                              location=lines.at(source, path))
         item = args[0] if args else Any
         items = [_coerce(v, item, f"{path}[{i}]", lines, source) for i, v in enumerate(value)]
         return tuple(items) if origin is tuple else items
@@ -275,16 +294,19 @@ def _coerce(value: Any, hint: Any, path: str, lines: _LineMap, source: str | Non
         raise bad()
     if hint is int:
         if isinstance(value, int) and not isinstance(value, bool):
-            return value
+            _check_size(value, path, lines, source)
+            return _check_number(value, path, lines, source)
         raise bad()
     if hint is float:
         if isinstance(value, (int, float)) and not isinstance(value, bool):
-            return float(value)
+            return _check_number(float(value), path, lines, source)
         if isinstance(value, str):  # YAML 1.1 reads 1e-4 (no dot) as a string
             try:
-                return float(value)
+                number = float(value)
             except ValueError:
                 pass
+            else:
+                return _check_number(number, path, lines, source)
         raise bad()
     if hint is str:
         if isinstance(value, str):
@@ -297,6 +319,23 @@ def _coerce(value: Any, hint: Any, path: str, lines: _LineMap, source: str | Non
     if isinstance(hint, type) and isinstance(value, hint):
         return value
     raise bad()
+
+
+def _check_number(value: float, path: str, lines: _LineMap, source: str | None) -> Any:
+    """Every number of a trainer config is a finite count, rate, weight, size or seed: never NaN, ±inf or < 0."""
+    if not math.isfinite(value) or value < 0:
+        raise ConfigError(f"config field {path!r}: expected a finite number >= 0, got {value!r}",
+                          location=lines.at(source, path))
+    return value
+
+
+def _check_size(value: int, path: str, lines: _LineMap, source: str | None) -> None:
+    """Network sizes within bounds, checked on load: a size that does not fit fails here, not in an allocation."""
+    name = path.rsplit(".", 1)[-1].split("[", 1)[0]
+    for suffixes, most in ((_WIDTH_FIELDS, MAX_WIDTH), (_COUNT_FIELDS, MAX_COUNT)):
+        if name.endswith(suffixes) and not 1 <= value <= most:
+            raise ConfigError(f"config field {path!r}: {value} is outside 1 to {most} (a network size)",
+                              location=lines.at(source, path))
 
 
 def _type_name(hint: Any) -> str:

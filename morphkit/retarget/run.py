@@ -6,6 +6,7 @@ Layout of a run folder::
     config.yaml       the trainer's config (morphkit.retarget.config.write_config)
     checkpoint.pt     the whole training state, replaced atomically (morphkit.retarget.checkpoint)
     metrics.csv       one row per Run.log call
+    .lock             held (flock) by the one process writing the folder (morphkit.retarget.folder_lock)
     tensorboard/      TensorBoard event files
 
 :class:`Run` owns the position in training (epoch, step within the epoch, global step), every
@@ -29,6 +30,7 @@ the global batch; :meth:`Run.wrap` puts a model into DistributedDataParallel.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
 import random
@@ -59,6 +61,7 @@ from morphkit.retarget.distributed import (
     unwrap,
     wrap_ddp,
 )
+from morphkit.retarget.folder_lock import hold_run_folder
 from morphkit.retarget.logs import MetricsLog
 
 __all__ = ["CHECKPOINT_FILE", "CONFIG_FILE", "RUN_FILE", "Run", "Stateful", "derive_seed"]
@@ -160,44 +163,52 @@ class Run(Generic[C]):
         self.context: DistributedContext = init_distributed(device)
         # A group that existed before this run (a trainer running several stages) outlives it.
         self._owns_group = self.context.is_distributed and not joined
-        self.config: C = self._open_folder(config, set(allow_changes))
+        # One writer per folder (rank 0 writes): the config check and write below happen under the lock.
+        self._lock = contextlib.ExitStack()
+        if self.context.is_main:
+            self._lock.enter_context(hold_run_folder(self.dir))
+        try:
+            self.config: C = self._open_folder(config, set(allow_changes))
 
-        rank_seed = derive_seed(self.seed, _TAG_RANK, self.context.rank)
-        random.seed(rank_seed)
-        np.random.seed(rank_seed & 0xFFFFFFFF)  # noqa: NPY002 - seeded for code that still uses it
-        torch.manual_seed(rank_seed)
-        self.np_rng: np.random.Generator = np.random.default_rng(rank_seed)
-        """NumPy generator owned by the run (saved in checkpoints): draw NumPy randomness from it."""
-        self.generator: torch.Generator = torch.Generator().manual_seed(rank_seed ^ 0x5A5A5A5A)
-        """CPU torch generator owned by the run (saved in checkpoints), for ``generator=`` arguments."""
+            rank_seed = derive_seed(self.seed, _TAG_RANK, self.context.rank)
+            random.seed(rank_seed)
+            np.random.seed(rank_seed & 0xFFFFFFFF)  # noqa: NPY002 - seeded for code that still uses it
+            torch.manual_seed(rank_seed)
+            self.np_rng: np.random.Generator = np.random.default_rng(rank_seed)
+            """NumPy generator owned by the run (saved in checkpoints): draw NumPy randomness from it."""
+            self.generator: torch.Generator = torch.Generator().manual_seed(rank_seed ^ 0x5A5A5A5A)
+            """CPU torch generator owned by the run (saved in checkpoints), for ``generator=`` arguments."""
 
-        self.epoch = self.step = self.global_step = 0
-        self.extra: dict[str, Any] = {}
-        """Small trainer state saved in the checkpoint (tensors and builtins only), e.g. an EMA score."""
-        self._tracked: dict[str, Stateful] = {}
-        self._wrapped: list[nn.Module] = []
-        self._checkpoint = self._read_checkpoint()
-        if self._checkpoint is not None:
-            pos = self._checkpoint["position"]
-            self.epoch, self.step, self.global_step = pos["epoch"], pos["step"], pos["global_step"]
-            self.extra = dict(self._checkpoint.get("extra", {}))
-        self.metrics = MetricsLog(
-            self.dir,
-            keep_rows=self._checkpoint["metrics_rows"] if self._checkpoint is not None else 0,
-            purge_step=self.global_step + 1 if self._checkpoint is not None else 0,
-            tensorboard=tensorboard,
-            enabled=self.context.is_main,
-        )
-        self._rng_pending = self._checkpoint is not None
-        self._epoch_count: int | None = None
-        self._in_step = False
-        self._progress, self._bar = progress and self.context.is_main, None
-        self._stop_signal: int | None = None
-        self._saved_at: tuple[int, int, int] | None = None
-        self._previous_handlers: dict[int, Any] = {}
-        if handle_signals and threading.current_thread() is threading.main_thread():
-            for signum in (signal.SIGINT, signal.SIGTERM):
-                self._previous_handlers[signum] = signal.signal(signum, self._on_signal)
+            self.epoch = self.step = self.global_step = 0
+            self.extra: dict[str, Any] = {}
+            """Small trainer state saved in the checkpoint (tensors and builtins only), e.g. an EMA score."""
+            self._tracked: dict[str, Stateful] = {}
+            self._wrapped: list[nn.Module] = []
+            self._checkpoint = self._read_checkpoint()
+            if self._checkpoint is not None:
+                pos = self._checkpoint["position"]
+                self.epoch, self.step, self.global_step = pos["epoch"], pos["step"], pos["global_step"]
+                self.extra = dict(self._checkpoint.get("extra", {}))
+            self.metrics = MetricsLog(
+                self.dir,
+                keep_rows=self._checkpoint["metrics_rows"] if self._checkpoint is not None else 0,
+                purge_step=self.global_step + 1 if self._checkpoint is not None else 0,
+                tensorboard=tensorboard,
+                enabled=self.context.is_main,
+            )
+            self._rng_pending = self._checkpoint is not None
+            self._epoch_count: int | None = None
+            self._in_step = False
+            self._progress, self._bar = progress and self.context.is_main, None
+            self._stop_signal: int | None = None
+            self._saved_at: tuple[int, int, int] | None = None
+            self._previous_handlers: dict[int, Any] = {}
+            if handle_signals and threading.current_thread() is threading.main_thread():
+                for signum in (signal.SIGINT, signal.SIGTERM):
+                    self._previous_handlers[signum] = signal.signal(signum, self._on_signal)
+        except BaseException:
+            self._lock.close()
+            raise
 
     # ----------------------------------------------------------------------------- properties
 
@@ -445,6 +456,7 @@ class Run(Generic[C]):
             if self._owns_group:
                 leave_group(self.context, wait_for_ranks=wait_for_ranks)
                 self._owns_group = False
+        self._lock.close()
 
     def __enter__(self) -> Run[C]:
         return self

@@ -16,6 +16,7 @@ from morphkit.conventions import matrix_from_quat, quat_from_axis_angle, quat_fr
 from morphkit.errors import DescriptionError, GraphError, MorphkitError
 from morphkit.graph import BaseType, EndEffectorRole, JointType, Morphology, ShapeType
 from morphkit.io import read_morphology, write_morphology
+from morphkit.io.asset_paths import allow_outside
 from morphkit.io.urdf import dump_urdf, parse_urdf, read_urdf, write_urdf
 from morphkit.io.yaml_format import read_yaml
 
@@ -120,6 +121,7 @@ def test_package_paths(tmp_path):
     (pkg / "meshes").mkdir(parents=True)
     (pkg / "urdf").mkdir()
     (pkg / "meshes" / "m.stl").write_text("solid x\nendsolid x\n")
+    (pkg / "package.xml").write_text("<package><name>my_robot</name></package>\n")  # a declared package root
     (tmp_path / "ws" / "src" / "other").mkdir()
     mesh = '<link name="{}"><collision><geometry><mesh filename="{}"/></geometry></collision></link>'
     text = ('<robot name="r"><link name="a"/>'
@@ -132,11 +134,15 @@ def test_package_paths(tmp_path):
     for folder in (pkg / "urdf", tmp_path / "ws" / "src" / "other"):
         path = folder / "r.urdf"
         path.write_text(text)
-        with pytest.warns(UserWarning, match="mesh file not found: package://nope/m.stl"):
+        with pytest.warns(UserWarning, match="mesh file not found: package://nope/m.stl") as record:
             m = read_urdf(path)
         assert Path(m.link("p").shapes[0].mesh) == pkg / "meshes" / "m.stl"
         assert m.link("q").shapes[0].mesh == "package://nope/m.stl"  # kept as written when not found
-        assert Path(m.link("r").shapes[0].mesh) == pkg / "meshes" / "m.stl"
+        if folder == pkg / "urdf":
+            assert Path(m.link("r").shapes[0].mesh) == pkg / "meshes" / "m.stl"
+        else:  # a plain path into another package is outside this description's own: left out, with a warning
+            assert m.link("r").shapes[0].mesh.startswith("file://")
+            assert any("outside the description's folder" in str(w.message) for w in record)
     # Without a file, package:// cannot be resolved: kept, with a warning.
     with pytest.warns(UserWarning) as record:
         assert parse_urdf(text).link("p").shapes[0].mesh == "package://my_robot/meshes/m.stl"
@@ -159,7 +165,8 @@ def test_round_trip_fixture(tmp_path):
     out = tmp_path / "deeper" / "tiny.urdf"
     write_urdf(m, out)
     assert "package://" not in out.read_text()  # written relative to the new file
-    assert_morphology_equal(m, read_urdf(out), 1e-9)
+    with allow_outside():  # the meshes stay where they were: outside the new file's folder
+        assert_morphology_equal(m, read_urdf(out), 1e-9)
 
 
 @pytest.mark.parametrize("name", URDF_CREATURES)
@@ -171,10 +178,11 @@ def test_round_trip_creatures_built_in_code(name):
 def test_yaml_to_urdf_to_yaml(tmp_path):
     m = read_yaml(DATA / "tiny_creature.yaml")
     write_morphology(m, tmp_path / "c.urdf")
-    back = read_morphology(tmp_path / "c.urdf")
-    assert_morphology_equal(m, back, 1e-9)
-    write_morphology(back, tmp_path / "c.yaml")
-    assert_morphology_equal(m, read_morphology(tmp_path / "c.yaml"), 1e-9)
+    with allow_outside():  # the meshes stay where they were: outside the new files' folder
+        back = read_morphology(tmp_path / "c.urdf")
+        assert_morphology_equal(m, back, 1e-9)
+        write_morphology(back, tmp_path / "c.yaml")
+        assert_morphology_equal(m, read_morphology(tmp_path / "c.yaml"), 1e-9)
 
 
 def test_round_trip_shipped_spot(tmp_path):

@@ -1,4 +1,4 @@
-"""Cached loading by content hash and the windowed state dataset."""
+"""Cached loading by content and name hash and the windowed state dataset."""
 
 from __future__ import annotations
 
@@ -42,15 +42,22 @@ def test_load_motions_caches_by_content(tmp_path: Path, monkeypatch: pytest.Monk
         raise AssertionError("a cached clip was parsed again")
 
     monkeypatch.setattr(motion_pkg, "read_motion", no_parsing)
-    # A renamed copy has the same content: still a cache hit.
+    # A moved copy (same name, same content): still a cache hit.
+    (tmp_path / "moved").mkdir()
+    shutil.copy(paths[0], tmp_path / "moved" / "clip0.bvh")
+    moved = load_motions(tmp_path / "moved", cache_dir=cache, morphology=spot_like())
+    assert moved[0].name == "clip0"
+    np.testing.assert_array_equal(moved[0].q, first[0].q)
+    monkeypatch.undo()
+    # A renamed copy has the same content but its own name: its own entry, not clip0's name.
     shutil.copy(paths[0], tmp_path / "data" / "renamed.bvh")
     again = load_motions(expand_motion_paths(tmp_path / "data"), cache_dir=cache, morphology=spot_like())
-    np.testing.assert_array_equal(again[0].q, first[0].q)
-    assert len(again) == 4
-    monkeypatch.undo()
+    assert [m.name for m in again] == ["clip0", "clip1", "clip2", "renamed"]
+    np.testing.assert_array_equal(again[3].q, first[0].q)
+    assert len(list(cache.glob("*.npz"))) == 4
     # Other options are another key.
     load_motions(paths[0], cache_dir=cache, morphology=spot_like(), fps=15.0)
-    assert len(list(cache.glob("*.npz"))) == 4
+    assert len(list(cache.glob("*.npz"))) == 5
     with pytest.raises(MotionFormatError, match="no such"):
         load_motions(tmp_path / "nope", cache_dir=cache)
 

@@ -325,6 +325,23 @@ def test_a_shared_prior_is_found_when_retargeting(tmp_path, human_dir, dog, cach
     assert len(model.retarget(load_motions(human_dir)[:1])) == 1
 
 
+def test_a_config_edited_after_training_is_one_error_naming_the_checkpoint(tmp_path, human_dir, dog, cache, capsys):
+    from morphkit.cli import main
+
+    cfg = replace_config(preset("smoke"), TINY)
+    train_ace(tmp_path / "run", read_morphology(dog), cfg, human_data=human_dir, progress=False, log=lambda s: None)
+    config = tmp_path / "run" / "retarget" / "config.yaml"
+    data = yaml.safe_load(config.read_text())
+    data["generator_hidden"] = [w + 8 for w in data["generator_hidden"]]  # sizes that disagree with the checkpoint
+    config.write_text(yaml.safe_dump(data))
+    assert main(["retarget", "--run", str(tmp_path / "run"), "--motion", str(human_dir), "--out",
+                 str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    ckpt = tmp_path / "run" / "retarget" / "checkpoint.pt"
+    assert err.startswith(f"error: {ckpt}: checkpoint state of the generator does not fit") and "size mismatch" in err
+    assert err.count("\n") == 1 and not (tmp_path / "out").exists()
+
+
 def _dog_feature_map(dog: Path, frames: int = 40):
     from dataclasses import replace
 

@@ -34,6 +34,7 @@ class TrainConfig:
     """A trainer config using every supported kind of field."""
 
     seed: int = 0
+    window: int = 32
     name: str = "x"
     activation: Literal["elu", "leaky_relu"] = "elu"
     dropout: float | None = None
@@ -44,8 +45,8 @@ class TrainConfig:
     prior: PriorConfig = PriorConfig()
 
     def __post_init__(self) -> None:
-        if self.seed < 0:
-            raise ValueError("seed must be >= 0")
+        if not self.name:
+            raise ValueError("name must be given")
 
 
 PRESETS = {
@@ -80,7 +81,8 @@ def test_read_accepts_ints_and_exponent_strings_for_floats(tmp_path: Path):
         ("seed: 1\nactivation: tanh\n", 2, "not one of: 'elu', 'leaky_relu'"),
         ("seed: 1\nsed: 2\n", 2, "unknown config field 'sed'"),
         ("pair: [1, 2, 3]\n", 1, "'pair'"),
-        ("seed: -1\n", 1, "seed must be >= 0"),
+        ("seed: -1\n", 1, "'seed': expected a finite number >= 0"),
+        ("name: ''\n", 1, "name must be given"),
     ],
 )
 def test_read_names_file_line_and_field(tmp_path: Path, text: str, line: int | None, words: str):
@@ -157,3 +159,34 @@ def test_a_deleted_option_reads_where_it_is_off_and_is_refused_where_it_was_on(t
         replace_config(AceConfig(), ["prior.residual=false"])
     for cls in (PriorConfig, RetargetConfig, DataConfig):
         assert not set(cls.retired) & set(cls.__dataclass_fields__)
+
+
+@pytest.mark.parametrize(
+    ("text", "line", "words"),
+    [
+        ("prior:\n  lr: .nan\n", 2, "finite"),
+        ("prior:\n  lr: .inf\n", 2, "finite"),
+        ("prior:\n  lr: -1e-4\n", 2, ">= 0"),
+        ("seed: 3\nwindow: -5\n", 2, ">= 0"),
+        ("prior:\n  experts: 0\n", 2, "1 to"),
+        ("prior:\n  experts: 100000\n", 2, "1 to"),
+        ("prior:\n  hidden: [512, 100000000]\n", 2, "network size"),
+        ("prior:\n  hidden: [" + ", ".join(["8"] * 65) + "]\n", 2, "layers"),
+    ],
+)
+def test_numbers_are_finite_and_in_range_on_load(tmp_path: Path, text: str, line: int, words: str):
+    path = tmp_path / "config.yaml"
+    path.write_text(text)
+    with pytest.raises(ConfigError, match=words) as info:
+        read_config(TrainConfig, path)
+    assert info.value.location.path == str(path) and info.value.location.line == line
+    with pytest.raises(ConfigError, match=words):  # an override from a command line too
+        replace_config(TrainConfig(), [t.strip().replace(": ", "=", 1) for t in _leaf(text)])
+
+
+def _leaf(text: str) -> list[str]:
+    """``"prior:\\n  lr: .nan\\n"`` -> ``["prior.lr: .nan"]``: the YAML's leaf as a dotted override."""
+    rows = text.splitlines()
+    if rows[0].endswith(":"):
+        return [f"{rows[0][:-1]}.{rows[1].strip()}"]
+    return [rows[-1]]

@@ -43,7 +43,7 @@ from morphkit.retarget.ace.checkpoint import PRIOR_TRAINER, AceArtifact, retarge
 from morphkit.retarget.ace.config import PriorConfig, RetargetConfig
 from morphkit.retarget.ace.model import FeatureMap, Generator, build_vae, rollout
 from morphkit.retarget.ace.variants import AceVariant
-from morphkit.retarget.checkpoint import load_checkpoint
+from morphkit.retarget.checkpoint import load_checkpoint, load_module_state
 from morphkit.retarget.config import read_config
 from morphkit.retarget.retargeter import RetargetedClip, check_finite
 from morphkit.retarget.run import CHECKPOINT_FILE, CONFIG_FILE, RUN_FILE
@@ -133,16 +133,18 @@ class AceRetargeter:
         self.layout = character_state_layout(self.creature)
         rc = read_config(RetargetConfig, _need(retarget_dir / CONFIG_FILE))
         vae = build_vae(self.layout.dim, pc)
-        vae.load_state_dict(load_checkpoint(_need(prior_dir / CHECKPOINT_FILE))["states"]["model"])
+        prior_ckpt = _need(prior_dir / CHECKPOINT_FILE)
+        load_module_state(vae, load_checkpoint(prior_ckpt)["states"]["model"], path=prior_ckpt, what="the prior")
         self.prior = vae.prior.to(self.device).eval()
         self._c_stats, self._h_stats = self.artifact.character_stats, self.artifact.human_stats
         self._h_dim = self._h_stats.mean.shape[0]
-        state = retargeting_generator_state(load_checkpoint(_need(retarget_dir / CHECKPOINT_FILE))["states"])
+        generator_ckpt = _need(retarget_dir / CHECKPOINT_FILE)
+        state = retargeting_generator_state(load_checkpoint(generator_ckpt)["states"])
         if "z_mean" not in state:  # trained before the latent bound: G's output is used as it was trained
             rc = dataclasses.replace(rc, latent_bound=0.0)
             state = {**state, "z_mean": torch.zeros(pc.latent), "z_std": torch.ones(pc.latent)}
         self.generator = Generator(self._h_dim, self.layout.dim, pc.latent, rc)
-        self.generator.load_state_dict(state)
+        load_module_state(self.generator, state, path=generator_ckpt, what="the generator")
         self.generator.to(self.device).eval()
         self.canonical: dict[str, Any] | None = self.artifact.canonical_human
         """The canonical human clips are mapped onto (``None``: clips must be of the run's own skeleton)."""

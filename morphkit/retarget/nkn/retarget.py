@@ -26,7 +26,7 @@ from morphkit.errors import ConfigError, MotionFormatError, RunError, SourceLoca
 from morphkit.graph import BaseType, JointType, Morphology
 from morphkit.io import read_morphology
 from morphkit.motion import Motion
-from morphkit.retarget.checkpoint import load_checkpoint
+from morphkit.retarget.checkpoint import load_checkpoint, load_module_state
 from morphkit.retarget.config import read_config
 from morphkit.retarget.nkn.checkpoint import TRAINERS, NknArtifact
 from morphkit.retarget.nkn.config import NknConfig
@@ -142,9 +142,10 @@ class NknRetargeter:
             stats += [self.artifact.target_features, self.artifact.target_offsets]
         nets = build_networks(self.config, self.template, stats[0], stats[1], self.creature,
                               *(stats[2:] if self.creature is not None else ()))
-        states = load_checkpoint(_need(self.dir / CHECKPOINT_FILE))["states"]
+        checkpoint = _need(self.dir / CHECKPOINT_FILE)
+        states = load_checkpoint(checkpoint)["states"]
         for name, net in nets.items():
-            net.load_state_dict(states[name])
+            load_module_state(net, states[name], path=checkpoint, what=f"the {name}")
             net.to(self.device).eval()
         self.generator = nets["generator"]
         self.inverse = nets.get("inverse")
