@@ -124,23 +124,31 @@ def test_guide_error_example_is_what_the_reader_says(tmp_path: Path, monkeypatch
     assert f"error: {err.value}" == shown
 
 
+def _run_guide(guide: Path, substitutions: dict[str, str], cwd: Path, *, env: dict[str, str] | None = None,
+               timeout: int = 900) -> subprocess.CompletedProcess:
+    """A guide's fenced bash blocks, joined in order with ``substitutions`` applied (each must still be on the
+    page), run as one script in ``cwd`` that stops at the first failing command; it must succeed."""
+    script = "\n".join(_fenced(guide.read_text(), "bash"))
+    for old, new in substitutions.items():
+        assert old in script, f"{guide.name} no longer says {old!r}: update its substitutions"
+        script = script.replace(old, new)
+    env = {**os.environ, **(env or {}),
+           "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}"}
+    proc = subprocess.run(["bash", "-euo", "pipefail", "-c", script], cwd=cwd, env=env, capture_output=True,
+                          text=True, timeout=timeout, check=False)
+    assert proc.returncode == 0, f"{proc.stdout[-2000:]}\n{proc.stderr[-3000:]}"
+    return proc
+
+
 def test_new_creature_guide_runs_as_written(tmp_path: Path, tmp_path_factory: pytest.TempPathFactory):
     """Every fenced bash block of the guide, in order, in an empty folder, as one script that stops at the first
     failing command (the only change: SUBSTITUTIONS)."""
     for module in ("pyrender", "imageio"):
         if importlib.util.find_spec(module) is None:
             pytest.skip(f"the render extra is not installed ({module}): pip install -e '.[render]'")
-    blocks = _fenced(GUIDE.read_text(), "bash")
-    assert len(blocks) >= 6, "the guide lost its commands"
-    script = "\n".join(blocks)
-    for old, new in SUBSTITUTIONS.items():
-        assert old in script, f"the guide no longer says {old!r}: update SUBSTITUTIONS"
-        script = script.replace(old, new)
-    env = {**os.environ, "MORPHKIT_CACHE_DIR": str(_shared_cache(tmp_path_factory)), "PYOPENGL_PLATFORM": "egl",
-           "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}"}
-    proc = subprocess.run(["bash", "-euo", "pipefail", "-c", script], cwd=tmp_path, env=env, capture_output=True,
-                          text=True, timeout=900, check=False)
-    assert proc.returncode == 0, f"{proc.stdout[-2000:]}\n{proc.stderr[-3000:]}"
+    assert len(_fenced(GUIDE.read_text(), "bash")) >= 6, "the guide lost its commands"
+    _run_guide(GUIDE, SUBSTITUTIONS, tmp_path,
+               env={"MORPHKIT_CACHE_DIR": str(_shared_cache(tmp_path_factory)), "PYOPENGL_PLATFORM": "egl"})
     for name in ("critter.png", "critter_walk.npz", "critter_walk.png", "critter_clip.npz", "critter_clip.bvh",
                  "compare.png"):
         assert (tmp_path / name).stat().st_size > 0, f"the guide promises {name}"
@@ -160,14 +168,8 @@ def test_mjcf_guide_runs_as_written(tmp_path: Path):
     pytest.importorskip("dm_control")
     import numpy as np
 
-    (script,) = _fenced(MJCF_GUIDE.read_text(), "bash")
-    for old, new in MJCF_SUBSTITUTIONS.items():
-        assert old in script, f"the guide no longer says {old!r}: update MJCF_SUBSTITUTIONS"
-        script = script.replace(old, new)
-    env = {**os.environ, "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}"}
-    proc = subprocess.run(["bash", "-euo", "pipefail", "-c", script], cwd=tmp_path, env=env, capture_output=True,
-                          text=True, timeout=600, check=False)
-    assert proc.returncode == 0, f"{proc.stdout[-2000:]}\n{proc.stderr[-3000:]}"
+    assert len(_fenced(MJCF_GUIDE.read_text(), "bash")) == 1
+    _run_guide(MJCF_GUIDE, MJCF_SUBSTITUTIONS, tmp_path, timeout=600)
     qpos = np.load(tmp_path / "dog_synth.qpos.npy")
     import dm_control
 
@@ -195,15 +197,8 @@ def test_robot_guide_runs_as_written(tmp_path: Path, tmp_path_factory: pytest.Te
     for module in ("pyrender", "imageio"):
         if importlib.util.find_spec(module) is None:
             pytest.skip(f"the render extra is not installed ({module}): pip install -e '.[render]'")
-    script = "\n".join(_fenced(ROBOT_GUIDE.read_text(), "bash"))
-    for old, new in ROBOT_SUBSTITUTIONS.items():
-        assert old in script, f"the guide no longer says {old!r}: update ROBOT_SUBSTITUTIONS"
-        script = script.replace(old, new)
-    env = {**os.environ, "MORPHKIT_CACHE_DIR": str(_shared_cache(tmp_path_factory)), "PYOPENGL_PLATFORM": "egl",
-           "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}"}
-    proc = subprocess.run(["bash", "-euo", "pipefail", "-c", script], cwd=tmp_path, env=env, capture_output=True,
-                          text=True, timeout=900, check=False)
-    assert proc.returncode == 0, f"{proc.stdout[-2000:]}\n{proc.stderr[-3000:]}"
+    proc = _run_guide(ROBOT_GUIDE, ROBOT_SUBSTITUTIONS, tmp_path,
+                      env={"MORPHKIT_CACHE_DIR": str(_shared_cache(tmp_path_factory)), "PYOPENGL_PLATFORM": "egl"})
     assert "4: FR_toe (foot" in proc.stdout and "locomotion=legged, legs=4" in proc.stdout
     assert "rest pose: searched" in proc.stdout
     for name in ("aliengo_stance.png", "human_clip.npz", "aliengo_clip.npz", "aliengo_clip.png"):
