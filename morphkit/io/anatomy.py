@@ -243,11 +243,18 @@ class _Shapes:
         world = pts @ R.T + p
         z = world[:, 2]
         if len(pts) == 8 and r == 0.0:
-            # A box (or a mesh's bounds): the middle of the face that looks most downward, so that a flat
-            # foot tilted a little at the reference pose stands on its sole, not on its heel's edge.
+            # A box (or a mesh's bounds): the middle of the face whose outward normal looks most downward,
+            # so that a flat foot tilted a little at the reference pose stands on its sole, not on its heel
+            # (a thin sole's heel face sits lower on average once the toe is up a few degrees).
             corner = np.array(list(np.ndindex(2, 2, 2)))
             faces = [corner[:, axis] == side for axis in range(3) for side in (0, 1)]
-            low = world[min(faces, key=lambda f: float(z[f].mean()))]
+            centre = world.mean(axis=0)
+
+            def normal_z(f: np.ndarray) -> float:
+                n = world[f].mean(axis=0) - centre
+                return float(n[2] / max(np.linalg.norm(n), 1e-12))
+
+            low = world[min(faces, key=normal_z)]
         else:
             low = world[z <= z.min() + max(_GROUND_TOL, 0.05 * float(np.ptp(z)))]
         return R.T @ (low.mean(axis=0) - np.array([0.0, 0.0, r]) - p)

@@ -175,6 +175,7 @@ def dls_step_kernel(
     q: wp.array2d[Any],
     link_X: wp.array2d[Any],
     targets: wp.array2d[Any],
+    ee_weight: wp.array2d[Any],
     ee_link: wp.array[wp.int32],
     ee_offset: wp.array[Any],
     link_parent: wp.array[wp.int32],
@@ -204,7 +205,7 @@ def dls_step_kernel(
     residual: wp.array2d[Any],
 ):
     """One damped-least-squares step for pose ``b`` (``Jm`` zeroed by the launcher; ``A``, ``y``, ``delta``, ``err``
-    scratch)."""
+    scratch); ``ee_weight[b, e]`` scales end-effector ``e``'s rows of the least-squares problem (0: it is free)."""
     b = wp.tid()
     E = ee_link.shape[0]
     m = 3 * E
@@ -219,9 +220,14 @@ def dls_step_kernel(
         rn = wp.length(r)
         if max_error > zero and rn > max_error:
             r = r * (max_error / rn)
-        err[b, e] = r
+        err[b, e] = r * ee_weight[b, e]
     _fill_jacobian(b, q, link_X, ee_link, ee_offset, link_parent, joint_type, joint_axis, joint_qd_start,
                    joint_mimic_target, joint_mimic_multiplier, joint_wheel, base_type, col_of_dof, Jm)
+    for e in range(E):
+        we = ee_weight[b, e]
+        for k in range(3):
+            for c in range(n):
+                Jm[b, 3 * e + k, c] = Jm[b, 3 * e + k, c] * we
 
     # 2. normal equations on the smaller side: A = J^T J + l^2 I, y = J^T e (primal) or A = J J^T + l^2 I, y = e
     K = n
@@ -346,9 +352,10 @@ for _s, _v, _t in ((wp.float32, wp.vec3f, wp.transformf), (wp.float64, wp.vec3d,
     )
     wp.overload(
         dls_step_kernel,
-        [wp.array2d[_s], wp.array2d[_t], wp.array2d[_v], wp.array[wp.int32], wp.array[_v], wp.array[wp.int32],
-         wp.array[wp.int32], wp.array[_v], wp.array[wp.int32], wp.array[wp.int32], wp.array[wp.int32],
-         wp.array[_s], wp.array[wp.int32], wp.array[_s], wp.array[_s], int, wp.array[wp.int32], _s, _s, _s, _s, int,
+        [wp.array2d[_s], wp.array2d[_t], wp.array2d[_v], wp.array2d[_s], wp.array[wp.int32], wp.array[_v],
+         wp.array[wp.int32], wp.array[wp.int32], wp.array[_v], wp.array[wp.int32], wp.array[wp.int32],
+         wp.array[wp.int32], wp.array[_s], wp.array[wp.int32], wp.array[_s], wp.array[_s], int, wp.array[wp.int32],
+         _s, _s, _s, _s, int,
          int, wp.array3d[_s], wp.array3d[_s], wp.array2d[_s], wp.array2d[_s], wp.array2d[_v], wp.array2d[_s],
          wp.array2d[_v]],
     )
@@ -516,7 +523,7 @@ def eval_ee_jacobian(model: KinematicModel, q: Any, *, ee: Any = None, dof_mask:
 
 def ik_step(model: KinematicModel, q: Any, targets: Any, *, ee: Any = None, damping: float = 1e-2,
             step_size: float = 1.0, max_step: float | None = 0.5, max_error: float | None = None,
-            dof_mask: Any = None, clamp_to_limits: bool = True,
+            dof_mask: Any = None, clamp_to_limits: bool = True, weight: Any = None,
             out: wp.array | None = None, device: Any = None) -> tuple[wp.array, wp.array]:
     """One damped-least-squares step towards end-effector position targets.
 
@@ -536,6 +543,8 @@ def ik_step(model: KinematicModel, q: Any, targets: Any, *, ee: Any = None, damp
         dof_mask: Which ``qd`` entries may move, shape [D] (default: every joint DoF, base fixed;
             see :func:`ik_dof_mask`).
         clamp_to_limits: Clamp 1-DoF joints into their limits after the step.
+        weight: Weight of each end-effector's error in the least-squares step, shape [..., E] or [E]
+            (default 1; 0 leaves an end-effector free, e.g. a foot's orientation points in the air).
         out: Optional output for the new coordinates, shape [..., C] (may not alias ``q``).
         device: Launch device (default: ``q``'s, else the model's).
 
@@ -569,12 +578,16 @@ def ik_step(model: KinematicModel, q: Any, targets: Any, *, ee: Any = None, damp
     y = wp.empty((B, K), dtype=scalar, device=device)
     delta = wp.empty((B, n), dtype=scalar, device=device)
     err = wp.empty((B, E), dtype=vec3, device=device)
+    w = np.ones((B, E)) if weight is None else np.broadcast_to(np.asarray(weight, dtype=float), (*lead, E))
+    if not np.all(np.isfinite(w)) or (w < 0).any():
+        raise GraphError("weight must be finite and >= 0")
+    w = wp.array(np.ascontiguousarray(w.reshape(B, E)), dtype=scalar, device=device)
     X = eval_fk(model, q2, device=device)
     a = model.arrays(device, scalar)
     wp.launch(
         dls_step_kernel,
         dim=B,
-        inputs=[q2, X, t, plan.ee_link, plan.ee_offset, a.link_parent, a.joint_type, a.joint_axis, a.joint_q_start,
+        inputs=[q2, X, t, w, plan.ee_link, plan.ee_offset, a.link_parent, a.joint_type, a.joint_axis, a.joint_q_start,
                 a.joint_qd_start, a.joint_mimic_target, a.joint_mimic_multiplier, a.joint_wheel, a.coordinate_lower,
                 a.coordinate_upper, int(model.base_type), plan.col_of_dof, scalar(damping), scalar(step_size),
                 scalar(0.0 if max_step is None else max_step), scalar(0.0 if max_error is None else max_error),

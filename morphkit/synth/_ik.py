@@ -10,7 +10,13 @@ All legs and arms of a pose are solved in one :func:`~morphkit.kernels.ik.ik_ste
   stays level with the yaw it was given — its IK target is the ankle point itself, through an
   extra end-effector on the foot link; the hip (first moving joint) drops its twist about the bone;
   every other ball joint (a knee) keeps only its hinge axis, across the leg's plane of bending.
-  This leaves three DoFs per three-segment leg, so warm-started steps never drift in a null space.
+  This leaves three DoFs per three-segment leg, so warm-started steps never drift in a null space;
+- a leg of six or more hinges that sets its flat foot's whole pose (a humanoid's hip yaw-roll-pitch,
+  knee, ankle pitch-roll): every hinge is in the solve, and two more points of the foot (ahead of and
+  beside its sole) hold it level; a foot in the air is then placed exactly by a second solve that
+  leaves its orientation free (:meth:`LimbSolver.leg_step_weights`), as its ankle may not reach level;
+- a ball foot whose point is the ball's bottom (as :mod:`morphkit.io.anatomy` places it) has its
+  target raised by what the ball turned (:meth:`LimbSolver.rolling_lift`), so it rolls, not sinks.
 """
 
 from __future__ import annotations
@@ -24,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
-from morphkit.graph import EndEffector, EndEffectorRole, JointType, Morphology
+from morphkit.graph import EndEffector, EndEffectorRole, JointType, Morphology, ShapeType
 from morphkit.kernels import eval_fk, fk_module
 from morphkit.kernels.ik import dls_step_kernel, eval_ee_jacobian, ik_step
 from morphkit.kernels.launch import cpu_pool, cpu_thread_count
@@ -43,6 +49,7 @@ __all__ = ["Ankle", "LimbSolver"]
 
 _PROXY_PREFIX = "__synth_ankle_"
 _POINT_PREFIX = "__synth_point_"
+_TILT_PREFIX = "__synth_tilt_"
 
 
 @dataclass(frozen=True)
@@ -100,6 +107,8 @@ class _Workspace:
         self.B, self.C, self.E = B, C, E
         self.q = [wp.zeros((B, C), dtype=f64, device=dev), wp.zeros((B, C), dtype=f64, device=dev)]
         self.targets = wp.zeros((B, E), dtype=v3, device=dev)
+        self.weight = wp.ones((B, E), dtype=f64, device=dev)
+        self.weight_np = self.weight.numpy().reshape(B, E) if E else np.zeros((B, 0))
         self.X = wp.zeros((B, model.link_count), dtype=wp.transformd, device=dev)
         self.Jm = wp.zeros((B, m, max(n, 1)), dtype=f64, device=dev)
         A = wp.zeros((B, K, K), dtype=f64, device=dev)
@@ -131,8 +140,8 @@ class _Workspace:
                                    record_cmd=True)
                 cmd_dls = wp.launch(
                     dls_step_kernel, dim=hi - lo,
-                    inputs=[qs[sl], self.X[sl], self.targets[sl], ee_link, ee_offset, a.link_parent, a.joint_type,
-                            a.joint_axis, a.joint_q_start, a.joint_qd_start, a.joint_mimic_target,
+                    inputs=[qs[sl], self.X[sl], self.targets[sl], self.weight[sl], ee_link, ee_offset, a.link_parent,
+                            a.joint_type, a.joint_axis, a.joint_q_start, a.joint_qd_start, a.joint_mimic_target,
                             a.joint_mimic_multiplier, a.joint_wheel, a.coordinate_lower, a.coordinate_upper,
                             int(model.base_type), col_w, f64(damping), f64(1.0), f64(max_step),
                             f64(0.0 if max_error is None else max_error), 1, use_dual if n else 0,
@@ -156,19 +165,23 @@ class _Workspace:
         return 1 - src
 
 
+def _set_weight(ws: _Workspace, ee_weight: np.ndarray | None, B: int) -> None:
+    """Load end-effector weights [B, E] into a workspace (1 where None; padding rows copy the first)."""
+    if ee_weight is None:
+        ws.weight_np.fill(1.0)
+    else:
+        ws.weight_np[:B] = ee_weight
+        ws.weight_np[B:] = ee_weight[0]
+
+
 def _run_pair(pair: list) -> None:
     pair[0].launch()
     pair[1].launch()
 
 
-def _redundant_last_joint(model: KinematicModel, m: Morphology, mov: list[int], ee: EndEffector) -> bool:
-    """Whether the joints above a leg's last one move its foot link origin in every direction that all of
-    the leg's joints move its foot (a pitch ankle below a pitch hip and knee): the last joint then only
-    tilts the foot, and is better kept level than left to the IK.
-
-    Compares the ranks of the two positional Jacobians at a generic pose (every joint drawn within 0.4 of
-    its rest value and within its limits, by a fixed generator; at rest a straight leg is singular).
-    """
+def _generic_pose(model: KinematicModel, m: Morphology, mov: list[int]) -> np.ndarray:
+    """A pose where no leg joint sits at a special angle: every 1-DoF joint of ``mov`` drawn within 0.4 of its
+    rest value and within its limits by a fixed generator (at rest a straight leg is singular)."""
     q = model.rest_q.astype(np.float64).copy()
     rng = np.random.default_rng(1)
     lower, upper = model.coordinate_lower, model.coordinate_upper
@@ -176,37 +189,93 @@ def _redundant_last_joint(model: KinematicModel, m: Morphology, mov: list[int], 
         s, e = m.joint_q_start[ji], m.joint_q_start[ji + 1]
         if m.joints[ji].type != JointType.SPHERICAL:
             q[s:e] = rng.uniform(np.maximum(lower[s:e], q[s:e] - 0.4), np.minimum(upper[s:e], q[s:e] + 0.4))
-    qd = m.joint_qd_start
-    last = mov[-1]
+    return q
 
-    def jacobian(point_of: Callable[[np.ndarray], np.ndarray], joints: list[int]) -> np.ndarray:
-        cols = []
-        for ji in joints:
-            s = m.joint_q_start[ji]
-            if m.joints[ji].type == JointType.SPHERICAL:
-                return np.eye(3)  # a ball joint moves a point every way: not this case
-            for d in range(qd[ji + 1] - qd[ji]):
-                hi, lo = q.copy(), q.copy()
-                hi[s + d] += 1e-6
-                lo[s + d] -= 1e-6
-                cols.append((point_of(hi) - point_of(lo)) / 2e-6)
-        return np.stack(cols, axis=1) if cols else np.zeros((3, 0))
 
+def _point_jacobian(m: Morphology, q: np.ndarray, joints: list[int],
+                    point_of: Callable[[np.ndarray], np.ndarray]) -> np.ndarray | None:
+    """Central-difference Jacobian [P, dofs] of ``point_of(q)`` over the 1-DoF ``joints`` (None: a ball joint,
+    which moves a point every way)."""
+    cols = []
+    for ji in joints:
+        if m.joints[ji].type == JointType.SPHERICAL:
+            return None
+        s = m.joint_q_start[ji]
+        for d in range(m.joint_qd_start[ji + 1] - m.joint_qd_start[ji]):
+            hi, lo = q.copy(), q.copy()
+            hi[s + d] += 1e-6
+            lo[s + d] -= 1e-6
+            cols.append((point_of(hi) - point_of(lo)) / 2e-6)
+    return np.stack(cols, axis=1) if cols else np.zeros((0, 0))
+
+
+def _rank(J: np.ndarray) -> int:
+    sv = np.linalg.svd(J, compute_uv=False) if J.size else np.zeros(0)
+    return int((sv > 1e-6 * max(float(sv.max()) if sv.size else 0.0, 1e-12)).sum())
+
+
+def _link_point(model: KinematicModel, link: int, offset: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
+    """``q -> `` world position(s) [..., 3] of ``offset`` [3] or [K, 3] on ``link``."""
+    def point(q: np.ndarray) -> np.ndarray:
+        T = eval_fk(model, q[None], device="cpu").numpy()[0, link]
+        return (T[:3] + quat_rotate(np.broadcast_to(T[3:], (*offset.shape[:-1], 4)), offset)).reshape(-1)
+    return point
+
+
+def _redundant_last_joint(model: KinematicModel, m: Morphology, mov: list[int], ee: EndEffector) -> bool:
+    """Whether the joints above a leg's last one move its foot link origin in every direction that all of
+    the leg's joints move its foot (a pitch ankle below a pitch hip and knee): the last joint then only
+    tilts the foot, and is better kept level than left to the IK.
+
+    Compares the ranks of the two positional Jacobians at a generic pose (:func:`_generic_pose`).
+    """
+    q = _generic_pose(model, m, mov)
     foot_link = model.link_index(ee.link)
-    offset = np.asarray(ee.offset, dtype=np.float64)
+    above = _point_jacobian(m, q, mov[:-1], _link_point(model, foot_link, np.zeros(3)))
+    whole = _point_jacobian(m, q, mov, _link_point(model, foot_link, np.asarray(ee.offset, dtype=np.float64)))
+    # a ball joint moves a point every way
+    return (3 if above is None else _rank(above)) == (3 if whole is None else _rank(whole))
 
-    def foot(qq: np.ndarray) -> np.ndarray:
-        T = eval_fk(model, qq[None], device="cpu").numpy()[0, foot_link]
-        return T[:3] + quat_rotate(T[3:], offset)
 
-    def origin(qq: np.ndarray) -> np.ndarray:
-        return eval_fk(model, qq[None], device="cpu").numpy()[0, foot_link, :3]
+def _sphere_under(m: Morphology, ee: EndEffector) -> list[tuple[np.ndarray, float]]:
+    """``[(centre, radius)]`` of the sphere on ``ee``'s link whose surface holds the point (a ball foot's sole,
+    as :mod:`morphkit.io.anatomy` places it); empty for any other foot (Spot's point is its ball's centre)."""
+    offset = np.asarray(ee.offset, dtype=float)
+    for shape in m.link(ee.link).shapes:
+        if shape.type == ShapeType.SPHERE and shape.radius > 0:
+            c = np.asarray(shape.origin.xyz, dtype=float)
+            if abs(np.linalg.norm(offset - c) - shape.radius) < 1e-4 * max(1.0, shape.radius):
+                return [(c, float(shape.radius))]
+    return []
 
-    def rank(J: np.ndarray) -> int:
-        sv = np.linalg.svd(J, compute_uv=False) if J.size else np.zeros(0)
-        return int((sv > 1e-6 * max(float(sv.max()) if sv.size else 0.0, 1e-12)).sum())
 
-    return rank(jacobian(origin, [j for j in mov if j != last])) == rank(jacobian(foot, mov))
+def _on_round_shape(m: Morphology, ee: EndEffector) -> bool:
+    """Whether ``ee``'s point lies on the surface of a sphere or capsule of its link (a paw, a toe ball)."""
+    offset = np.asarray(ee.offset, dtype=float)
+    for shape in m.link(ee.link).shapes:
+        if shape.type not in (ShapeType.SPHERE, ShapeType.CAPSULE) or shape.radius <= 0:
+            continue
+        # the point in the shape's frame, and its distance from the shape's core segment (a point for a sphere)
+        local = quat_rotate(quat_conjugate(np.asarray(shape.origin.quat, dtype=float)),
+                            offset - np.asarray(shape.origin.xyz, dtype=float))
+        half = 0.5 * shape.length if shape.type == ShapeType.CAPSULE else 0.0
+        core = np.array([0.0, 0.0, np.clip(local[2], -half, half)])
+        if abs(np.linalg.norm(local - core) - shape.radius) < 1e-4 * max(1.0, shape.radius):
+            return True
+    return False
+
+
+def _poses_foot(model: KinematicModel, m: Morphology, mov: list[int], ee: EndEffector) -> bool:
+    """Whether a leg of 1-DoF joints sets its flat foot's whole pose (position and orientation: rank 6 at a
+    generic pose), as the six-hinge legs of humanoids do: its IK then holds the foot level itself. A round
+    foot (its point on a sphere or capsule) rolls on any orientation and is left to the position IK."""
+    if len(mov) < 6 or _on_round_shape(m, ee):
+        return False
+    q = _generic_pose(model, m, mov)
+    # three points of the foot, not on one line, stand for its pose
+    pts = np.asarray(ee.offset, dtype=np.float64) + np.array([[0.0, 0.0, 0.0], [0.1, 0.0, 0.0], [0.0, 0.1, 0.0]])
+    J = _point_jacobian(m, q, mov, _link_point(model, model.link_index(ee.link), pts))
+    return J is not None and _rank(J) == 6
 
 
 class LimbSolver:
@@ -241,13 +310,25 @@ class LimbSolver:
         ``axis`` (see :meth:`constrain`)."""
         extra: list[EndEffector] = []
         leg_dofs: list[list[int]] = []
+        tilt_leg: list[int] = []
+        tilt_level: list[np.ndarray] = []
         qd = m.joint_qd_start
         base_model = compile_model(m, device="cpu")
-        for leg in plan.legs:
+        for li, leg in enumerate(plan.legs):
             ee = m.end_effector(leg.end_effector)
             mov = _moving(m, leg.joints)
             ankle = None
-            if len(mov) >= 2:
+            if _poses_foot(base_model, m, mov, ee):
+                # a point ahead of the sole and one beside it, held where the level foot has them
+                foot = rest[m.link_index(ee.link), 3:]
+                for k, axis in enumerate(np.eye(3)[:2]):
+                    level = 0.25 * leg.reach * axis
+                    offset = np.asarray(ee.offset, dtype=float) + quat_rotate(quat_conjugate(foot), level)
+                    extra.append(EndEffector(f"{_TILT_PREFIX}{k}_{leg.end_effector}", ee.link,
+                                             tuple(float(v) for v in offset), EndEffectorRole.TOOL))
+                    tilt_leg.append(li)
+                    tilt_level.append(level)
+            elif len(mov) >= 2:
                 last = m.joints[mov[-1]]
                 positional = sum(1 if m.joints[j].type != JointType.SPHERICAL else 2 for j in mov[:-1])
                 ball = last.type == JointType.SPHERICAL and len(mov) >= 3 and positional >= 3
@@ -277,6 +358,19 @@ class LimbSolver:
             self.model.ee_index(_PROXY_PREFIX + leg.end_effector if a is not None else leg.end_effector)
             for leg, a in zip(plan.legs, self.ankles, strict=True)
         ], dtype=np.int64)
+        # feet whose point is the bottom of a sphere: (leg, link, centre [3], radius)
+        self.balls = [(li, m.link_index(e.link), c, r) for li, leg in enumerate(plan.legs)
+                      for e in [m.end_effector(leg.end_effector)]
+                      for c, r in _sphere_under(m, e)]
+        self.tilt_ee = np.array([self.model.ee_index(e.name) for e in extra if e.name.startswith(_TILT_PREFIX)],
+                                dtype=np.int64)
+        """End-effector index in :attr:`model` of the points that hold six-hinge legs' feet level [P]."""
+        self.tilt_leg = np.array(tilt_leg, dtype=np.int64)
+        """Leg of each of :attr:`tilt_ee` [P]."""
+        self.tilt_level = np.array(tilt_level, dtype=float).reshape(-1, 3)
+        """World vector from its foot point to each of :attr:`tilt_ee` with the foot level, heading +x [P, 3]."""
+        self.leg_targets_ee = np.concatenate([self.leg_ee, self.tilt_ee]).astype(np.int64)
+        """End-effectors of :meth:`leg_targets`: each leg's IK point, then :attr:`tilt_ee`."""
         self.arm_ee = np.array([self.model.ee_index(a.end_effector) for a in plan.arms], dtype=np.int64)
         self.point_ee = np.array([self.model.ee_index(f"{_POINT_PREFIX}{i}") for i in range(len(points))],
                                  dtype=np.int64)
@@ -290,7 +384,7 @@ class LimbSolver:
             for ji in _moving(m, arm.joints):
                 self.arm_mask[qd[ji]:qd[ji + 1]] = True
         self.all_mask = self.leg_mask | self.arm_mask
-        self.all_ee = np.concatenate([self.leg_ee, self.arm_ee]).astype(np.int64)
+        self.all_ee = np.concatenate([self.leg_targets_ee, self.arm_ee]).astype(np.int64)
         self._bufs: dict[tuple[int, ...], tuple[wp.array, wp.array]] = {}
         self._ws: dict[tuple[str, int], _Workspace] = {}
         self._fk: dict[int, tuple[np.ndarray, np.ndarray, object, tuple]] = {}
@@ -335,12 +429,14 @@ class LimbSolver:
 
     # ---- solving --------------------------------------------------------------------------
     def step(self, q: np.ndarray, targets: np.ndarray, *, ee: np.ndarray, mask: np.ndarray,
-             iterations: int, max_error: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+             iterations: int, max_error: float | None = None,
+             ee_weight: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """``iterations`` DLS steps from ``q`` [B, C] toward world ``targets`` [B, E, 3] of end-effectors ``ee``.
 
         Returns ``(q, residual)``: the new coordinates and the residual [B, E, 3] at the input of
         the last step (zeros when ``iterations`` is 0). ``max_error`` [m] shortens the error each step
-        works on (for targets that may be out of reach).
+        works on (for targets that may be out of reach); ``ee_weight`` [B, E] weighs each end-effector's
+        error in the step (default 1, see :func:`~morphkit.kernels.ik.ik_step`).
         """
         B = q.shape[0]
         if iterations <= 0 or B == 0 or len(ee) == 0:
@@ -356,6 +452,7 @@ class LimbSolver:
             ws.q_np[0][B:] = q[0]
             ws.targets_np[:B] = targets
             ws.targets_np[B:] = targets[0]
+            _set_weight(ws, ee_weight, B)
             src = 0
             pool = cpu_pool()
             for _ in range(iterations):
@@ -372,7 +469,7 @@ class LimbSolver:
         for i in range(iterations):
             out = bufs[i % 2]
             cur, res = ik_step(self.model, cur, tgt, ee=ee, dof_mask=mask, damping=self.damping, max_step=self.max_step,
-                               max_error=max_error, out=out)
+                               max_error=max_error, weight=ee_weight, out=out)
         return cur.numpy().copy(), res.numpy()
 
     def link_transforms(self, q: np.ndarray) -> np.ndarray:
@@ -405,7 +502,7 @@ class LimbSolver:
 
     def solve(self, q: np.ndarray, targets: np.ndarray, *, key: str, ee: np.ndarray, mask: np.ndarray,
               min_iterations: int = 2, max_iterations: int = 8, tolerance: float = 1e-4,
-              weight: np.ndarray | None = None) -> np.ndarray:
+              weight: np.ndarray | None = None, ee_weight: np.ndarray | None = None) -> np.ndarray:
         """DLS steps until every end-effector of a pose is within ``tolerance`` [m] of its target.
 
         Every pose takes ``min_iterations`` steps; poses whose residual before the last step still
@@ -423,6 +520,7 @@ class LimbSolver:
             tolerance: Residual [m] that ends iterating.
             weight: [B, E] multiplies each residual before the tolerance test (0 ignores an
                 end-effector, e.g. a swinging foot whose exact position does not matter).
+            ee_weight: [B, E] weighs each end-effector's error in the steps (default 1; 0 leaves it free).
 
         Returns:
             The new coordinates [B, C].
@@ -434,6 +532,7 @@ class LimbSolver:
         ws = self._workspace(key, ee, mask, B)
         ws.q_np[0][:] = q
         ws.targets_np[:] = targets
+        _set_weight(ws, ee_weight, B)
         src = 0
         for _ in range(min_iterations):
             src = ws.run(src, pool)
@@ -450,6 +549,7 @@ class LimbSolver:
             pad = np.concatenate([active, np.full(size - n, active[0])])
             sub.q_np[0][:] = q[pad]
             sub.targets_np[:] = targets[pad]
+            _set_weight(sub, None if ee_weight is None else ee_weight[pad], size)
             sub.run(0, pool)
             q[active] = sub.q_np[1][:n]
             err = np.linalg.norm(sub.residual_np[:n], axis=-1)
@@ -522,6 +622,47 @@ class LimbSolver:
             lo, hi = self.model.coordinate_lower[a.q_start], self.model.coordinate_upper[a.q_start]
             q[:, a.q_start] = np.clip(angle, lo, hi)
         return q
+
+    def rolling_lift(self, q: np.ndarray) -> np.ndarray:
+        """How far [m] above the ground each leg's foot point must be at poses ``q`` [B, C] [B, NL] so that its
+        ball touches the ground: ``r (1 - cos theta)`` as the ball turns by ``theta`` from its rest orientation
+        (0 for feet that are no ball's bottom). Holding the point there, planted, the ball rolls without slip
+        (to first order) instead of sinking in as the shin turns."""
+        lift = np.zeros((q.shape[0], len(self.plan.legs)))
+        if not self.balls:
+            return lift
+        X = self.link_transforms(np.ascontiguousarray(q, dtype=np.float64))
+        for li, link, c, r in self.balls:
+            ee = self.morphology.end_effector(self.plan.legs[li].end_effector)
+            down = quat_rotate(X[:, link, 3:], np.broadcast_to((np.asarray(ee.offset) - c) / r, (q.shape[0], 3)))
+            lift[:, li] = r * (1.0 + down[:, 2])
+        return lift
+
+    def leg_targets(self, feet: np.ndarray, foot_yaw: np.ndarray) -> np.ndarray:
+        """World targets [B, NL + P, 3] of :attr:`leg_targets_ee` for foot points ``feet`` [B, NL, 3] with
+        headings ``foot_yaw`` [B, NL] [rad] and level feet."""
+        ik = feet - self.ankle_offsets(foot_yaw)
+        if not self.tilt_ee.size:
+            return ik
+        yaw = foot_yaw[:, self.tilt_leg]
+        level = np.broadcast_to(self.tilt_level, (*yaw.shape, 3))
+        tilt = feet[:, self.tilt_leg] + quat_rotate(quat_from_yaw(yaw), level)
+        return np.concatenate([ik, tilt], axis=1)
+
+    def leg_weights(self, weight: np.ndarray) -> np.ndarray:
+        """Per-foot weights [B, NL] spread over :attr:`leg_targets_ee` [B, NL + P]."""
+        return np.concatenate([weight, weight[:, self.tilt_leg]], axis=1)
+
+    def leg_step_weights(self, planted: np.ndarray) -> np.ndarray:
+        """Step weights [B, NL + P] of :attr:`leg_targets_ee` (``ee_weight``) that leave the orientation of the
+        feet not ``planted`` [B, NL] (bool) free: 1, but 0 for the orientation points of a foot in the air.
+
+        A level foot lifted by a bending knee may need more ankle than the joint has; the IK that holds it
+        level then misses its position. Solving with these weights after a solve with all weights 1 puts
+        the foot where it must be while turning it away from level no more than that takes.
+        """
+        tilt = np.where(planted[:, self.tilt_leg], 1.0, 0.0)
+        return np.concatenate([np.ones(planted.shape), tilt], axis=1)
 
     def ankle_offsets(self, foot_yaw: np.ndarray) -> np.ndarray:
         """World vector from each leg's IK point to its foot point [B, NL, 3] (0 for legs without ankle)."""

@@ -493,7 +493,7 @@ def _run_batch(rig: SynthRig, seeds: Sequence[np.random.SeedSequence], lengths: 
                 ji = m.joint_index(n)
                 if m.joints[ji].mimic is None:
                     ik_mask[qd[ji]:qd[ji + 1]] = True
-        ik_ee = np.concatenate([solver.leg_ee, solver.arm_ee[free_arms]]).astype(np.int64)
+        ik_ee = np.concatenate([solver.leg_targets_ee, solver.arm_ee[free_arms]]).astype(np.int64)
         ik_key = "legs+free_arms"
     C = m.coordinate_count
     nb = m.base_coordinate_count
@@ -554,7 +554,11 @@ def _run_batch(rig: SynthRig, seeds: Sequence[np.random.SeedSequence], lengths: 
         targets = []
         if NL:
             assert feet is not None and foot_yaw is not None
-            targets.append(feet[:, t] - solver.ankle_offsets(foot_yaw[:, t]))
+            feet_t = feet[:, t]
+            if solver.balls:
+                feet_t = feet_t.copy()
+                feet_t[..., 2] += solver.rolling_lift(q)  # at the warm start: the turn is second order
+            targets.append(solver.leg_targets(feet_t, foot_yaw[:, t]))
         if not pool.empty:
             post = ub.posture(pool, t)
             q[:, direct] = post[:, pool.direct]
@@ -578,13 +582,21 @@ def _run_batch(rig: SynthRig, seeds: Sequence[np.random.SeedSequence], lengths: 
             if NL:
                 assert stance is not None
                 # swinging feet and arms need no sub-millimetre accuracy: iterate for stance feet
-                weight[:, :NL] = np.where(stance[:, t], 1.0, 0.02)
-                weight[:, NL:] = 0.0
+                n_leg = len(solver.leg_targets_ee)
+                weight[:, :n_leg] = solver.leg_weights(np.where(stance[:, t], 1.0, 0.02))
+                weight[:, n_leg:] = 0.0
             else:
                 weight[:] = 0.02
             q = solver.solve(q, tg, key=ik_key, ee=ik_ee, mask=ik_mask,
                              min_iterations=cfg.ik_iterations, max_iterations=cfg.ik_max_iterations,
                              tolerance=cfg.ik_tolerance, weight=weight)
+            if NL and solver.tilt_ee.size and not stance[:, t].all():
+                # feet in the air held level as far as their ankles allow, then placed exactly (see leg_step_weights)
+                free = np.ones(tg.shape[:2])
+                free[:, :n_leg] = solver.leg_step_weights(stance[:, t])
+                q = solver.solve(q, tg, key=ik_key, ee=ik_ee, mask=ik_mask, min_iterations=1,
+                                 max_iterations=cfg.ik_max_iterations, tolerance=cfg.ik_tolerance,
+                                 weight=weight * free, ee_weight=free)
             if foot_yaw is not None:
                 q = solver.level_ankles(q, foot_yaw[:, t])
             if arm_pairs is not None:

@@ -288,15 +288,25 @@ class _Calibrator:
         return q
 
     def solve(self, q: np.ndarray, feet: np.ndarray, iterations: int) -> tuple[np.ndarray, np.ndarray]:
-        """IK of the leg targets (foot points, world, level feet with yaw 0); returns q and final errors [B, NL]."""
+        """IK of the leg targets (foot points, world, level feet with yaw 0; a foot above the ground need not
+        be level); returns q and final errors [B, NL]."""
         B = q.shape[0]
         yaw = np.zeros((B, self.NL))
-        ik_pts = feet - self.solver.ankle_offsets(yaw)
+        ik_pts = self.solver.leg_targets(feet, yaw)
+        ee = self.solver.leg_targets_ee
+        planted = feet[..., 2] <= 1e-9
+        # whether a lifted foot can be placed at all: its orientation is left free
+        w = self.solver.leg_step_weights(planted)
         q = self.solver.constrain(q.copy())
-        q, _ = self.solver.step(q, ik_pts, ee=self.solver.leg_ee, mask=self.solver.leg_mask, iterations=iterations)
+        q, _ = self.solver.step(q, ik_pts, ee=ee, mask=self.solver.leg_mask, iterations=iterations, ee_weight=w)
         q = self.solver.level_ankles(q, yaw)
-        _, res = self.solver.step(q, ik_pts, ee=self.solver.leg_ee, mask=self.solver.leg_mask, iterations=1)
-        return q, np.linalg.norm(res, axis=-1)
+        _, res = self.solver.step(q, ik_pts, ee=ee, mask=self.solver.leg_mask, iterations=1, ee_weight=w)
+        # a foot's error: its point's, or, planted and held level, the farthest of its points
+        err = np.linalg.norm(res, axis=-1)
+        out = err[:, :self.NL].copy()
+        tilt = np.where(planted[:, self.solver.tilt_leg], err[:, self.NL:], 0.0)
+        np.maximum.at(out, (slice(None), self.solver.tilt_leg), tilt)
+        return q, out
 
     def collisions(self, q: np.ndarray) -> np.ndarray:
         """[B] bool: any leg shape pair overlapping by more than the tolerance."""
@@ -510,6 +520,13 @@ def calibrate_legs(m: Morphology, plan: BodyPlan, solver: LimbSolver, cfg: LegCo
     X = eval_fk(model, q_far, device="cpu").numpy()[0]
     eff = np.array([np.linalg.norm(_ee_point(model, X, int(solver.leg_ee[li])) - np.asarray(leg.mount_rest))
                     for li, leg in enumerate(plan.legs)])
+    # a six-hinge leg (its IK holds the foot level) reaches at least as far as its own rest pose: the stretch
+    # of its redundant chain stalls short of a nearly straight rest pose (OP3's keyframe: 1.08 of the stretch)
+    rest_dist = np.array([np.linalg.norm(feet_rest[li] - ank[li] - np.asarray(leg.mount_rest))
+                          for li, leg in enumerate(plan.legs)])
+    posed = np.isin(np.arange(NL), solver.tilt_leg)
+    eff = np.where(posed, np.maximum(eff, rest_dist), eff)
+
     def height_at(e: float) -> float:
         """Root height at which no leg is stretched beyond ``e`` of its effective reach (at most the rest's)."""
         hh = h_rest

@@ -100,11 +100,20 @@ def replan_legs(motion: Motion, *, config: SynthConfig | None = None, smoothing_
         q = out[t : t + 1].copy()
         q[0, leg_coords] = q_legs
         solver.constrain(q)
-        targets = legs.feet() - solver.ankle_offsets(legs.foot_yaw)
-        weight = np.where(legs.stance, 1.0, 0.02)
-        q = solver.solve(q, targets, key="replan_legs", ee=solver.leg_ee, mask=leg_mask,
+        feet = legs.feet()
+        if solver.balls:
+            feet[..., 2] += solver.rolling_lift(q)
+        targets = solver.leg_targets(feet, legs.foot_yaw)
+        weight = solver.leg_weights(np.where(legs.stance, 1.0, 0.02))
+        q = solver.solve(q, targets, key="replan_legs", ee=solver.leg_targets_ee, mask=leg_mask,
                          min_iterations=cfg.ik_iterations, max_iterations=cfg.ik_max_iterations,
                          tolerance=cfg.ik_tolerance, weight=weight)
+        if solver.tilt_ee.size and not legs.stance.all():
+            # feet in the air held level as far as their ankles allow, then placed exactly (as the synthesis)
+            free = solver.leg_step_weights(legs.stance)
+            q = solver.solve(q, targets, key="replan_legs", ee=solver.leg_targets_ee, mask=leg_mask,
+                             min_iterations=1, max_iterations=cfg.ik_max_iterations, tolerance=cfg.ik_tolerance,
+                             weight=weight * free, ee_weight=free)
         q = solver.level_ankles(q, legs.foot_yaw)
         q_legs = q[0, leg_coords].copy()
         out[t, leg_coords] = q_legs

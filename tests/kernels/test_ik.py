@@ -196,3 +196,27 @@ def test_ik_step_rejects_bad_input():
         ik_step(model, np.zeros(2), np.zeros((1, 3)), dof_mask=[True])
     with pytest.raises(GraphError, match="damping"):
         ik_step(model, np.zeros(2), np.zeros((1, 3)), damping=-1.0)
+
+
+def test_weighted_step_is_the_step_of_the_weighted_least_squares_problem():
+    """An end-effector of weight 0 is left out (the same step as without it); weight w on every end-effector is
+    the unweighted step with damping lambda / w (w^2 J^T J + l^2 I = w^2 (J^T J + (l/w)^2 I)); one step each."""
+    model = compile_model(spot_like())
+    q0 = random_q(model, 3, seed=7)
+    feet = ["fl_foot", "fr_foot", "hl_foot", "hr_foot"]
+    target = ee_positions(model, q0, feet) + np.array([0.03, -0.02, 0.04])
+    mask = ik_dof_mask(model, base=True)
+    weight = np.array([1.0, 0.0, 1.0, 1.0])
+    q_w, res_w = ik_step(model, q0, target, ee=feet, dof_mask=mask, weight=weight, damping=0.02, max_step=None)
+    kept = [0, 2, 3]
+    q_ref, _ = ik_step(model, q0, target[:, kept], ee=[feet[k] for k in kept], dof_mask=mask, damping=0.02,
+                       max_step=None)
+    np.testing.assert_allclose(q_w.numpy(), q_ref.numpy(), atol=1e-10)
+    # the residual is reported unweighted
+    np.testing.assert_allclose(res_w.numpy()[:, 1], target[:, 1] - ee_positions(model, q0, ["fr_foot"])[:, 0],
+                               atol=1e-12)
+    q_s, _ = ik_step(model, q0, target, ee=feet, dof_mask=mask, weight=np.full(4, 2.0), damping=0.02, max_step=None)
+    q_d, _ = ik_step(model, q0, target, ee=feet, dof_mask=mask, damping=0.01, max_step=None)
+    np.testing.assert_allclose(q_s.numpy(), q_d.numpy(), atol=1e-10)
+    with pytest.raises(GraphError, match="weight"):
+        ik_step(model, q0, target, ee=feet, weight=np.array([1.0, -1.0, 1.0, 1.0]))

@@ -113,6 +113,37 @@ def strider_yaml() -> str:
     return _yaml("strider", links, joints, ees)
 
 
+def walker_yaml() -> str:
+    """A humanoid's legs as robots build them: six hinges each (hip yaw, roll, pitch; knee; ankle pitch, roll),
+    flat box feet, an ankle pitch of -0.8..0.6 rad, knees bent in the rest pose."""
+    links = ["  body: {shapes: [{type: box, size: [0.2, 0.3, 0.3], origin: {xyz: [0, 0, 0.1]}}]}"]
+    joints: list[str] = []
+    ees: list[str] = []
+    rest: list[str] = []
+    for side, y in (("l", 0.1), ("r", -0.1)):
+        leg, knee = _upright_leg(side, 0.32)
+        foot = "{type: box, size: [0.2, 0.09, 0.03], origin: {xyz: [0.03, 0, -0.05]}}"
+        links += [f"  {side}_hip_a: {{}}", f"  {side}_hip_b: {{}}", *leg, f"  {side}_ankle_a: {{}}",
+                  f"  {side}_foot: {{shapes: [{foot}]}}"]
+        joints += [
+            f"  {side}_hip_yaw: {{type: revolute, parent: body, child: {side}_hip_a, axis: [0, 0, 1], "
+            f"origin: {{xyz: [0, {y}, -0.1]}}, limit: {{lower: -0.6, upper: 0.6}}}}",
+            f"  {side}_hip_roll: {{type: revolute, parent: {side}_hip_a, child: {side}_hip_b, axis: [1, 0, 0], "
+            "limit: {lower: -0.5, upper: 0.5}}",
+            f"  {side}_hip_pitch: {{type: revolute, parent: {side}_hip_b, child: {side}_thigh, axis: [0, 1, 0], "
+            "limit: {lower: -1.6, upper: 0.6}}",
+            knee,
+            f"  {side}_ankle_pitch: {{type: revolute, parent: {side}_shin, child: {side}_ankle_a, axis: [0, 1, 0], "
+            "origin: {xyz: [0, 0, -0.4]}, limit: {lower: -0.8, upper: 0.6}}",
+            f"  {side}_ankle_roll: {{type: revolute, parent: {side}_ankle_a, child: {side}_foot, axis: [1, 0, 0], "
+            "limit: {lower: -0.4, upper: 0.4}}",
+        ]
+        ees.append(f"  {side}_sole: {{link: {side}_foot, offset: [0.03, 0, -0.065], role: foot}}")
+        rest += [f"  {side}_hip_pitch: -0.35", f"  {side}_knee: 0.7", f"  {side}_ankle_pitch: -0.35"]
+    ees.append("  head: {link: body, offset: [0.1, 0, 0.3], role: head}")
+    return _yaml("walker", links, joints, ees) + "rest_pose:\n" + "\n".join(rest) + "\n"
+
+
 def tailed_yaml() -> str:
     """A kangaroo-like biped (hip roll, hip and knee pitch) with a three-segment tail hanging to 3 cm above the
     ground at rest, ending in an end-effector without a role (so a ``tool``, moved like an arm)."""
@@ -252,7 +283,7 @@ def hopper_yaml() -> str:
 
 
 _YAML = {"tripod": tripod_yaml, "hopper": hopper_yaml, "spider": spider_yaml, "strider": strider_yaml,
-         "roo": tailed_yaml,
+         "roo": tailed_yaml, "walker": walker_yaml,
          "grazer": grazer_yaml, "grazer_bent": lambda: grazer_yaml(bent_legs=True),
          "grazer_low_tail": lambda: grazer_yaml(low_tail=True),
          "grazer_stuck_tail": lambda: grazer_yaml(stuck_tail=True)}
