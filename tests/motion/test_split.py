@@ -137,7 +137,8 @@ def test_clip_types_from_the_root_motion():
     assert clip_type_from_motion(_root_motion(0.0, 1.2)) == "walk"
     assert clip_type_from_motion(_root_motion(0.6, 0.0)) == "turn"  # on the spot
     assert clip_type_from_motion(_root_motion(-0.6, 1.0)) == "turn"
-    assert clip_type_from_motion(_root_motion(0.0, 1.2, seconds=0.1)) == "stand"  # too short to tell
+    assert clip_type_from_motion(_root_motion(0.0, 1.2, seconds=0.2)) == "walk"  # shorter than a second: one step
+    assert clip_type_from_motion(_root_motion(0.0, 1.2, seconds=1 / 30)) == "stand"  # one frame: nothing moves
 
 
 def test_manifest_types_and_clips_it_does_not_list(tmp_path):
