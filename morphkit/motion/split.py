@@ -28,7 +28,6 @@ from pathlib import Path
 import numpy as np
 
 from morphkit.errors import ConfigError, MotionFormatError, SourceLocation
-from morphkit.motion.datasets import expand_motion_paths
 from morphkit.motion.motion import Motion
 from morphkit.rotations import yaw_from_quat
 
@@ -221,6 +220,8 @@ def folder_split(folder: str | os.PathLike[str], *, test_share: float = TEST_SHA
     Raises:
         MotionFormatError: no motion files, a bad manifest, or a clip whose length cannot be read.
     """
+    from morphkit.motion.datasets import expand_motion_paths  # loads torch: not at import time
+
     files = expand_motion_paths(folder)
     rows = read_clip_manifest(folder)
     seconds = {p: _seconds(p, rows.get(p.stem)) for p in files}
