@@ -92,8 +92,10 @@ def test_the_protocol_scores_the_split_per_clip_type_and_length(tiny, tmp_path, 
     groups = {r["group"]: r for r in _rows(tmp_path / "all" / "protocol.csv")}
     assert list(groups) == ["all", *(t for t in CLIP_TYPES if t in counts), "long (≥ 30 s)", "short"]
     assert {g: int(r["clips"]) for g, r in groups.items()} == {"all": 8, **counts, "long (≥ 30 s)": 2, "short": 6}
-    for key, column in _COLUMN.items():
-        assert float(groups["all"][key]) == pytest.approx(float(table["ACE+replan"][column]), abs=1e-9), key
+    for key, column in _COLUMN.items():  # the quadruped has no arm: no hand figures on either side
+        mine, theirs = groups["all"][key], table["ACE+replan"][column]
+        assert (mine == theirs == "") or float(mine) == pytest.approx(float(theirs), abs=1e-9), key
+    assert groups["all"]["follow_forward"] != ""
     assert "## Protocol: the all split" in (tmp_path / "all" / "table.md").read_text()
 
 
