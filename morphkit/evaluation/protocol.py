@@ -31,7 +31,8 @@ __all__ = ["ClipFigures", "GroupRow", "ProtocolClips", "format_groups", "group_r
            "shipped_results", "split_for", "trained_on", "write_protocol"]
 
 _YAW = GROUND_MOTION_FEATURES[2]
-_FIGURES = ("follow", "follow_hand", "follow_reach", "follow_forward", "follow_yaw", "drift")
+_CORRELATIONS = ("follow", "follow_hand", "follow_reach", "follow_forward", "follow_yaw")
+"""The per-clip correlations of :func:`~morphkit.evaluation.table.follow_figures`, averaged over a group's clips."""
 
 
 @dataclass(frozen=True)
@@ -138,7 +139,8 @@ def shipped_results(evaluation: Evaluation) -> list[MethodResult]:
 
 
 def _clip_figures(result: MethodResult, clips: ProtocolClips, pairing: Pairing,
-                  roles: dict[str, str]) -> tuple[list[ClipFigures], list[tuple[np.ndarray, np.ndarray]], list]:
+                  roles: dict[str, str]) -> tuple[list[ClipFigures], list[tuple[np.ndarray, np.ndarray]],
+                                                 list[UnrealisticFrames]]:
     figures, yaws, flags = [], [], []
     for human, motion, entry, kind in zip(clips.motions, result.shown, clips.entries, clips.types, strict=True):
         f = follow_figures([human], [motion], pairing, roles)
@@ -146,7 +148,7 @@ def _clip_figures(result: MethodResult, clips: ProtocolClips, pairing: Pairing,
         yaw = (pairing.human_psi(human)[:n, _YAW], pairing.creature_psi(motion)[:n, _YAW])
         ufr = unrealistic_frame_ratio(motion)
         figures.append(ClipFigures(result.method.name, result.method.seed, human.name, kind, entry.seconds,
-                                   *(f[k] for k in _FIGURES[:5]),
+                                   *(f[k] for k in _CORRELATIONS),
                                    follow_gain(*yaw) if n >= 3 else None, f["drift"], float(ufr.ratio)))
         yaws.append(yaw)
         flags.append(ufr)
@@ -185,7 +187,7 @@ def group_rows(evaluation: Evaluation, clips: ProtocolClips) -> tuple[list[Group
             ufr = UnrealisticFrames.concatenate([flags[i] for i in chosen]).ratio
             rows.append(GroupRow(result.method.name, result.method.seed, group, len(chosen),
                                  sum(figures[i].seconds for i in chosen),
-                                 *(_mean([getattr(f, k) for f in scored]) for k in _FIGURES[:5]), gain,
+                                 *(_mean([getattr(f, k) for f in scored]) for k in _CORRELATIONS), gain,
                                  _mean([f.drift for f in scored]), float(ufr)))
     return rows, per_clip
 
