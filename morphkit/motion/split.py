@@ -74,10 +74,13 @@ _KEYWORDS: tuple[tuple[str, tuple[str, ...]], ...] = (
 descriptions run words together (``DrunkWalk``, ``FurtherJumpTurn``)."""
 _PATTERNS = tuple((kind, re.compile(r"\b(?:" + "|".join(map(re.escape, words)) + ")")) for kind, words in _KEYWORDS)
 
-_WALK_SPEED = 0.4
-"""Mean root speed [m/s] over one-second steps from which a clip without words is a walk."""
-_TURN_RATE = 0.35
-"""Mean |yaw change| [rad/s] over one-second steps from which a clip without words is a turn (20°/s)."""
+_STEP_SECONDS = 2.0
+"""The root's motion is read in steps this long [s] (a walk's heading sways within a step; a turn goes on)."""
+_WALK_SPEED = 0.3
+"""Mean root speed [m/s] over the steps from which a clip without words is a walk."""
+_TURN_RATE = 0.4
+"""Mean |heading change| [rad/s] over the steps from which a clip without words is a turn (23°/s). Against the CMU
+manifest's words (228 clips): 21 of 27 turns, 50 of 80 walks, 5 of 7 stands, 54 of 72 gestures (as stand) agree."""
 
 
 @dataclass(frozen=True)
@@ -151,11 +154,11 @@ def clip_type_from_words(*texts: str) -> str | None:
 
 
 def clip_type_from_motion(motion: Motion) -> str:
-    """``turn``, ``walk`` or ``stand`` from the root alone, over one-second steps: ``turn`` when its heading
-    changes by at least 0.35 rad/s on average (20°/s), else ``walk`` when its ground position moves at least
-    0.4 m/s on average, else ``stand``. A clip shorter than a second is one step."""
+    """``turn``, ``walk`` or ``stand`` from the root alone, over two-second steps: ``turn`` when its heading
+    changes by at least 0.4 rad/s on average (23°/s), else ``walk`` when its ground position moves at least
+    0.3 m/s on average, else ``stand``. A clip shorter than a step is one step."""
     pose = motion.root_pose()
-    step = max(1, min(round(motion.fps), motion.frame_count - 1))
+    step = max(1, min(round(_STEP_SECONDS * motion.fps), motion.frame_count - 1))
     idx = np.arange(0, motion.frame_count, step)
     if idx.size < 2:
         return "stand"

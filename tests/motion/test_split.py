@@ -137,7 +137,9 @@ def test_clip_types_from_the_root_motion():
     assert clip_type_from_motion(_root_motion(0.0, 1.2)) == "walk"
     assert clip_type_from_motion(_root_motion(0.6, 0.0)) == "turn"  # on the spot
     assert clip_type_from_motion(_root_motion(-0.6, 1.0)) == "turn"
-    assert clip_type_from_motion(_root_motion(0.0, 1.2, seconds=0.2)) == "walk"  # shorter than a second: one step
+    assert clip_type_from_motion(_root_motion(0.0, 0.4)) == "walk"
+    assert clip_type_from_motion(_root_motion(0.3, 0.0)) == "stand"  # a sway, not a turn
+    assert clip_type_from_motion(_root_motion(0.0, 1.2, seconds=0.2)) == "walk"  # shorter than a step: one step
     assert clip_type_from_motion(_root_motion(0.0, 1.2, seconds=1 / 30)) == "stand"  # one frame: nothing moves
 
 
