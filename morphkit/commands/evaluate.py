@@ -1,4 +1,5 @@
-"""``morphkit evaluate --runs RUN... [--human-data DIR] [--out DIR]``: ACE's Table 1 for trained runs."""
+"""``morphkit evaluate RUN... [--human-data DIR] [--split dev|test|all] [--out DIR]``: ACE's Table 1 for trained runs,
+and with ``--split`` the evaluation protocol (a subject split, figures per clip type and clip length)."""
 
 from __future__ import annotations
 
@@ -16,8 +17,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
             "seeds), runs.csv, bar charts, side-by-side videos and index.html."
         ),
     )
-    p.add_argument("--runs", required=True, nargs="+", metavar="RUN",
+    p.add_argument("run_folders", nargs="*", metavar="RUN",
                    help="run folders (morphkit train ace/nkn), ACE stage folders, or folders holding run folders")
+    p.add_argument("--runs", nargs="+", default=[], metavar="RUN", help="the same, after a flag")
+    p.add_argument("--split", metavar="dev|test|all",
+                   help="the protocol: evaluate the human data's development or test split by subject (or all of it), "
+                        "whole clips, and report follow per clip type and for long (>= 30 s) vs short clips")
     p.add_argument("--human-data", metavar="DIR",
                    help="human motion folder whose evaluation split is retargeted (default: the runs' own human data)")
     p.add_argument("--out", metavar="DIR", help="report folder (default: evaluation_<creature>)")
@@ -31,10 +36,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from morphkit.errors import ConfigError
     from morphkit.evaluation import evaluate_runs
 
-    out = evaluate_runs(args.runs, args.out, human_data=args.human_data, clips=args.clips, videos=args.videos,
-                        video_suffix=f".{args.video_format}" if args.video_format else None,
+    runs = [*args.run_folders, *args.runs]
+    if not runs:
+        raise ConfigError("no runs to evaluate: give run folders (morphkit evaluate RUN... or --runs RUN...)")
+    out = evaluate_runs(runs, args.out, split=args.split, human_data=args.human_data, clips=args.clips,
+                        videos=args.videos, video_suffix=f".{args.video_format}" if args.video_format else None,
                         video_seconds=args.video_seconds, device=args.device)
     print((out / "table.md").read_text(encoding="utf-8"), end="")
     return 0

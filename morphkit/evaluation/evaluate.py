@@ -95,7 +95,7 @@ def open_method(method: Method, *, device: str = "cpu") -> Retargeter:
 
 
 def reference_for(methods: Sequence[Method], *, human_data: str | os.PathLike[str] | None = None,
-                  limit: int | None = None) -> tuple[Reference, list[Motion]]:
+                  limit: int | None = None, clips: Sequence[Motion] | None = None) -> tuple[Reference, list[Motion]]:
     """The :class:`Reference` of a comparison (see the module docs) and its evaluation clips.
 
     The clips are the held-out split of ``human_data`` (default: the human data the first method was
@@ -106,6 +106,7 @@ def reference_for(methods: Sequence[Method], *, human_data: str | os.PathLike[st
         methods: The methods (:func:`~morphkit.evaluation.methods.find_methods`).
         human_data: The evaluation clips' folder.
         limit: Keep the first this many clips.
+        clips: The evaluation clips, read already (a protocol split): they replace the held-out split.
     """
     models = [(m, open_method(m)) for m in methods]
     paired = next(((m, r) for m, r in models if r.pairing is not None), None)
@@ -114,7 +115,7 @@ def reference_for(methods: Sequence[Method], *, human_data: str | os.PathLike[st
     if creature is None:
         raise ConfigError(f"{method.run}: a retargeter between human skeletons has no creature to compare on")
     source = os.fspath(human_data) if human_data is not None else model.human_data
-    clips = evaluation_clips(source, model.data, limit=limit)
+    clips = list(clips) if clips is not None else evaluation_clips(source, model.data, limit=limit)
     character = character_motions(creature, model.data, progress=False)
     if model.pairing is not None and model.pairing.centred and model.pairing.height_centred:
         return Reference(creature, model.data, model.pairing, source, os.fspath(method.run), character), clips

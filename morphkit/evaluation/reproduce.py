@@ -37,14 +37,17 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from morphkit._atomic import atomic_write_text
 from morphkit.errors import ConfigError, RunError, SourceLocation
 from morphkit.evaluation.evaluate import evaluate_methods, reference_for
 from morphkit.evaluation.methods import find_methods
+from morphkit.evaluation.protocol import group_rows, split_for, write_protocol
 from morphkit.evaluation.report import write_report
 
 # Re-exported (stage_done is not used here): the runner's names stay importable from where they were first.
 from morphkit.evaluation.stages import DONE_FILE, Stage, lanes_at_once, run_stages, stage_done  # noqa: F401
 from morphkit.graph import Morphology
+from morphkit.motion.split import SPLITS
 from morphkit.retarget.ace.checkpoint import PRIOR_STAGE
 from morphkit.retarget.ace.config import AceConfig
 from morphkit.retarget.ace.config import preset as ace_preset
@@ -141,6 +144,7 @@ def evaluate_runs(
     video_seconds: float = 8.0,
     video_size: tuple[int, int] = (240, 240),
     device: str = "cpu",
+    split: str | None = None,
     log: Callable[[str], None] = print,
 ) -> Path:
     """Evaluate every finished retargeter of ``runs`` on held-out clips and write the report into ``out``.
@@ -156,6 +160,9 @@ def evaluate_runs(
         video_seconds: Longest video [s].
         video_size: Size of each video panel, width × height in pixels.
         device: Torch device of the retargeters.
+        split: The protocol (:mod:`~morphkit.evaluation.protocol`): ``dev``, ``test`` or ``all`` of
+            ``human_data``'s subject split instead of its held-out list, scored also per clip type and length
+            (``protocol.md/.csv``, appended to ``table.md``; per clip ``protocol_clips.csv``).
         log: Where progress lines go.
 
     Returns:
@@ -164,19 +171,27 @@ def evaluate_runs(
     Raises:
         RunError: a missing or foreign run folder, runs of different creatures.
         MotionFormatError: evaluation clips of another human skeleton than the runs were trained on.
-        ConfigError: ``clips`` < 1, ``videos`` < 0, ``video_seconds`` <= 0.
+        ConfigError: ``clips`` < 1, ``videos`` < 0, ``video_seconds`` <= 0, an unknown or empty ``split``.
     """
     if clips is not None and clips < 1:
         raise ConfigError(f"--clips must be at least 1, got {clips}")
     if videos < 0 or not video_seconds > 0:
         raise ConfigError(f"--videos must be >= 0 and --video-seconds > 0, got {videos} and {video_seconds}")
+    if split is not None and split not in SPLITS:
+        raise ConfigError(f"unknown --split {split!r}; choose one of {', '.join(SPLITS)}")
     methods = find_methods(runs)
     log(
         f"{len(methods)} retargeters of {methods[0].creature}: "
         + ", ".join(f"{m.name} (seed {m.seed})" for m in methods)
     )
-    reference, chosen = reference_for(methods, human_data=human_data, limit=clips)
-    evaluation = evaluate_methods(methods, chosen, reference, keep=videos, device=device, log=log)
+    protocol, seen = split_for(methods, split, human_data=human_data, limit=clips) if split is not None else (None, [])
+    if protocol is not None:
+        log(f"protocol: the {split} split of {protocol.folder}: {len(protocol.motions)} clips")
+        reference, chosen = reference_for(methods, human_data=protocol.folder, clips=protocol.motions)
+    else:
+        reference, chosen = reference_for(methods, human_data=human_data, limit=clips)
+    keep = len(chosen) if protocol is not None else videos  # the protocol scores every clip's motions again
+    evaluation = evaluate_methods(methods, chosen, reference, keep=keep, device=device, log=log)
     folder = Path(out) if out is not None else Path(f"evaluation_{methods[0].creature}")
     write_report(
         evaluation,
@@ -187,6 +202,11 @@ def evaluate_runs(
         video_size=video_size,
         log=log,
     )
+    if protocol is not None:
+        rows, per_clip = group_rows(evaluation, protocol)
+        markdown = write_protocol(rows, per_clip, folder, split=protocol.split, source=protocol.folder, seen=len(seen))
+        table = folder / "table.md"
+        atomic_write_text(table, table.read_text(encoding="utf-8") + "\n" + markdown + "\n")
     if evaluation.failed:
         raise RunError(f"report written, but {len(evaluation.failed)} method(s) failed: "
                        + "; ".join(f"{k}: {v}" for k, v in evaluation.failed.items()), location=SourceLocation(
