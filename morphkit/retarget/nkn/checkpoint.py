@@ -30,6 +30,7 @@ from morphkit.errors import RunError, SourceLocation
 from morphkit.graph import Morphology
 from morphkit.io import read_morphology, write_morphology
 from morphkit.motion import NormStats
+from morphkit.retarget.run import required_file
 
 __all__ = ["META_FILE", "NknArtifact"]
 
@@ -42,9 +43,7 @@ _STATS = ("source_features.npz", "source_offsets.npz", "target_features.npz", "t
 
 
 def _need(path: Path) -> Path:
-    if not path.exists():
-        raise RunError(f"not an NKN run folder: {path.name} is missing", location=SourceLocation(str(path.parent)))
-    return path
+    return required_file(path, "an NKN run folder")
 
 
 TRAINERS = ("nkn", "nkn-cross")
