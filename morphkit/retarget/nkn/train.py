@@ -51,7 +51,7 @@ from morphkit.retarget.nkn.losses import (
 from morphkit.retarget.nkn.model import NknGenerator, motion_differences
 from morphkit.retarget.nkn.networks import build_networks, cpu_threads
 from morphkit.retarget.run import Run
-from morphkit.retarget.training_data import DataConfig, character_motions, synthesis_options
+from morphkit.retarget.training_data import character_motions
 
 __all__ = ["NknSetup", "prepare", "train_nkn"]
 
@@ -112,11 +112,8 @@ def prepare(
         f"{source.x.shape[0]} frames), {len(characters) - len(with_clips)} target-only variants")
     setup = NknSetup(mode, template, characters, source, feats, offs)
     if creature is not None:
-        synth = DataConfig(character_frames=cfg.data.character_frames, fps=cfg.data.fps,
-                           synth_seed=cfg.data.synth_seed, **synthesis_options(cfg.data))
-        target = Character(creature, character_motions(creature, synth, cache_dir=cache_dir, progress=progress,
-                                                       log=log),
-                           "creature")
+        target = Character(creature, character_motions(creature, cfg.data, cache_dir=cache_dir, progress=progress,
+                                                       log=log), "creature")
         setup.creature = target
         setup.target = ClipBank([target], creature, cfg.clip_frames, fk_backend=cfg.fk_backend)
         setup.target_features = setup.target.stats(min_std=cfg.feature_min_std)
