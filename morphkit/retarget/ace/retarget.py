@@ -27,6 +27,7 @@ import numpy as np
 import torch
 
 from morphkit.errors import ConfigError, MotionFormatError, RunError, SourceLocation
+from morphkit.graph import Morphology
 from morphkit.motion import (
     CANONICAL_HUMAN,
     Motion,
@@ -140,6 +141,17 @@ class AceRetargeter:
         if (self.canonical is None and self.artifact.human_skeleton == CANONICAL_HUMAN
                 and self._h_dim == human_state_layout(canonical_human()).dim):
             self.canonical = canonical_record()  # trained before the record, on the canonical human itself
+
+    def with_target(self, target: Morphology | str) -> AceRetargeter:
+        """This retargeter: an ACE run retargets onto its own creature only.
+
+        Raises:
+            RunError: ``target`` is not the run's creature (by name).
+        """
+        if (target if isinstance(target, str) else target.name) != self.creature.name:
+            raise RunError("an ACE run retargets onto its own creature: --target applies to NKN runs over human "
+                           "skeletons", location=SourceLocation(str(self.dir)))
+        return self
 
     def intake(self, clip: Motion) -> Motion:
         """``clip`` as the run reads it: on the canonical human (unless the run predates it).

@@ -32,10 +32,12 @@ from morphkit.io import read_morphology, write_morphology
 from morphkit.motion import NormStats
 from morphkit.retarget.run import required_file
 
-__all__ = ["META_FILE", "NknArtifact"]
+__all__ = ["LABEL", "META_FILE", "TRAINERS", "NknArtifact"]
 
 META_FILE = "nkn.yaml"
 """The file that makes a folder an NKN run."""
+LABEL = "NKN"
+"""An NKN run's retargeter's name in a comparison (Table 1)."""
 _TEMPLATE = "template.yaml"
 _SKELETONS = "skeletons"
 _CREATURE = "creature.yaml"

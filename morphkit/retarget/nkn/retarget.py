@@ -14,6 +14,7 @@ leg-length ratio of target and source.
 
 from __future__ import annotations
 
+import copy
 import os
 from collections.abc import Sequence
 from pathlib import Path
@@ -27,7 +28,7 @@ from morphkit.io import read_morphology
 from morphkit.motion import Motion
 from morphkit.retarget.checkpoint import load_checkpoint, load_module_state
 from morphkit.retarget.config import read_config
-from morphkit.retarget.nkn.checkpoint import TRAINERS, NknArtifact
+from morphkit.retarget.nkn.checkpoint import LABEL, TRAINERS, NknArtifact
 from morphkit.retarget.nkn.config import NknConfig
 from morphkit.retarget.nkn.features import GLOBAL_DIM, global_motion, integrate_global_motion, local_positions
 from morphkit.retarget.nkn.fk import SkeletonFK
@@ -125,7 +126,7 @@ class NknRetargeter:
         self.skeletons: dict[str, Morphology] = dict(self.artifact.skeletons)
         """The training characters' skeletons by name (the *seen* characters)."""
         self.creature: Morphology | None = self.artifact.creature
-        self.label = "NKN"
+        self.label = LABEL
         self.target: Morphology | None = None
         """What :meth:`retarget` retargets onto when not told (skeletons mode: the template unless set)."""
         self.pairing = None
@@ -148,6 +149,18 @@ class NknRetargeter:
         self._source_fk = SkeletonFK(self.template)
         if target is not None:
             self.target = self.resolve_target(target)
+
+    def with_target(self, target: Morphology | str) -> NknRetargeter:
+        """This run retargeting onto ``target`` when not told otherwise (:meth:`resolve_target`; a cross-morphology
+        run: its creature only); the networks are shared.
+
+        Raises:
+            ConfigError: an unknown name, or another target than a cross-morphology run's creature.
+            MotionFormatError: a skeleton of another topology.
+        """
+        other = copy.copy(self)
+        other.target = self.resolve_target(target)
+        return other
 
     def resolve_target(self, target: Morphology | str) -> Morphology:
         """A target skeleton from a name — a training character's, or a bone-length variant of the template
