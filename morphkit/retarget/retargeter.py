@@ -2,7 +2,7 @@
 
 ACE (:class:`~morphkit.retarget.ace.retarget.AceRetargeter`) and NKN
 (:class:`~morphkit.retarget.nkn.retarget.NknRetargeter`) implement it; the evaluation, the CLI and
-the examples use only it, through :func:`morphkit.retarget.runs.load`.
+the ACE examples use only it, through :func:`morphkit.retarget.runs.load`.
 """
 
 from __future__ import annotations
