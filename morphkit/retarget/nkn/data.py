@@ -105,8 +105,8 @@ def _check_topology(motions: Sequence[Motion], where: str | None = None) -> None
 
 def data_characters(human_data: HumanData, data: NknDataConfig, *, exclude_evaluation: bool = True,
                     cache_dir: str | os.PathLike[str] | bool | None = True) -> list[Character]:
-    """The characters of human data folders (the first one's skeleton topology is the run's): their clips (resampled
-    to ``data.fps``, read with a folder's convention table where it has one) grouped by skeleton.
+    """The characters of human data folders: their clips (resampled to ``data.fps``, read with a folder's convention
+    table where it has one) grouped by skeleton.
 
     The first folder's topology is the run's; a later folder of another convention is re-expressed on it
     through a shipped link map (:mod:`~.mapping`, e.g. the Bandai Namco skeleton onto CMU's 22 joints).

@@ -40,7 +40,7 @@ from morphkit.retarget.distributed import is_main_process
 from morphkit.retarget.networks import frozen_parameters
 from morphkit.retarget.nkn.checkpoint import META_FILE, TRAINERS, NknArtifact
 from morphkit.retarget.nkn.config import NknConfig
-from morphkit.retarget.nkn.data import Character, ClipBank, HumanData, as_folders, offset_stats, training_characters
+from morphkit.retarget.nkn.data import Character, ClipBank, offset_stats, training_characters
 from morphkit.retarget.nkn.losses import (
     discriminator_loss,
     generator_adversarial_loss,
@@ -51,7 +51,7 @@ from morphkit.retarget.nkn.losses import (
 from morphkit.retarget.nkn.model import NknGenerator, motion_differences
 from morphkit.retarget.nkn.networks import build_networks, cpu_threads
 from morphkit.retarget.run import Run
-from morphkit.retarget.training_data import character_motions
+from morphkit.retarget.training_data import HumanData, as_folders, character_motions
 
 __all__ = ["NknSetup", "prepare", "train_nkn"]
 
