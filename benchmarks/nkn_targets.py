@@ -79,14 +79,13 @@ def _follow(source, motion) -> float:
 def variant_table(model, data: Path, clips: int, plots: str | None) -> str:
     """Table 1 of the module docstring (markdown)."""
     from morphkit.metrics import physdiff_figures, skating_ratio
-    from morphkit.retarget.nkn.data import evaluation_clips, test_clips
+    from morphkit.retarget.nkn.data import evaluation_pieces
     from morphkit.retarget.nkn.evaluate import plot_end_effector_heights
     from morphkit.retarget.nkn.retarget import copy_rotations
     from morphkit.retarget.nkn.skeleton import EVALUATION_VARIANTS, scale_limbs
     from morphkit.synth import lock_feet
 
-    pieces = test_clips(evaluation_clips(data / "human" / "cmu", model.config.data), model.config.data.test_frames,
-                        limit=clips)
+    pieces = evaluation_pieces(data / "human" / "cmu", model.config.data, limit=clips)
     rows = ["| target | method | finite | EE-height follow ↑ | Float mm (median) ↓ | Penetrate mm (median) ↓ | "
             "skating ↓ |", "|---|---|---|---|---|---|---|"]
     for name, scales in EVALUATION_VARIANTS.items():

@@ -44,7 +44,7 @@ def run(args: argparse.Namespace) -> int:
     from morphkit.motion import write_motion
     from morphkit.retarget.config import replace_config
     from morphkit.retarget.nkn import NknRetargeter, preset, train_nkn
-    from morphkit.retarget.nkn.data import evaluation_clips, test_clips
+    from morphkit.retarget.nkn.data import evaluation_pieces
     from morphkit.retarget.nkn.evaluate import compare_with_baseline, contact_metrics, write_scores
     from morphkit.retarget.nkn.skeleton import EVALUATION_VARIANTS, scale_limbs
 
@@ -61,8 +61,7 @@ def run(args: argparse.Namespace) -> int:
     train_nkn(out, cfg, human_data=args.human_data, creature=creature, device=args.device)
 
     model = NknRetargeter(out)
-    clips = test_clips(evaluation_clips(args.human_data, cfg.data), cfg.data.test_frames,
-                       limit=2 if args.smoke else args.clips)
+    clips = evaluation_pieces(args.human_data, cfg.data, limit=2 if args.smoke else args.clips)
     (out / "clips").mkdir(parents=True, exist_ok=True)
     if creature is not None:
         motions = [r.motion for r in model.retarget(clips)]

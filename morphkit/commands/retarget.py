@@ -74,7 +74,7 @@ def run(args: argparse.Namespace) -> int:
     clips = [c.replace(name=p.stem) for p, c in zip(paths, load_motions(paths, **rate), strict=True)]
     model = load(args.run_dir, stage=args.stage, device=args.device, target=args.target)
     if model.creature is None and args.target is None:  # NKN between human skeletons: an unseen skeleton
-        model.target = model.resolve_target(DEFAULT_NKN_TARGET)  # type: ignore[attr-defined]
+        model = model.with_target(DEFAULT_NKN_TARGET)
     contacts = args.contacts or ("replan" if model.creature is not None else "none")
     if contacts != "none":
         model = WithContacts(model, contacts)

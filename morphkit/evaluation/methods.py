@@ -16,10 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from morphkit.errors import RunError, SourceLocation
-from morphkit.retarget.ace.checkpoint import AceArtifact
-from morphkit.retarget.ace.variants import AceVariant
-from morphkit.retarget.nkn.checkpoint import NknArtifact
-from morphkit.retarget.run import CHECKPOINT_FILE, RUN_FILE, Run
+from morphkit.retarget.runs import trained_retargeters
 
 __all__ = ["METHOD_ORDER", "Method", "find_methods", "method_order"]
 
@@ -47,61 +44,20 @@ def method_order(name: str) -> tuple[int, str]:
     return (METHOD_ORDER.index(name), "") if name in METHOD_ORDER else (len(METHOD_ORDER), name)
 
 
-def _finished(stage: Path, label: str) -> int | None:
-    """The seed of a finished stage; ``None`` (with a warning) for one still training."""
-    epoch, epochs, seed = Run.progress(stage)
-    if epoch < epochs:
-        warnings.warn(f"{stage}: {label} has trained {epoch} of {epochs} epochs; left out of the comparison",
-                      stacklevel=3)
-        return None
-    return seed
-
-
-def _ace_methods(run: Path, variants: Sequence[AceVariant] | None) -> list[Method]:
-    creature = str(AceArtifact.creature_name(run))
-    out = []
-    for variant in variants or AceVariant:
-        stage = run / variant.folder
-        if not (stage / CHECKPOINT_FILE).is_file():
-            continue
-        seed = _finished(stage, variant.label)
-        if seed is not None:
-            out.append(Method(variant.label, run, stage, creature, seed))
-    return out
-
-
-def _nkn_method(run: Path) -> list[Method]:
-    meta = NknArtifact.header(run) or {}
-    if meta.get("mode") != "cross":
-        raise RunError("an NKN run over human skeletons retargets human to human; the comparison needs its "
-                       "cross-morphology mode (morphkit train nkn CREATURE)", location=SourceLocation(str(run)))
-    if not (run / CHECKPOINT_FILE).is_file():
-        raise RunError("NKN run without a checkpoint (not trained yet)", location=SourceLocation(str(run)))
-    seed = _finished(run, "NKN")
-    return [] if seed is None else [Method("NKN", run, run, str(meta.get("creature")), seed)]
-
-
-def _is_run(path: Path) -> bool:
-    return AceArtifact.is_run(path) or NknArtifact.is_run(path)
-
-
 def _methods_of(path: Path) -> list[Method]:
-    if not path.exists():
-        raise RunError("no such run folder", location=SourceLocation(str(path)))
-    if AceArtifact.is_run(path):
-        return _ace_methods(path, None)
-    if NknArtifact.is_run(path):
-        return _nkn_method(path)
-    if (path / RUN_FILE).is_file() and AceArtifact.is_run(path.parent):
-        variant = next((v for v in AceVariant if v.folder == path.name), None)
-        if variant is None:
-            raise RunError(f"not a retargeter stage of an ACE run (stages: {', '.join(v.folder for v in AceVariant)})",
-                           location=SourceLocation(str(path)))
-        return _ace_methods(path.parent, [variant])
-    children = sorted(p for p in path.iterdir() if _is_run(p)) if path.is_dir() else []
-    if not children:
-        raise RunError("not an ACE or NKN run folder, nor a folder of run folders", location=SourceLocation(str(path)))
-    return [m for child in children for m in _methods_of(child)]
+    out = []
+    for found in trained_retargeters(path):
+        if found.creature is None:
+            raise RunError("an NKN run over human skeletons retargets human to human; the comparison needs its "
+                           "cross-morphology mode (morphkit train nkn CREATURE)",
+                           location=SourceLocation(str(found.run)))
+        progress = found.progress
+        if not progress.finished:
+            warnings.warn(f"{found.stage}: {found.label} has trained {progress.epoch} of {progress.epochs} epochs; "
+                          "left out of the comparison", stacklevel=3)
+            continue
+        out.append(Method(found.label, found.run, found.stage, found.creature, progress.seed))
+    return out
 
 
 def find_methods(paths: Sequence[str | os.PathLike[str]]) -> list[Method]:

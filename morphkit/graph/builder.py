@@ -256,6 +256,28 @@ class MorphologyBuilder:
         where = SourceLocation(self.source) if self.source else None
         if not self._links:
             raise GraphError("a morphology needs at least one link", location=where)
+        parent_of = self._parent_joints()
+        root = self._find_root(parent_of, where)
+        order = self._ordered_joints(root, parent_of)
+        self._check_mimics(order)
+        self._check_references(where)
+        links = (self._links[root], *(self._links[j.child] for j in order))
+        return Morphology(
+            name=self.name,
+            base=self.base,
+            root=root,
+            links=links,
+            joints=tuple(order),
+            end_effectors=tuple(self._ees.values()),
+            wheels=self._wheels,
+            source=self.source,
+            declared_body_length=self._body_length,
+            rest_pose=tuple((j.name, self._rest_pose[j.name]) for j in order if j.name in self._rest_pose),
+            collision_excludes=tuple(self._excludes),
+        )
+
+    def _parent_joints(self) -> dict[str, Joint]:
+        """The joint above each child link (every joint's links exist; no link has two parents)."""
         parent_of: dict[str, Joint] = {}
         for j in self._joints.values():
             for end in (j.parent, j.child):
@@ -270,6 +292,10 @@ class MorphologyBuilder:
                     location=j.location,
                 )
             parent_of[j.child] = j
+        return parent_of
+
+    def _find_root(self, parent_of: dict[str, Joint], where: SourceLocation | None) -> str:
+        """The root link: the one named, or the one link without a parent (else a cycle or several roots)."""
         roots = [n for n in self._links if n not in parent_of]
         if self.root is None:
             if len(roots) != 1:
@@ -290,23 +316,25 @@ class MorphologyBuilder:
                     f"several links have no parent ({', '.join(roots)}); name the root or connect them",
                     location=stray or self._links[roots[0]].location or where,
                 )
-            root = roots[0]
-        else:
-            root = self.root
-            if root not in self._links:
-                raise GraphError(
-                    f"root link {root!r} does not exist (links: {', '.join(self._links)})", location=self._root_location
-                )
-            if root in parent_of:
-                # Either a cycle through the root or a root that is someone's child.
-                raise GraphError(
-                    f"root link {root!r} has a parent (joint {parent_of[root].name!r})",
-                    location=parent_of[root].location,
-                )
+            return roots[0]
+        root = self.root
+        if root not in self._links:
+            raise GraphError(
+                f"root link {root!r} does not exist (links: {', '.join(self._links)})", location=self._root_location
+            )
+        if root in parent_of:
+            # Either a cycle through the root or a root that is someone's child.
+            raise GraphError(
+                f"root link {root!r} has a parent (joint {parent_of[root].name!r})",
+                location=parent_of[root].location,
+            )
+        return root
+
+    def _ordered_joints(self, root: str, parent_of: dict[str, Joint]) -> list[Joint]:
+        """The joints in depth-first preorder from ``root`` (each limb's joints contiguous), every link reached."""
         children: dict[str, list[Joint]] = {n: [] for n in self._links}
         for j in self._joints.values():
             children[j.parent].append(j)
-        # Depth-first preorder so each limb's joints are contiguous.
         order: list[Joint] = []
         self._dfs(root, children, order)
         reached = {root} | {j.child for j in order}
@@ -317,6 +345,10 @@ class MorphologyBuilder:
                 raise GraphError(f"the joints form a cycle through link {missing[0]!r}", location=j.location)
             link = self._links[missing[0]]
             raise GraphError(f"link {missing[0]!r} is not connected to the root {root!r}", location=link.location)
+        return order
+
+    def _check_mimics(self, order: list[Joint]) -> None:
+        """Every mimic joint follows another 1-DoF joint that is not itself a mimic."""
         joint_names = set(self._joints)
         for j in order:
             if j.mimic is not None:
@@ -332,6 +364,10 @@ class MorphologyBuilder:
                         f"joint {j.name!r}: mimic needs two 1-DoF joints and a target that is not itself a mimic",
                         location=j.location,
                     )
+
+    def _check_references(self, where: SourceLocation | None) -> None:
+        """End-effectors, wheels, the rest pose and collision excludes name links and joints that exist and fit."""
+        joint_names = set(self._joints)
         for ee in self._ees.values():
             if ee.link not in self._links:
                 raise GraphError(
@@ -362,20 +398,6 @@ class MorphologyBuilder:
             for link in pair:
                 if link not in self._links:
                     raise GraphError(f"collision exclude names missing link {link!r}", location=where)
-        links = (self._links[root], *(self._links[j.child] for j in order))
-        return Morphology(
-            name=self.name,
-            base=self.base,
-            root=root,
-            links=links,
-            joints=tuple(order),
-            end_effectors=tuple(self._ees.values()),
-            wheels=self._wheels,
-            source=self.source,
-            declared_body_length=self._body_length,
-            rest_pose=tuple((j.name, self._rest_pose[j.name]) for j in order if j.name in self._rest_pose),
-            collision_excludes=tuple(self._excludes),
-        )
 
     @staticmethod
     def _dfs(root: str, children: dict[str, list[Joint]], order: list[Joint]) -> None:

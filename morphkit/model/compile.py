@@ -60,50 +60,13 @@ def compile_model(m: Morphology, *, device: Any = None) -> KinematicModel:
             lim_lo[i], lim_hi[i] = j.limit.lower, j.limit.upper
     coord_lo, coord_hi = m.coordinate_limits
 
-    # Wheels: lateral position and rolling sign from the rest pose, so wheels mounted under
-    # intermediate fixed links work too.
-    joint_wheel = np.full(J, -1, dtype=np.int32)
-    wheel_joint: list[int] = []
-    wheel_lateral: list[float] = []
-    wheel_sign: list[float] = []
-    if m.wheels is not None and m.base == BaseType.WHEELED:
-        rest = m.rest_link_poses()
-        for w, name in enumerate(m.wheels.joints):
-            ji = joint_index[name]
-            joint_wheel[ji] = w
-            wheel_joint.append(ji)
-            T_root_joint = transform_multiply(rest[joint_parent[ji]], X_parent[ji])
-            axis_root = quat_rotate(T_root_joint[3:], axis[ji])
-            if abs(axis_root[1]) < 0.5:
-                raise GraphError(
-                    f"wheel {name!r}: axis {list(np.round(axis_root, 3))} (in the root frame) does not point "
-                    "sideways (along ±y), so the wheel cannot roll the base forward",
-                    location=m.joints[ji].location,
-                )
-            wheel_lateral.append(float(T_root_joint[1]))
-            wheel_sign.append(1.0 if axis_root[1] > 0 else -1.0)
+    joint_wheel, wheel_joint, wheel_lateral, wheel_sign = _wheels(m, joint_index, joint_parent, X_parent, axis)
 
     ee_link = [link_index[e.link] for e in m.end_effectors]
     ee_offset = np.array([e.offset for e in m.end_effectors], dtype=float).reshape(-1, 3)
     ee_role = [int(e.role) for e in m.end_effectors]
 
-    shape_link: list[int] = []
-    shape_type: list[int] = []
-    shape_X: list[np.ndarray] = []
-    shape_params: list[tuple[float, float, float]] = []
-    for li, link in enumerate(m.links):
-        for s in link.shapes:
-            shape_link.append(li)
-            shape_type.append(int(s.type))
-            shape_X.append(s.origin.as_array())
-            if s.type == ShapeType.SPHERE:
-                shape_params.append((s.radius, 0.0, 0.0))
-            elif s.type in (ShapeType.CAPSULE, ShapeType.CYLINDER):
-                shape_params.append((s.radius, 0.5 * s.length, 0.0))
-            elif s.type == ShapeType.BOX:
-                shape_params.append((0.5 * s.size[0], 0.5 * s.size[1], 0.5 * s.size[2]))
-            else:
-                shape_params.append(tuple(s.scale))  # type: ignore[arg-type]
+    shape_link, shape_type, shape_X, shape_params = _shapes(m)
 
     return KinematicModel(
         name=m.name,
@@ -144,3 +107,58 @@ def compile_model(m: Morphology, *, device: Any = None) -> KinematicModel:
                      dtype=np.int32).reshape(-1, 2), np.int32),
         device=None if device is None else str(device),
     )
+
+
+def _wheels(m: Morphology, joint_index: dict[str, int], joint_parent: list[int], X_parent: np.ndarray,
+            axis: np.ndarray) -> tuple[np.ndarray, list[int], list[float], list[float]]:
+    """Per joint its wheel index (-1: none) [J]; per wheel its joint, lateral position [m] and rolling sign.
+
+    Lateral position and sign come from the rest pose, so wheels mounted under intermediate fixed links work too.
+
+    Raises:
+        GraphError: a wheel's axis does not point sideways.
+    """
+    joint_wheel = np.full(m.joint_count, -1, dtype=np.int32)
+    wheel_joint: list[int] = []
+    wheel_lateral: list[float] = []
+    wheel_sign: list[float] = []
+    if m.wheels is not None and m.base == BaseType.WHEELED:
+        rest = m.rest_link_poses()
+        for w, name in enumerate(m.wheels.joints):
+            ji = joint_index[name]
+            joint_wheel[ji] = w
+            wheel_joint.append(ji)
+            T_root_joint = transform_multiply(rest[joint_parent[ji]], X_parent[ji])
+            axis_root = quat_rotate(T_root_joint[3:], axis[ji])
+            if abs(axis_root[1]) < 0.5:
+                raise GraphError(
+                    f"wheel {name!r}: axis {list(np.round(axis_root, 3))} (in the root frame) does not point "
+                    "sideways (along ±y), so the wheel cannot roll the base forward",
+                    location=m.joints[ji].location,
+                )
+            wheel_lateral.append(float(T_root_joint[1]))
+            wheel_sign.append(1.0 if axis_root[1] > 0 else -1.0)
+    return joint_wheel, wheel_joint, wheel_lateral, wheel_sign
+
+
+def _shapes(m: Morphology) -> tuple[list[int], list[int], list[np.ndarray], list[tuple[float, float, float]]]:
+    """Every link's shapes in link order: link, type, pose in the link, and size parameters (sphere: radius; capsule
+    and cylinder: radius, half length; box: half extents; mesh: scale)."""
+    shape_link: list[int] = []
+    shape_type: list[int] = []
+    shape_X: list[np.ndarray] = []
+    shape_params: list[tuple[float, float, float]] = []
+    for li, link in enumerate(m.links):
+        for s in link.shapes:
+            shape_link.append(li)
+            shape_type.append(int(s.type))
+            shape_X.append(s.origin.as_array())
+            if s.type == ShapeType.SPHERE:
+                shape_params.append((s.radius, 0.0, 0.0))
+            elif s.type in (ShapeType.CAPSULE, ShapeType.CYLINDER):
+                shape_params.append((s.radius, 0.5 * s.length, 0.0))
+            elif s.type == ShapeType.BOX:
+                shape_params.append((0.5 * s.size[0], 0.5 * s.size[1], 0.5 * s.size[2]))
+            else:
+                shape_params.append(tuple(s.scale))  # type: ignore[arg-type]
+    return shape_link, shape_type, shape_X, shape_params

@@ -657,6 +657,41 @@ def guess_skeleton_map(motion: Motion) -> SkeletonMap:
         MotionFormatError: naming what is missing (no pelvis, chest, two legs, two arms, a neck; not upright).
     """
     m = motion.morphology
+    frames = np.linspace(0, motion.frame_count - 1, min(motion.frame_count, 60)).round().astype(int)
+    poses = _link_poses(m, motion.q[frames])  # [F, L, 7], frames spread over the clip
+    body = _find_body(motion, poses[..., :3])
+    limbs = _limb_parts(motion, body)
+    up = _check_standing(motion, poses[..., :3], body, limbs)
+    links: dict[str, Source] = {"Hips": m.link_names[body.pelvis]}
+    links.update(_sided_links(motion, poses, body, limbs, up))
+    links.update(_trunk_links(m, body))
+    order = canonical_human().link_names
+    return SkeletonMap("guessed from shape", {n: links[n] for n in order}, "shape-based detection")
+
+
+@dataclass(frozen=True)
+class _Body:
+    """A human-like skeleton's trunk and limb chains, as link indices (:func:`guess_skeleton_map`)."""
+
+    pelvis: int
+    chest: int
+    spine: list[int]
+    """From the pelvis's child to the chest."""
+    legs: list[list[int]]
+    """The two chains of the pelvis whose tips are lowest over the clip."""
+    arms: list[list[int]]
+    """The chest's two chains of the longest bones besides the neck."""
+    neck: list[int]
+    """The chest's chain of the shortest bones."""
+
+
+def _find_body(motion: Motion, pos: np.ndarray) -> _Body:
+    """The pelvis, chest, spine, legs, arms and neck of ``motion``'s skeleton; link positions ``pos`` [F, L, 3].
+
+    Raises:
+        MotionFormatError: no pelvis, no chest, no two legs, or no two arms and a neck at the chest.
+    """
+    m = motion.morphology
     L = m.link_count
     kids: dict[int, list[int]] = {i: [] for i in range(L)}
     for c in range(1, L):
@@ -664,18 +699,12 @@ def guess_skeleton_map(motion: Motion) -> SkeletonMap:
     size = [1] * L
     for c in range(L - 1, 0, -1):
         size[m.link_parent[c]] += size[c]
-    frames = np.linspace(0, motion.frame_count - 1, min(motion.frame_count, 60)).round().astype(int)
-    poses = _link_poses(m, motion.q[frames])  # [F, L, 7], frames spread over the clip
-    pos = poses[..., :3]
-
-    def refuse(*problems: str) -> MotionFormatError:
-        return _not_humanoid(motion, list(problems))
-
     pelvis = 0
     while len(kids[pelvis]) == 1:
         pelvis = kids[pelvis][0]
     if len(kids[pelvis]) < 3:
-        raise refuse("no pelvis (no link where two legs and a spine branch)", "no two legs", "no two arms")
+        raise _not_humanoid(motion, ["no pelvis (no link where two legs and a spine branch)", "no two legs",
+                                     "no two arms"])
     chest_of = {}
     for c in kids[pelvis]:
         stack = [c]
@@ -686,7 +715,8 @@ def guess_skeleton_map(motion: Motion) -> SkeletonMap:
             stack.extend(kids[n])
     spine_child = max(chest_of, key=lambda c: size[c], default=None)
     if spine_child is None:
-        raise refuse("no chest (no link above the pelvis where two arms and a neck branch)", "no two arms")
+        raise _not_humanoid(motion, ["no chest (no link above the pelvis where two arms and a neck branch)",
+                                     "no two arms"])
     chest = chest_of[spine_child]
     legs = [c for c in kids[pelvis] if c != spine_child]
     leg_paths = [_main_path(m, c, kids, size) for c in legs]
@@ -699,21 +729,28 @@ def guess_skeleton_map(motion: Motion) -> SkeletonMap:
     if len(arm_like) < 3:
         problems.append("no two arms and a neck at the chest")
     if problems:
-        raise refuse(*problems)
+        raise _not_humanoid(motion, problems)
     neck_i = int(np.argmin(chain_len))
-    neck_path = arm_like[neck_i]
     arm_paths = [p for i, p in enumerate(arm_like) if i != neck_i]
     arm_paths = sorted(arm_paths, key=lambda p: -sum(_bone(m, n) for n in p[1:]))[:2]
-    # the spine path from the pelvis's child to the chest
     spine_path = [chest]
     while spine_path[-1] != spine_child:
         spine_path.append(m.link_parent[spine_path[-1]])
     spine_path.reverse()
+    return _Body(pelvis, chest, spine_path, leg_paths, arm_paths, arm_like[neck_i])
 
-    links: dict[str, Source] = {"Hips": m.link_names[pelvis]}
+
+def _limb_parts(motion: Motion, body: _Body) -> dict[str, dict[str, Source]]:
+    """Per limb (by its first link's name): the canonical parts (``UpLeg``, ``Leg``, ``Foot``, ``ToeBase``; or
+    ``Shoulder``, ``Arm``, ``ForeArm``, ``Hand``) around its knee or elbow.
+
+    Raises:
+        MotionFormatError: a leg without hip, knee, ankle and foot, or an arm without shoulder, elbow and wrist.
+    """
+    m = motion.morphology
     limb: dict[str, dict[str, Source]] = {}
     bad_legs, bad_arms = [], []
-    for path in leg_paths:
+    for path in body.legs:
         k = _long_pair(m, path)
         if k is None or k + 1 >= len(path):
             bad_legs.append(f"{m.link_names[path[0]]!r} has no hip, knee and ankle")
@@ -724,37 +761,63 @@ def guess_skeleton_map(motion: Motion) -> SkeletonMap:
             continue
         limb[m.link_names[path[0]]] = {"UpLeg": m.link_names[path[k - 1]], "Leg": m.link_names[path[k]],
                                        "Foot": m.link_names[path[k + 1]], "ToeBase": toe}
-    for path in arm_paths:
+    for path in body.arms:
         e = _long_pair(m, path)
         if e is None or e + 1 >= len(path):
             bad_arms.append(f"{m.link_names[path[0]]!r} has no shoulder, elbow and wrist")
             continue
-        clav: Source = m.link_names[path[e - 2]] if e >= 2 else (m.link_names[chest], m.link_names[path[e - 1]], 0.5)
+        clav: Source = (m.link_names[path[e - 2]] if e >= 2
+                        else (m.link_names[body.chest], m.link_names[path[e - 1]], 0.5))
         limb[m.link_names[path[0]]] = {"Shoulder": clav, "Arm": m.link_names[path[e - 1]],
                                        "ForeArm": m.link_names[path[e]], "Hand": m.link_names[path[e + 1]]}
+    problems = []
     if bad_legs:
         problems.append(f"no two legs (the pelvis's chain {'; '.join(bad_legs)})")
     if bad_arms:
         problems.append(f"no two arms (the chest's chain {'; '.join(bad_arms)})")
     if problems:
-        raise refuse(*problems)
-    # Which way is up, forward and left, over the clip.
-    up = pos[:, chest] - pos[:, pelvis]
+        raise _not_humanoid(motion, problems)
+    return limb
+
+
+def _check_standing(motion: Motion, pos: np.ndarray, body: _Body, limb: dict[str, dict[str, Source]]) -> np.ndarray:
+    """The trunk's up direction per frame [F, 3] (pelvis → chest, unit length), once the body stands upright on legs
+    longer than its arms.
+
+    Raises:
+        MotionFormatError: the trunk is not upright in most frames, or the arms are as long as the legs.
+    """
+    m = motion.morphology
+    up = pos[:, body.chest] - pos[:, body.pelvis]
     up /= np.maximum(np.linalg.norm(up, axis=-1, keepdims=True), 1e-12)
     upright = float(np.mean(up[:, 2] > 0.5))
     leg_len = np.mean([_bone(m, m.link_index(str(v["Leg"]))) + _bone(m, m.link_index(str(v["Foot"])))
                        for v in limb.values() if "Leg" in v])
     arm_len = np.mean([_bone(m, m.link_index(str(v["ForeArm"]))) + _bone(m, m.link_index(str(v["Hand"])))
                        for v in limb.values() if "Hand" in v])
+    problems = []
     if upright < 0.5:
         problems.append(f"the trunk is not upright (pelvis to chest within 60 degrees of up in {100 * upright:.0f}% "
                         "of frames): no two legs to stand on")
     if arm_len >= 0.9 * leg_len:
         problems.append(f"no two arms: the chest's limbs are as long as the legs ({arm_len:.2f} m vs {leg_len:.2f} m)")
     if problems:
-        raise refuse(*problems)
+        raise _not_humanoid(motion, problems)
+    return up
+
+
+def _sided_links(motion: Motion, poses: np.ndarray, body: _Body, limb: dict[str, dict[str, Source]],
+                 up: np.ndarray) -> dict[str, Source]:
+    """``Left*`` and ``Right*`` links of the legs and arms: left is the side of ``up × forward`` over the clip
+    (forward: ankle → toe).
+
+    Raises:
+        MotionFormatError: both legs (or both arms) on one side.
+    """
+    m = motion.morphology
+    pos = poses[..., :3]
     fwd = []
-    for v in (limb[m.link_names[p[0]]] for p in leg_paths):
+    for v in (limb[m.link_names[p[0]]] for p in body.legs):
         tip, _ = _source_point(poses, m, v["ToeBase"])
         fwd.append(tip - pos[:, m.link_index(str(v["Foot"]))])
     forward = np.mean(fwd, axis=0)
@@ -762,29 +825,36 @@ def guess_skeleton_map(motion: Motion) -> SkeletonMap:
     left /= np.maximum(np.linalg.norm(left, axis=-1, keepdims=True), 1e-12)
 
     def side(path: list[int], kind: str) -> str:
-        base = pelvis if kind == "leg" else chest
+        base = body.pelvis if kind == "leg" else body.chest
         return "Left" if float(np.median(((pos[:, path[0]] - pos[:, base]) * left).sum(-1))) > 0 else "Right"
 
-    for kind, paths in (("leg", leg_paths), ("arm", arm_paths)):
+    links: dict[str, Source] = {}
+    for kind, paths in (("leg", body.legs), ("arm", body.arms)):
         sides = [side(p, kind) for p in paths]
         if sides[0] == sides[1]:
-            raise refuse(f"cannot tell the left {kind} from the right (both on the {sides[0].lower()})")
+            raise _not_humanoid(motion, [f"cannot tell the left {kind} from the right (both on the "
+                                         f"{sides[0].lower()})"])
         for p, sd in zip(paths, sides, strict=True):
             for part, src in limb[m.link_names[p[0]]].items():
                 links[f"{sd}{part}"] = src
-    # spine: Spine, Spine1 between the pelvis and the chest; Spine2 = the chest
-    sp = [m.link_names[i] for i in spine_path]
-    pel, ch = m.link_names[pelvis], m.link_names[chest]
+    return links
+
+
+def _trunk_links(m: Morphology, body: _Body) -> dict[str, Source]:
+    """``Spine``, ``Spine1`` (between the pelvis and the chest), ``Spine2`` (the chest), ``Neck`` and ``Head``: links
+    of the body, or points between two where it has fewer."""
+    links: dict[str, Source] = {}
+    sp = [m.link_names[i] for i in body.spine]
+    pel, ch = m.link_names[body.pelvis], m.link_names[body.chest]
     if len(sp) >= 3:
         links.update(Spine=sp[0], Spine1=sp[len(sp) // 2], Spine2=ch)
     elif len(sp) == 2:
         links.update(Spine=sp[0], Spine1=(sp[0], ch, 0.5), Spine2=ch)
     else:
         links.update(Spine=(pel, ch, 1 / 3), Spine1=(pel, ch, 2 / 3), Spine2=ch)
-    nk = [m.link_names[i] for i in neck_path]
+    nk = [m.link_names[i] for i in body.neck]
     if len(nk) >= 2:
         links.update(Neck=nk[0], Head=nk[1])
     else:
         links.update(Neck=(ch, nk[0], 0.5), Head=nk[0])
-    order = canonical_human().link_names
-    return SkeletonMap("guessed from shape", {n: links[n] for n in order}, "shape-based detection")
+    return links

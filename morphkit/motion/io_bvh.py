@@ -128,12 +128,6 @@ def _rotation_columns(bvh: BvhFile, j: int) -> tuple[list[int], str]:
     return cols, order
 
 
-def _position_columns(bvh: BvhFile, j: int) -> dict[int, int]:
-    """``{axis: column}`` of joint ``j``'s position channels."""
-    start = bvh.joint_channel_start[j]
-    return {"XYZ".index(ch[0]): start + k for k, ch in enumerate(bvh.joint_channels[j]) if ch.endswith("position")}
-
-
 def _file_rotations(bvh: BvhFile) -> np.ndarray:
     """Every joint's rotation in its parent, in file axes: xyzw quaternions [T, J, 4]."""
     T, J = bvh.frame_count, bvh.joint_count
@@ -180,7 +174,7 @@ def _joint_translations(bvh: BvhFile) -> np.ndarray:
     T, J = bvh.frame_count, bvh.joint_count
     out = np.broadcast_to(bvh.joint_offsets, (T, J, 3)).copy()
     for j in range(J):
-        for axis, col in _position_columns(bvh, j).items():
+        for axis, col in bvh.position_columns(j).items():
             out[:, j, axis] = bvh.motion[:, col]
     return out
 
@@ -189,7 +183,7 @@ def _warn_moving_translations(bvh: BvhFile, translations: np.ndarray) -> None:
     tol = _STATIC_TOL * _skeleton_size(bvh)
     moving = []
     for j in range(1, bvh.joint_count):
-        if _position_columns(bvh, j):
+        if bvh.position_columns(j):
             dev = float(np.abs(translations[:, j] - bvh.joint_offsets[j]).max())
             if dev > tol:
                 moving.append(f"{bvh.joint_names[j]} (up to {dev:.4g} file units)")

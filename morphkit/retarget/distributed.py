@@ -27,6 +27,7 @@ __all__ = [
     "all_reduce_max",
     "all_reduce_mean",
     "init_distributed",
+    "is_main_process",
     "joined_group",
     "leave_group",
     "release_group",
@@ -64,6 +65,12 @@ class DistributedContext:
         """Wait for every rank (no-op in one process)."""
         if self.is_distributed:
             dist.barrier()
+
+
+def is_main_process() -> bool:
+    """Rank 0 of a ``torchrun`` job, or the one process without one: the process that writes a run's files
+    (read from ``RANK``, before or without :func:`init_distributed`)."""
+    return int(os.environ.get("RANK", "0")) == 0
 
 
 def init_distributed(device: str | torch.device | None = None) -> DistributedContext:

@@ -1,14 +1,15 @@
-"""Network building blocks every trainer may use: activations by name, MLPs, and FLOP counting."""
+"""Network building blocks every trainer may use: activations by name, MLPs, frozen parameters, FLOP counting."""
 
 from __future__ import annotations
 
 import itertools
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from typing import Literal
 
 from torch import nn
 
-__all__ = ["MLP", "Activation", "make_activation", "matmul_flops"]
+__all__ = ["MLP", "Activation", "frozen_parameters", "make_activation", "matmul_flops"]
 
 Activation = Literal["elu", "leaky_relu", "relu", "silu", "tanh"]
 
@@ -19,6 +20,19 @@ def make_activation(name: Activation) -> nn.Module:
     if name not in table:
         raise ValueError(f"unknown activation {name!r}; expected one of: {', '.join(table)}")
     return table[name]()
+
+
+@contextmanager
+def frozen_parameters(module: nn.Module) -> Iterator[None]:
+    """``module``'s parameters out of the autograd graph inside the block (a discriminator while its generator
+    learns from it), back in after it, however the block ends."""
+    for p in module.parameters():
+        p.requires_grad_(False)
+    try:
+        yield
+    finally:
+        for p in module.parameters():
+            p.requires_grad_(True)
 
 
 class MLP(nn.Sequential):

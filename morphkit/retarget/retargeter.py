@@ -2,7 +2,7 @@
 
 ACE (:class:`~morphkit.retarget.ace.retarget.AceRetargeter`) and NKN
 (:class:`~morphkit.retarget.nkn.retarget.NknRetargeter`) implement it; the evaluation, the CLI and
-the examples use only it, through :func:`morphkit.retarget.runs.load`.
+the ACE examples use only it, through :func:`morphkit.retarget.runs.load`.
 """
 
 from __future__ import annotations
@@ -88,6 +88,15 @@ class Retargeter(Protocol):
         """Retarget human clips, batched; one result per clip, in order."""
         ...
 
+    def with_target(self, target: Morphology | str) -> Retargeter:
+        """This retargeter, retargeting onto ``target`` (a skeleton, or what names one: the method says which);
+        its own creature gives it back unchanged.
+
+        Raises:
+            MorphkitError: a target it cannot retarget onto (e.g. another creature than an ACE run's).
+        """
+        ...
+
 
 class WithContacts:
     """A :class:`Retargeter` whose motions go through a contact-aware export
@@ -111,6 +120,10 @@ class WithContacts:
     def retarget(self, clips: Sequence[Motion]) -> list[RetargetedClip]:
         """The inner retargeter's clips, each motion through the export."""
         return [self.export(r) for r in self.inner.retarget(clips)]
+
+    def with_target(self, target: Morphology | str) -> WithContacts:
+        """The inner retargeter onto ``target``, through the same export."""
+        return WithContacts(self.inner.with_target(target), self.mode)
 
     def export(self, clip: RetargetedClip) -> RetargetedClip:
         """One raw clip through the export (its states and clamp report are the raw output's)."""

@@ -38,7 +38,7 @@ import signal
 import threading
 from collections.abc import Iterable, Iterator
 from pathlib import Path
-from typing import Any, Generic, Protocol, TypeVar
+from typing import Any, Generic, NamedTuple, Protocol, TypeVar
 
 import numpy as np
 import torch
@@ -64,7 +64,10 @@ from morphkit.retarget.distributed import (
 from morphkit.retarget.folder_lock import hold_run_folder
 from morphkit.retarget.logs import MetricsLog
 
-__all__ = ["CHECKPOINT_FILE", "CONFIG_FILE", "RUN_FILE", "Run", "Stateful", "derive_seed"]
+__all__ = [
+    "CHECKPOINT_FILE", "CONFIG_FILE", "RUN_FILE", "Run", "RunProgress", "Stateful", "derive_seed", "required_file",
+    "stage_trainer",
+]
 
 log = logging.getLogger(__name__)
 
@@ -90,6 +93,43 @@ class Stateful(Protocol):
     def load_state_dict(self, state_dict: dict[str, Any], /) -> Any:
         """Put a state from :meth:`state_dict` back."""
         ...
+
+
+class RunProgress(NamedTuple):
+    """Where a run folder's training stands (:meth:`Run.progress`)."""
+
+    epoch: int
+    """Epochs trained (the checkpoint's position)."""
+    epochs: int
+    """Epochs its ``config.yaml`` asks for."""
+    seed: int
+    """The run's seed."""
+
+    @property
+    def finished(self) -> bool:
+        """The one definition of a finished run: it has trained the epochs its config asks for."""
+        return self.epoch >= self.epochs
+
+
+def required_file(path: Path, kind: str) -> Path:
+    """``path`` when it exists; else :class:`RunError` saying its folder is not ``kind`` ("an ACE run folder").
+
+    Raises:
+        RunError: ``path`` is missing, naming it and its folder.
+    """
+    if not path.exists():
+        raise RunError(f"not {kind}: {path.name} is missing", location=SourceLocation(str(path.parent)))
+    return path
+
+
+def stage_trainer(folder: Path, kind: str = "a trained stage") -> str:
+    """The trainer name a run folder's ``run.yaml`` records (``""`` when it names none).
+
+    Raises:
+        RunError: no ``run.yaml`` (the folder is not ``kind``).
+    """
+    path = required_file(folder / RUN_FILE, kind)
+    return str((yaml.safe_load(path.read_text()) or {}).get("trainer", ""))
 
 
 def derive_seed(*words: int) -> int:
@@ -235,8 +275,9 @@ class Run(Generic[C]):
     # ------------------------------------------------------------------- a folder, unopened
 
     @staticmethod
-    def progress(run_dir: str | os.PathLike[str]) -> tuple[int, int, int]:
-        """``(epoch reached, epochs configured, seed)`` of a run folder, read without opening it.
+    def progress(run_dir: str | os.PathLike[str]) -> RunProgress:
+        """``(epoch reached, epochs configured, seed)`` of a run folder, read without opening it (its
+        :attr:`~RunProgress.finished` is the one answer to "has this run finished?").
 
         The epoch and seed come from its checkpoint, the epochs from the ``epochs`` field of its
         ``config.yaml`` (0 when the config has none).
@@ -250,7 +291,7 @@ class Run(Generic[C]):
         try:
             config = yaml.safe_load(config_file.read_text(encoding="utf-8")) or {}
             epochs = int(config.get("epochs", 0))
-            return int(position["epoch"]), epochs, int(position.get("seed", 0))
+            return RunProgress(int(position["epoch"]), epochs, int(position.get("seed", 0)))
         except (OSError, yaml.YAMLError) as exc:
             reason = getattr(exc, "strerror", None) or exc
             raise RunError(
@@ -266,10 +307,9 @@ class Run(Generic[C]):
         ``False`` for a run still training, and for a missing folder, checkpoint or config or a damaged one.
         """
         try:
-            epoch, epochs, _ = Run.progress(run_dir)
+            return Run.progress(run_dir).finished
         except RunError:
             return False
-        return epoch >= epochs
 
     # ------------------------------------------------------------------------------- modules
 

@@ -48,12 +48,15 @@ __all__ = [
     "EMBEDDED_EVALUATION_CLIPS",
     "SYNTHESIS_OPTIONS",
     "DataConfig",
+    "HumanData",
     "StateWindows",
+    "as_folders",
     "character_data",
     "character_motions",
     "evaluation_clips",
     "evaluation_split",
     "human_motions",
+    "read_human_folder",
     "split_evaluation_clips",
     "validation_split",
 ]
@@ -65,7 +68,8 @@ CONVENTION_FILE = "convention.yaml"
 
 @dataclass(frozen=True)
 class DataConfig:
-    """Where the training states come from."""
+    """Where the training states come from: the creature's synthesised motion and the human's (every method's;
+    a method's own data options extend it, as :class:`morphkit.retarget.nkn.NknDataConfig`)."""
 
     retired: ClassVar[dict[str, Any]] = {"forward_speed": None}
     """Deleted options and their off values: a run's config naming them is read where they are off
@@ -76,7 +80,7 @@ class DataConfig:
     fps: float = 30.0
     """Frame rate of both data sets [1/s] (human clips are resampled to it)."""
     synth_seed: int = 0
-    """Seed of the character's synthesis."""
+    """Seed of the character's synthesis and of the embedded default human motion."""
     human_frames: int = 6_000
     """Frames of the embedded default human motion (used when no human data is given)."""
     stand_probability: float | None = None
@@ -228,9 +232,23 @@ def _foot_order(morphology: Morphology, legs: Sequence[Any], contact: np.ndarray
     return out
 
 
-def _read_human_folder(path: str | os.PathLike[str], fps: float,
-                       cache_dir: str | os.PathLike[str] | bool | None) -> tuple[list[Motion], list[SkeletonMap]]:
-    """Clips under ``path`` at ``fps``, read with the folder's convention table's options, and that table."""
+HumanData = str | os.PathLike[str] | Sequence[str | os.PathLike[str]]
+"""One human data folder or several (NKN trains on several; the first one is the evaluation's)."""
+
+
+def as_folders(human_data: HumanData | None) -> list[Path]:
+    """``human_data`` as a list of paths (empty for ``None``)."""
+    if human_data is None:
+        return []
+    if isinstance(human_data, (str, os.PathLike)):
+        return [Path(human_data)]
+    return [Path(p) for p in human_data]
+
+
+def read_human_folder(path: str | os.PathLike[str], fps: float,
+                      cache_dir: str | os.PathLike[str] | bool | None) -> tuple[list[Motion], list[SkeletonMap]]:
+    """Clips under ``path`` at ``fps``, read with the folder's convention table's options (:data:`CONVENTION_FILE`,
+    when it has one), and that table."""
     table = Path(path) / CONVENTION_FILE
     maps = [read_skeleton_map(table)] if table.is_file() else []
     options = dict(maps[0].read_options) if maps else {}
@@ -271,7 +289,7 @@ def human_motions(
 
         return _with_mirrored(list(default_human_motion(frames=data.human_frames, seed=data.synth_seed, fps=data.fps)),
                               data)
-    motions, maps = _read_human_folder(path, data.fps, cache_dir)
+    motions, maps = read_human_folder(path, data.fps, cache_dir)
     if canonical:
         motions = _canonical(motions, maps)
     first = motions[0].morphology
@@ -299,21 +317,24 @@ EMBEDDED_EVALUATION_CLIPS = 6
 ``quick``'s training frames held three)."""
 
 
-def evaluation_clips(path: str | os.PathLike[str] | None, data: DataConfig, *, limit: int | None = None,
-                     cache_dir: str | os.PathLike[str] | bool | None = True, canonical: bool = True) -> list[Motion]:
-    """Clips to evaluate on, never trained on: the evaluation split's clips under ``path`` (every clip
-    when none of them is named in the split), mapped onto the canonical human unless ``canonical`` is
-    false (see :func:`human_motions`), or embedded default human clips of another seed: a quarter of the
-    training frames, at least :data:`EMBEDDED_EVALUATION_CLIPS` clips (the first ``limit`` of them).
+def evaluation_clips(human_data: HumanData | None, data: DataConfig, *, limit: int | None = None,
+                     cache_dir: str | os.PathLike[str] | bool | None = True, canonical: bool = True,
+                     min_frames: int | None = None) -> list[Motion]:
+    """Clips to evaluate on, never trained on, for every method: the evaluation split's clips of the (first) human
+    data folder (every clip when none of them is named in the split), mapped onto the canonical human unless
+    ``canonical`` is false (see :func:`human_motions`), or embedded default human clips of another seed: a quarter
+    of the training frames, at least ``min_frames`` (default :data:`EMBEDDED_EVALUATION_CLIPS` clips); the first
+    ``limit`` of them.
     """
-    if path is None:
+    if human_data is None:
         from morphkit.synth import default_human_config, default_human_motion
 
-        clip = round(default_human_config().rollout_seconds * data.fps)
-        frames = max(data.human_frames // 4, clip * EMBEDDED_EVALUATION_CLIPS)
+        if min_frames is None:
+            min_frames = round(default_human_config().rollout_seconds * data.fps) * EMBEDDED_EVALUATION_CLIPS
+        frames = max(data.human_frames // 4, min_frames)
         clips = list(default_human_motion(frames=frames, seed=data.synth_seed + 1000, fps=data.fps))
     else:
-        motions, maps = _read_human_folder(path, data.fps, cache_dir)
+        motions, maps = read_human_folder(as_folders(human_data)[0], data.fps, cache_dir)
         _, held = split_evaluation_clips(motions)
         clips = held or motions
         clips = clips[:limit] if limit is not None else clips

@@ -350,3 +350,57 @@ def test_cli_train_nkn_rejects_ace_options(capsys):
     assert "ACE options, not NKN's" in capsys.readouterr().err
     assert main(["train", "ace", "--preset", "smoke"]) == 2
     assert "needs a CREATURE" in capsys.readouterr().err
+
+
+def test_a_run_is_listed_and_opened_through_the_protocol_and_one_cut_short_says_so(trained, data_dir, tmp_path):
+    """trained_retargeters finds the run finished without loading it; with_target retargets onto another skeleton and
+    leaves the retargeter it came from as it was; a run short of its configured epochs is listed unfinished and
+    load opens it with a warning naming how far it got."""
+    import shutil
+
+    import yaml
+
+    from morphkit.motion import read_motion
+    from morphkit.retarget import load
+    from morphkit.retarget.runs import trained_retargeters
+
+    (found,) = trained_retargeters(trained)
+    assert (found.label, found.run, found.stage, found.creature) == ("NKN", trained, trained, None)
+    assert found.progress == (4, 4, 0) and found.progress.finished
+    model = load(trained)
+    tall = model.with_target("tall")
+    assert tall.target.name == "tall" and model.target is None
+    clip = read_motion(sorted(data_dir.glob("*.npz"))[0])
+    assert tall.retarget([clip])[0].motion.morphology.name == "tall"
+
+    short = tmp_path / "short"
+    shutil.copytree(trained, short, ignore=shutil.ignore_patterns(".lock"))
+    config = yaml.safe_load((short / "config.yaml").read_text())
+    (short / "config.yaml").write_text(yaml.safe_dump({**config, "epochs": 6}, sort_keys=False))
+    assert not trained_retargeters(short)[0].progress.finished
+    with pytest.warns(UserWarning, match="NKN has trained 4 of 6 epochs"):
+        load(short)
+
+
+def test_nkn_data_config_is_the_shared_one_and_its_old_config_files_read(tmp_path):
+    """NknDataConfig extends the one DataConfig (NKN's creature data default stays 12k frames); a config.yaml of the
+    layout written before (NKN's fields first, no human_mirror) reads back to the same config; mirrored clips are
+    refused for NKN."""
+    import yaml
+
+    from morphkit.errors import ConfigError
+    from morphkit.retarget.config import config_to_dict, read_config
+    from morphkit.retarget.nkn import NknConfig, NknDataConfig
+    from morphkit.retarget.training_data import DataConfig
+
+    assert issubclass(NknDataConfig, DataConfig) and NknDataConfig().character_frames == 12_000
+    cfg = preset("quick")
+    written = config_to_dict(cfg)
+    old_order = ("fps", "human_frames", "synth_seed", "synth_variants", "synth_variant_frames", "train_variants",
+                 "variant_range", "variant_seed", "character_frames", "stand_probability", "arm_hang_share",
+                 "full_arm_travel", "test_frames", "held_out")
+    written["data"] = {k: written["data"][k] for k in old_order}
+    (tmp_path / "config.yaml").write_text("# NknConfig\n" + yaml.safe_dump(written, sort_keys=False))
+    assert read_config(NknConfig, tmp_path / "config.yaml") == cfg
+    with pytest.raises(ConfigError, match="human_mirror"):
+        replace_config(cfg, ["data.human_mirror=true"])

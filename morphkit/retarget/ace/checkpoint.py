@@ -34,6 +34,7 @@ from morphkit.graph import Morphology
 from morphkit.io import read_morphology, write_morphology
 from morphkit.motion import CANONICAL_HUMAN, ActiveHand, NormStats, Pairing, canonical_record
 from morphkit.retarget.config import config_from_dict, config_to_dict
+from morphkit.retarget.run import required_file
 from morphkit.retarget.training_data import DataConfig
 
 __all__ = [
@@ -74,9 +75,7 @@ def retargeting_generator_state(states: dict[str, Any]) -> dict[str, Any]:
 
 
 def _need(path: Path) -> Path:
-    if not path.exists():
-        raise RunError(f"not an ACE run folder: {path.name} is missing", location=SourceLocation(str(path.parent)))
-    return path
+    return required_file(path, "an ACE run folder")
 
 
 def _read_meta(run: Path) -> dict[str, Any]:

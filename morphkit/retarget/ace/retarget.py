@@ -25,9 +25,9 @@ from typing import Any
 
 import numpy as np
 import torch
-import yaml
 
 from morphkit.errors import ConfigError, MotionFormatError, RunError, SourceLocation
+from morphkit.graph import Morphology
 from morphkit.motion import (
     CANONICAL_HUMAN,
     Motion,
@@ -46,23 +46,13 @@ from morphkit.retarget.ace.variants import AceVariant
 from morphkit.retarget.checkpoint import load_checkpoint, load_module_state
 from morphkit.retarget.config import read_config
 from morphkit.retarget.retargeter import RetargetedClip, check_finite
-from morphkit.retarget.run import CHECKPOINT_FILE, CONFIG_FILE, RUN_FILE
+from morphkit.retarget.run import CHECKPOINT_FILE, CONFIG_FILE, RUN_FILE, required_file, stage_trainer
 from morphkit.rotations import yaw_from_quat
 
 __all__ = ["AceRetargeter", "RetargetedClip", "read_prior_config"]  # RetargetedClip: from the protocol
 
 
-def _need(path: Path) -> Path:
-    if not path.exists():
-        raise RunError(f"not a trained ACE stage: {path.name} is missing", location=SourceLocation(str(path.parent)))
-    return path
-
-
-def _stage_trainer(stage: Path) -> str:
-    path = stage / RUN_FILE
-    if not path.is_file():
-        raise RunError(f"not a trained stage: {RUN_FILE} is missing", location=SourceLocation(str(stage)))
-    return str((yaml.safe_load(path.read_text()) or {}).get("trainer", ""))
+_STAGE = "a trained ACE stage"
 
 
 def read_prior_config(path: str | os.PathLike[str]) -> PriorConfig:
@@ -116,9 +106,9 @@ class AceRetargeter:
         self.mapping: dict[str, str] = self.pairing.mapping
         prior_dir = Path(prior_dir) if prior_dir is not None else self.artifact.prior_stage(self.dir)
         retarget_dir = _stage_dir(self.dir, retarget_dir)
-        if _stage_trainer(prior_dir) != PRIOR_TRAINER:
+        if stage_trainer(prior_dir) != PRIOR_TRAINER:
             raise RunError("not an ACE prior stage", location=SourceLocation(str(prior_dir / RUN_FILE)))
-        trainer = _stage_trainer(retarget_dir)
+        trainer = stage_trainer(retarget_dir)
         try:
             self.variant = AceVariant.parse(trainer)
         except ConfigError:
@@ -128,17 +118,17 @@ class AceRetargeter:
         """The stage's trainer name (``ace``, ``ace-wofea``, ...)."""
         self.label = self.variant.label
         self.stage = retarget_dir
-        pc = read_prior_config(_need(prior_dir / CONFIG_FILE))
+        pc = read_prior_config(required_file(prior_dir / CONFIG_FILE, _STAGE))
         self.prior_config = pc
         self.layout = character_state_layout(self.creature)
-        rc = read_config(RetargetConfig, _need(retarget_dir / CONFIG_FILE))
+        rc = read_config(RetargetConfig, required_file(retarget_dir / CONFIG_FILE, _STAGE))
         vae = build_vae(self.layout.dim, pc)
-        prior_ckpt = _need(prior_dir / CHECKPOINT_FILE)
+        prior_ckpt = required_file(prior_dir / CHECKPOINT_FILE, _STAGE)
         load_module_state(vae, load_checkpoint(prior_ckpt)["states"]["model"], path=prior_ckpt, what="the prior")
         self.prior = vae.prior.to(self.device).eval()
         self._c_stats, self._h_stats = self.artifact.character_stats, self.artifact.human_stats
         self._h_dim = self._h_stats.mean.shape[0]
-        generator_ckpt = _need(retarget_dir / CHECKPOINT_FILE)
+        generator_ckpt = required_file(retarget_dir / CHECKPOINT_FILE, _STAGE)
         state = retargeting_generator_state(load_checkpoint(generator_ckpt)["states"])
         if "z_mean" not in state:  # trained before the latent bound: G's output is used as it was trained
             rc = dataclasses.replace(rc, latent_bound=0.0)
@@ -151,6 +141,17 @@ class AceRetargeter:
         if (self.canonical is None and self.artifact.human_skeleton == CANONICAL_HUMAN
                 and self._h_dim == human_state_layout(canonical_human()).dim):
             self.canonical = canonical_record()  # trained before the record, on the canonical human itself
+
+    def with_target(self, target: Morphology | str) -> AceRetargeter:
+        """This retargeter: an ACE run retargets onto its own creature only.
+
+        Raises:
+            RunError: ``target`` is not the run's creature (by name).
+        """
+        if (target if isinstance(target, str) else target.name) != self.creature.name:
+            raise RunError("an ACE run retargets onto its own creature: --target applies to NKN runs over human "
+                           "skeletons", location=SourceLocation(str(self.dir)))
+        return self
 
     def intake(self, clip: Motion) -> Motion:
         """``clip`` as the run reads it: on the canonical human (unless the run predates it).

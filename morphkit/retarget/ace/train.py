@@ -52,7 +52,8 @@ from morphkit.retarget.ace.config import AceConfig, PriorConfig, RetargetConfig
 from morphkit.retarget.ace.model import Discriminator, FeatureMap, Generator, build_vae, foot_indices, rollout
 from morphkit.retarget.ace.networks import MotionVAE, kl_divergence
 from morphkit.retarget.ace.variants import AceVariant
-from morphkit.retarget.distributed import average_gradients, broadcast_parameters, joined_group
+from morphkit.retarget.distributed import average_gradients, broadcast_parameters, is_main_process, joined_group
+from morphkit.retarget.networks import frozen_parameters
 from morphkit.retarget.run import Run
 from morphkit.retarget.training_data import StateWindows, character_data, human_motions, validation_split
 
@@ -136,16 +137,12 @@ def prepare(
         pairing = pairing.with_centres(character, human)
     fmap = FeatureMap(creature, character_state_layout(creature), human_state_layout(human_m), c_stats, h_stats,
                       pairing)
-    if _main_process():
+    if is_main_process():
         starts, start_psi = _start_states(c_states, fmap, cfg.seed)
         AceArtifact(creature, c_stats, h_stats, pairing, mapping.to_json(), starts, start_psi, cfg.data,
                     None if human_data is None else os.fspath(human_data), human_m.name).save(run)
     log("end-effector mapping (KL, Eq. 11): " + ", ".join(f"{c} -> {h}" for c, h in mapping.mapping.items()))
     return AceData(creature, character, human, c_states, h_states, fmap, mapping)
-
-
-def _main_process() -> bool:
-    return int(os.environ.get("RANK", "0")) == 0
 
 
 def _start_states(states: Sequence[np.ndarray], fmap: FeatureMap, seed: int) -> tuple[np.ndarray, np.ndarray]:
@@ -516,13 +513,8 @@ def generator_average(gen: torch.nn.Module, decay: float) -> AveragedModel | Non
 
 def disc_logits(d_model: torch.nn.Module, disc: torch.nn.Module, transitions: torch.Tensor) -> torch.Tensor:
     """D's logits for the generator step, with D's parameters out of the graph (only G learns here)."""
-    for p in disc.parameters():
-        p.requires_grad_(False)
-    try:
+    with frozen_parameters(disc):
         return d_model(transitions)
-    finally:
-        for p in disc.parameters():
-            p.requires_grad_(True)
 
 
 def train_ace(
@@ -550,7 +542,7 @@ def train_ace(
     with joined_group(device):
         data = prepare(run, creature, cfg, human_data=human_data, mapping_override=mapping_override, progress=progress,
                        log=log)
-        if prior_dir is not None and _main_process():
+        if prior_dir is not None and is_main_process():
             # A shared prior is recorded, so retargeting with this run finds it.
             artifact = AceArtifact.load(run)
             artifact.prior_dir = os.fspath(Path(prior_dir).resolve())
@@ -561,5 +553,5 @@ def train_ace(
         stage = run / variant.folder
         log(f"retargeter ({variant.value}): {stage}")
         train_retargeter(stage, data, vae, cfg, variant=variant, device=device, progress=progress,
-                         log=log if _main_process() else lambda s: None)
+                         log=log if is_main_process() else lambda s: None)
         return stage

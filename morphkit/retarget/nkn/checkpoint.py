@@ -30,11 +30,14 @@ from morphkit.errors import RunError, SourceLocation
 from morphkit.graph import Morphology
 from morphkit.io import read_morphology, write_morphology
 from morphkit.motion import NormStats
+from morphkit.retarget.run import required_file
 
-__all__ = ["META_FILE", "NknArtifact"]
+__all__ = ["LABEL", "META_FILE", "TRAINERS", "NknArtifact"]
 
 META_FILE = "nkn.yaml"
 """The file that makes a folder an NKN run."""
+LABEL = "NKN"
+"""An NKN run's retargeter's name in a comparison (Table 1)."""
 _TEMPLATE = "template.yaml"
 _SKELETONS = "skeletons"
 _CREATURE = "creature.yaml"
@@ -42,9 +45,7 @@ _STATS = ("source_features.npz", "source_offsets.npz", "target_features.npz", "t
 
 
 def _need(path: Path) -> Path:
-    if not path.exists():
-        raise RunError(f"not an NKN run folder: {path.name} is missing", location=SourceLocation(str(path.parent)))
-    return path
+    return required_file(path, "an NKN run folder")
 
 
 TRAINERS = ("nkn", "nkn-cross")

@@ -26,24 +26,21 @@ What the paper and the release leave open is named here as morphkit's choice:
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from typing import Any, ClassVar, Literal
+from typing import Literal
+
+from morphkit.retarget.training_data import DataConfig
 
 __all__ = ["PRESETS", "NknConfig", "NknDataConfig", "preset"]
 
 
 @dataclass(frozen=True)
-class NknDataConfig:
-    """Where the skeletons and their motion come from (§5 "Dataset", adapted to morphkit's data)."""
+class NknDataConfig(DataConfig):
+    """Where the skeletons and their motion come from (§5 "Dataset", adapted to morphkit's data): every method's
+    :class:`~morphkit.retarget.training_data.DataConfig` (the release's clips: Mixamo at 30 fps; ``synth_seed`` also
+    seeds the synthesised variants; the creature's synthesis is the cross-morphology mode's), and NKN's skeletons."""
 
-    retired: ClassVar[dict[str, Any]] = {"forward_speed": None}
-    """Deleted options and their off values (as ``DataConfig.retired``)."""
-
-    fps: float = 30.0
-    """Frame rate of every clip [1/s] (the release: Mixamo at 30 fps)."""
-    human_frames: int = 6_000
-    """Frames of the embedded default human motion (used when no human data folder is given)."""
-    synth_seed: int = 0
-    """Seed of the embedded default motion and of the synthesised variants."""
+    character_frames: int = 12_000
+    """Cross-morphology mode: synthesised frames of the target creature (its real motion for D)."""
     synth_variants: int = 1
     """Embedded default only: bone-length variants of the human moved by morphkit's synthesis (each is
     a training character with its own motion, as the paper's Mixamo characters)."""
@@ -55,21 +52,15 @@ class NknDataConfig:
     """Limb-group scale factors of generated variants are drawn from [1 − r, 1 + r] (±30 %)."""
     variant_seed: int = 1
     """Seed of the training variants (the unseen evaluation variants use other seeds)."""
-    character_frames: int = 12_000
-    """Cross-morphology mode: synthesised frames of the target creature (its real motion for D)."""
-    stand_probability: float | None = None
-    """Cross-morphology mode, the creature's synthesis: ACE's ``data.stand_probability``. This and the next two
-    are :data:`morphkit.retarget.training_data.SYNTHESIS_OPTIONS`; Table 1 sets them to ACE's, so both methods see
-    the same creature data."""
-    arm_hang_share: float | None = None
-    """Cross-morphology mode: ACE's ``data.arm_hang_share``."""
-    full_arm_travel: bool = True
-    """Cross-morphology mode: ACE's ``data.full_arm_travel``."""
     test_frames: int = 120
     """Frames per evaluation clip (§5: 4-second test clips at 30 fps)."""
     held_out: tuple[str, ...] = ()
     """Clip names (file stems) kept out of training besides the evaluation split, e.g. the CMU trials
     whose other capture serves as a paired truth (``benchmarks/nkn_paired.py``)."""
+
+    def __post_init__(self) -> None:
+        if self.human_mirror:
+            raise ValueError("data.human_mirror: NKN trains on its clips as captured (mirror images are ACE's)")
 
 
 @dataclass(frozen=True)

@@ -18,14 +18,13 @@ from __future__ import annotations
 import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 import torch
 
 from morphkit.errors import ConfigError, MotionFormatError, SourceLocation
 from morphkit.graph import Morphology
-from morphkit.motion import Motion, NormStats, load_motions
+from morphkit.motion import Motion, NormStats
 from morphkit.retarget.nkn.config import NknDataConfig
 from morphkit.retarget.nkn.features import global_motion, local_positions
 from morphkit.retarget.nkn.fk import SkeletonFK
@@ -37,7 +36,15 @@ from morphkit.retarget.nkn.skeleton import (
     topology_difference,
     with_offsets,
 )
-from morphkit.retarget.training_data import DataConfig, character_motions, split_evaluation_clips
+from morphkit.retarget.training_data import (
+    DataConfig,
+    HumanData,
+    as_folders,
+    character_motions,
+    evaluation_clips,
+    read_human_folder,
+    split_evaluation_clips,
+)
 
 __all__ = [
     "Character",
@@ -47,7 +54,7 @@ __all__ = [
     "clip_features",
     "data_characters",
     "embedded_characters",
-    "evaluation_clips",
+    "evaluation_pieces",
     "offset_stats",
     "test_clips",
     "training_characters",
@@ -96,22 +103,10 @@ def _check_topology(motions: Sequence[Motion], where: str | None = None) -> None
                                     location=SourceLocation(where) if where else None) from None
 
 
-HumanData = str | os.PathLike[str] | Sequence[str | os.PathLike[str]]
-"""One human data folder or several (the first one's skeleton topology is the run's)."""
-
-
-def as_folders(human_data: HumanData | None) -> list[Path]:
-    """``human_data`` as a list of paths (empty for ``None``)."""
-    if human_data is None:
-        return []
-    if isinstance(human_data, (str, os.PathLike)):
-        return [Path(human_data)]
-    return [Path(p) for p in human_data]
-
-
 def data_characters(human_data: HumanData, data: NknDataConfig, *, exclude_evaluation: bool = True,
                     cache_dir: str | os.PathLike[str] | bool | None = True) -> list[Character]:
-    """The characters of human data folders: their clips (resampled to ``data.fps``) grouped by skeleton.
+    """The characters of human data folders: their clips (resampled to ``data.fps``, read with a folder's convention
+    table where it has one) grouped by skeleton.
 
     The first folder's topology is the run's; a later folder of another convention is re-expressed on it
     through a shipped link map (:mod:`~.mapping`, e.g. the Bandai Namco skeleton onto CMU's 22 joints).
@@ -125,7 +120,7 @@ def data_characters(human_data: HumanData, data: NknDataConfig, *, exclude_evalu
     template: Morphology | None = None
     out: list[Character] = []
     for path in as_folders(human_data):
-        motions = load_motions(path, cache_dir=cache_dir, fps=data.fps)
+        motions, _ = read_human_folder(path, data.fps, cache_dir)
         _check_topology(motions, os.fspath(path))
         motions = [m for m in motions if m.name not in data.held_out]
         if exclude_evaluation:
@@ -183,15 +178,13 @@ def training_characters(human_data: HumanData | None, data: NknDataConfig, *,
     return out
 
 
-def evaluation_clips(human_data: HumanData | None, data: NknDataConfig, *,
-                     cache_dir: str | os.PathLike[str] | bool | None = True) -> list[Motion]:
-    """Clips never trained on: the evaluation split's clips of the (first) folder (every clip when it
-    holds none of them), or embedded default clips of another seed."""
-    if human_data is None:
-        return _embedded_motion(max(data.human_frames // 4, 2 * data.test_frames), data.synth_seed + 1000, data.fps)
-    motions = load_motions(as_folders(human_data)[0], cache_dir=cache_dir, fps=data.fps)
-    _, held = split_evaluation_clips(motions)
-    return held or motions
+def evaluation_pieces(human_data: HumanData | None, data: NknDataConfig, *, limit: int | None = None,
+                      cache_dir: str | os.PathLike[str] | bool | None = True) -> list[Motion]:
+    """§5's test clips: :func:`test_clips` of the evaluation clips
+    (:func:`~morphkit.retarget.training_data.evaluation_clips` on the data's own skeleton; the embedded default's
+    at least two test clips long), at most ``limit``."""
+    clips = evaluation_clips(human_data, data, cache_dir=cache_dir, canonical=False, min_frames=2 * data.test_frames)
+    return test_clips(clips, data.test_frames, limit=limit)
 
 
 def test_clips(clips: Sequence[Motion], frames: int, *, limit: int | None = None) -> list[Motion]:

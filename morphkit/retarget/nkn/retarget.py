@@ -14,13 +14,13 @@ leg-length ratio of target and source.
 
 from __future__ import annotations
 
+import copy
 import os
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 import torch
-import yaml
 
 from morphkit.errors import ConfigError, MotionFormatError, RunError, SourceLocation
 from morphkit.graph import BaseType, JointType, Morphology
@@ -28,7 +28,7 @@ from morphkit.io import read_morphology
 from morphkit.motion import Motion
 from morphkit.retarget.checkpoint import load_checkpoint, load_module_state
 from morphkit.retarget.config import read_config
-from morphkit.retarget.nkn.checkpoint import TRAINERS, NknArtifact
+from morphkit.retarget.nkn.checkpoint import LABEL, TRAINERS, NknArtifact
 from morphkit.retarget.nkn.config import NknConfig
 from morphkit.retarget.nkn.features import GLOBAL_DIM, global_motion, integrate_global_motion, local_positions
 from morphkit.retarget.nkn.fk import SkeletonFK
@@ -43,7 +43,7 @@ from morphkit.retarget.nkn.skeleton import (
     topology_difference,
 )
 from morphkit.retarget.retargeter import RetargetedClip, check_finite
-from morphkit.retarget.run import CHECKPOINT_FILE, CONFIG_FILE, RUN_FILE
+from morphkit.retarget.run import CHECKPOINT_FILE, CONFIG_FILE, RUN_FILE, required_file, stage_trainer
 from morphkit.retarget.training_data import DataConfig
 from morphkit.rotations import quat_from_yaw, quat_multiply, quat_normalize, yaw_from_quat
 
@@ -55,10 +55,7 @@ the training data's about its mean before it is integrated (ours: finite output 
 clip far outside the training data once gave a non-finite root at frame 585)."""
 
 
-def _need(path: Path) -> Path:
-    if not path.exists():
-        raise RunError(f"not an NKN run folder: {path.name} is missing", location=SourceLocation(str(path.parent)))
-    return path
+_RUN = "an NKN run folder"
 
 
 def world_motion(target: Morphology, q_local: np.ndarray, v: np.ndarray, fps: float, *,
@@ -118,18 +115,18 @@ class NknRetargeter:
         self.dir = Path(run_dir)
         self.threads = threads
         self.artifact = NknArtifact.load(self.dir)
-        trainer = str((yaml.safe_load(_need(self.dir / RUN_FILE).read_text()) or {}).get("trainer", ""))
+        trainer = stage_trainer(self.dir, _RUN)
         if trainer not in TRAINERS:
             raise RunError(f"run of trainer {trainer!r}, not NKN", location=SourceLocation(str(self.dir / RUN_FILE)))
         self.mode = self.artifact.mode
         self.fps = self.artifact.fps
         self.device = torch.device(device)
-        self.config = read_config(NknConfig, _need(self.dir / CONFIG_FILE))
+        self.config = read_config(NknConfig, required_file(self.dir / CONFIG_FILE, _RUN))
         self.template = self.artifact.template
         self.skeletons: dict[str, Morphology] = dict(self.artifact.skeletons)
         """The training characters' skeletons by name (the *seen* characters)."""
         self.creature: Morphology | None = self.artifact.creature
-        self.label = "NKN"
+        self.label = LABEL
         self.target: Morphology | None = None
         """What :meth:`retarget` retargets onto when not told (skeletons mode: the template unless set)."""
         self.pairing = None
@@ -142,7 +139,7 @@ class NknRetargeter:
             stats += [self.artifact.target_features, self.artifact.target_offsets]
         nets = build_networks(self.config, self.template, stats[0], stats[1], self.creature,
                               *(stats[2:] if self.creature is not None else ()))
-        checkpoint = _need(self.dir / CHECKPOINT_FILE)
+        checkpoint = required_file(self.dir / CHECKPOINT_FILE, _RUN)
         states = load_checkpoint(checkpoint)["states"]
         for name, net in nets.items():
             load_module_state(net, states[name], path=checkpoint, what=f"the {name}")
@@ -152,6 +149,18 @@ class NknRetargeter:
         self._source_fk = SkeletonFK(self.template)
         if target is not None:
             self.target = self.resolve_target(target)
+
+    def with_target(self, target: Morphology | str) -> NknRetargeter:
+        """This run retargeting onto ``target`` when not told otherwise (:meth:`resolve_target`; a cross-morphology
+        run: its creature only); the networks are shared.
+
+        Raises:
+            ConfigError: an unknown name, or another target than a cross-morphology run's creature.
+            MotionFormatError: a skeleton of another topology.
+        """
+        other = copy.copy(self)
+        other.target = self.resolve_target(target)
+        return other
 
     def resolve_target(self, target: Morphology | str) -> Morphology:
         """A target skeleton from a name — a training character's, or a bone-length variant of the template

@@ -36,9 +36,11 @@ import torch
 from morphkit.errors import RunError, SourceLocation
 from morphkit.graph import Morphology
 from morphkit.motion import NormStats
+from morphkit.retarget.distributed import is_main_process
+from morphkit.retarget.networks import frozen_parameters
 from morphkit.retarget.nkn.checkpoint import META_FILE, TRAINERS, NknArtifact
 from morphkit.retarget.nkn.config import NknConfig
-from morphkit.retarget.nkn.data import Character, ClipBank, HumanData, as_folders, offset_stats, training_characters
+from morphkit.retarget.nkn.data import Character, ClipBank, offset_stats, training_characters
 from morphkit.retarget.nkn.losses import (
     discriminator_loss,
     generator_adversarial_loss,
@@ -49,7 +51,7 @@ from morphkit.retarget.nkn.losses import (
 from morphkit.retarget.nkn.model import NknGenerator, motion_differences
 from morphkit.retarget.nkn.networks import build_networks, cpu_threads
 from morphkit.retarget.run import Run
-from morphkit.retarget.training_data import DataConfig, character_motions, synthesis_options
+from morphkit.retarget.training_data import HumanData, as_folders, character_motions
 
 __all__ = ["NknSetup", "prepare", "train_nkn"]
 
@@ -69,10 +71,6 @@ class NknSetup:
     target: ClipBank | None = None
     target_features: NormStats | None = None
     target_offsets: NormStats | None = None
-
-
-def _main_process() -> bool:
-    return int(os.environ.get("RANK", "0")) == 0
 
 
 def _joint_mean(character: Character) -> np.ndarray:
@@ -114,16 +112,13 @@ def prepare(
         f"{source.x.shape[0]} frames), {len(characters) - len(with_clips)} target-only variants")
     setup = NknSetup(mode, template, characters, source, feats, offs)
     if creature is not None:
-        synth = DataConfig(character_frames=cfg.data.character_frames, fps=cfg.data.fps,
-                           synth_seed=cfg.data.synth_seed, **synthesis_options(cfg.data))
-        target = Character(creature, character_motions(creature, synth, cache_dir=cache_dir, progress=progress,
-                                                       log=log),
-                           "creature")
+        target = Character(creature, character_motions(creature, cfg.data, cache_dir=cache_dir, progress=progress,
+                                                       log=log), "creature")
         setup.creature = target
         setup.target = ClipBank([target], creature, cfg.clip_frames, fk_backend=cfg.fk_backend)
         setup.target_features = setup.target.stats(min_std=cfg.feature_min_std)
         setup.target_offsets = offset_stats([target], min_std=cfg.offset_min_std)
-    if _main_process():
+    if is_main_process():
         NknArtifact(mode, template, {c.name: c.morphology for c in characters}, feats, offs, float(cfg.data.fps),
                     [os.fspath(f) for f in as_folders(human_data)] or None,
                     [{"name": c.name, "origin": c.origin, "clips": len(c.clips),
@@ -132,19 +127,6 @@ def prepare(
                     creature=None if setup.creature is None else creature,
                     target_features=setup.target_features, target_offsets=setup.target_offsets).save(run)
     return setup
-
-
-def _frozen(module: torch.nn.Module) -> Any:
-    class _Frozen:
-        def __enter__(self) -> None:
-            for p in module.parameters():
-                p.requires_grad_(False)
-
-        def __exit__(self, *exc: object) -> None:
-            for p in module.parameters():
-                p.requires_grad_(True)
-
-    return _Frozen()
 
 
 def train_nkn(
@@ -220,7 +202,7 @@ def _adversarial(r: Run, cfg: NknConfig, disc: torch.nn.Module, d_model: torch.n
         torch.nn.utils.clip_grad_norm_(disc.parameters(), cfg.clip_norm)
         opt_d.step()
         row |= {"loss_d": loss_d.detach(), "d_real": torch.sigmoid(real_logits).mean().detach()}
-    with _frozen(disc):
+    with frozen_parameters(disc):
         adv = generator_adversarial_loss(d_model(fake, cond))
     row |= {"d_fake": score_now, "d_fake_score": r.extra["d_fake_score"], "d_step": float(d_step)}
     return adv, row
