@@ -500,12 +500,23 @@ class NormStats:
     """[D] float64, > 0."""
 
     @staticmethod
-    def fit(states: np.ndarray | Sequence[np.ndarray], *, min_std: float = 1e-6) -> NormStats:
-        """Statistics over all frames of one [T, D] array or a list of them."""
+    def fit(states: np.ndarray | Sequence[np.ndarray], *, min_std: float = 1e-6, layout: StateLayout | None = None,
+            field_floor: float = 0.0) -> NormStats:
+        """Statistics over all frames of one [T, D] array or a list of them.
+
+        With ``layout`` and ``field_floor`` > 0, no dimension's std is below ``field_floor`` times its field's RMS
+        (the root-mean-square of the field's values over the data, e.g. of every joint position): a dimension the
+        data barely moves (a synthetic human's spine, its roll) is then not scaled up into hundreds of standard
+        deviations by data that does move it.
+        """
         arrays = list(states) if isinstance(states, (list, tuple)) else [states]
         data = np.concatenate([np.asarray(s, dtype=float).reshape(-1, np.shape(s)[-1]) for s in arrays], axis=0)
         mean = data.mean(axis=0)
         std = data.std(axis=0)
+        if layout is not None and field_floor > 0:
+            for _name, a, b in layout.fields:
+                rms = float(np.sqrt(np.mean(data[:, a:b] ** 2)))
+                std[a:b] = np.maximum(std[a:b], field_floor * rms)
         std = np.where(std < min_std, 1.0, std)
         return NormStats(mean, std)
 

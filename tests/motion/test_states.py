@@ -123,6 +123,22 @@ def test_layout_dimensions_follow_the_morphology() -> None:
         human_state(motion.root_pose(), motion.link_positions()[:3], motion.end_effector_positions(), 30.0)
 
 
+def test_norm_stats_floor_a_barely_moving_dimension_at_a_share_of_its_fields_rms() -> None:
+    """Field ``a`` (dims 0-1): dim 1 barely moves; its std becomes 0.1 x RMS of the field's values (computed by
+    hand); dim 0 (std above the floor) and field ``b`` (dim 2) keep the data's own std; without the floor all do."""
+    from morphkit.motion.states import StateLayout
+
+    rng = np.random.default_rng(1)
+    x = np.stack([rng.normal(0.0, 2.0, 400), 0.5 + 1e-4 * rng.normal(size=400), rng.normal(3.0, 1e-3, 400)], axis=1)
+    layout = StateLayout("human", (("a", 0, 2), ("b", 2, 3)), ())
+    floored = NormStats.fit(x, layout=layout, field_floor=0.1)
+    plain = NormStats.fit(x)
+    np.testing.assert_allclose(plain.std, x.std(0))
+    rms_a = math.sqrt(float(np.mean(x[:, :2] ** 2)))
+    np.testing.assert_allclose(floored.std, [x[:, 0].std(), 0.1 * rms_a, max(x[:, 2].std(), 0.1 * 3.0)], rtol=1e-3)
+    np.testing.assert_array_equal(floored.mean, plain.mean)
+
+
 def test_norm_stats_round_trip_numpy_torch_and_file(tmp_path: Path) -> None:
     import torch
 

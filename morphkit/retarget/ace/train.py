@@ -131,7 +131,8 @@ def prepare(
     roles = None if cfg.kl_only_mapping else ({e.name: e.role for e in creature.end_effectors},
                                               {e.name: e.role for e in human_m.end_effectors})
     mapping = map_end_effectors(c_dist, h_dist, override=mapping_override, roles=roles, active_hand=cfg.active_hand)
-    c_stats, h_stats = NormStats.fit(c_states), NormStats.fit(h_states)
+    c_stats = NormStats.fit(c_states)
+    h_stats = NormStats.fit(h_states, layout=human_state_layout(human_m), field_floor=cfg.human_std_floor)
     pairing = Pairing.from_mapping(mapping.mapping, c_len, h_len, mapping.active_hand)
     if cfg.centre_features:
         pairing = pairing.with_centres(character, human)
