@@ -225,6 +225,247 @@ def _blend(a: np.ndarray, b: np.ndarray, w: np.ndarray, quats: Sequence[int]) ->
     return out
 
 
+@dataclass
+class _ArmChains:
+    """The arms that end in hands, per arm (indices into ``plan.arms`` in ``arms``): the shoulder's position in
+    its chain, the elbow joint, the joints IK moves (shoulder to elbow) and all its moving joints."""
+
+    arms: list[int]
+    shoulders: list[int]
+    elbows: list[int]
+    ik_joints: list[list[int]]
+    chains: list[list[int]]
+
+
+def _hand_arms(m: Morphology, plan: BodyPlan) -> _ArmChains:
+    """Find each hand arm's shoulder (the joint before its longest segment, with the joints at its place) and
+    elbow (the next joint along), at rest; arms of fewer than two moving joints are left out."""
+    cand = [i for i, arm in enumerate(plan.arms) if arm.role == EndEffectorRole.HAND]
+    rest = m.rest_link_poses()
+    out = _ArmChains([], [], [], [], [])
+    for i in cand:
+        arm = plan.arms[i]
+        mov = _moving(m, arm.joints)
+        ee = m.end_effector(arm.end_effector)
+        T = rest[m.link_index(ee.link)]
+        tip = T[:3] + quat_rotate(T[3:], np.asarray(ee.offset, dtype=float))
+        pts = [rest[m.link_index(m.joints[j].child), :3] for j in mov] + [tip]
+        seg = np.array([np.linalg.norm(pts[k + 1] - pts[k]) for k in range(len(mov))])
+        if len(mov) < 2 or seg.sum() <= 0:
+            continue
+        s = int(np.argmax(seg[:-1])) if len(seg) > 1 else 0
+        # joints at the shoulder's place belong to it (a yaw-pitch-roll shoulder of three revolutes)
+        near = 0.02 * seg.sum()
+        first = s
+        while first > 0 and np.linalg.norm(pts[first - 1] - pts[s]) < near:
+            first -= 1
+        e = s + 1
+        while e < len(mov) - 1 and np.linalg.norm(pts[e] - pts[s]) < near:
+            e += 1
+        last = e
+        while last + 1 < len(mov) and np.linalg.norm(pts[last + 1] - pts[e]) < near:
+            last += 1
+        out.arms.append(i)
+        out.shoulders.append(s)
+        out.elbows.append(mov[e])
+        out.ik_joints.append(mov[first:last + 1])
+        out.chains.append(mov)
+    return out
+
+
+class _KeyPoseSolver:
+    """IK of the hand arms' key poses at stance ``q_stance`` [C]: each elbow and hand is put at the end of its
+    upper arm (length ``l1`` [A] [m]) and forearm (``l2``) pointing along given directions from the shoulder
+    (``sh`` [A, 3], root frame). Elbows are IK targets through proxy end-effectors on the elbow's link."""
+
+    def __init__(self, m: Morphology, plan: BodyPlan, chains: _ArmChains, q_stance: np.ndarray) -> None:
+        arms = chains.arms
+        self.A = A = len(arms)
+        proxies = tuple(EndEffector(_PROXY_PREFIX + plan.arms[i].end_effector, m.joints[chains.elbows[a]].child,
+                                    (0.0, 0.0, 0.0), EndEffectorRole.TOOL) for a, i in enumerate(arms))
+        ik_m = dataclasses.replace(m, end_effectors=m.end_effectors + proxies)
+        self.model = model = compile_model(ik_m, device="cpu")
+        tip_ee = np.array([model.ee_index(plan.arms[i].end_effector) for i in arms], dtype=np.int64)
+        elb_ee = np.array([model.ee_index(p.name) for p in proxies], dtype=np.int64)
+        self.ee = np.concatenate([elb_ee, tip_ee])
+        qd = m.joint_qd_start
+        D = qd[-1] if m.joints else m.base_dof
+        self.mask = np.zeros(D, dtype=bool)
+        for js in chains.ik_joints:
+            for j in js:
+                self.mask[qd[j]:qd[j + 1]] = True
+
+        # stance geometry in the root frame
+        self.root = model.link_index(m.root)
+        self.Tr0, self.elb0, self.tip0 = self.root_frame(q_stance[None])
+        self.sh = np.zeros((A, 3))
+        self.X0 = eval_fk(model, q_stance[None], device="cpu").numpy()[0]
+        """Link transforms at stance [L, 7]."""
+        for a in range(A):
+            p = self.X0[m.link_index(m.joints[chains.chains[a][chains.shoulders[a]]].child), :3]
+            self.sh[a] = quat_rotate(quat_conjugate(self.Tr0[0, 3:]), p - self.Tr0[0, :3])
+        self.l1 = np.linalg.norm(self.elb0[0] - self.sh, axis=-1)
+        self.l2 = np.linalg.norm(self.tip0[0] - self.elb0[0], axis=-1)
+        self.side = np.where(self.sh[:, 1] < -1e-3, -1.0, 1.0)
+        """[A] +1 for a left arm, -1 for a right one."""
+        self.reach = np.array([plan.arms[i].reach for i in arms])
+
+    def root_frame(self, qs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """FK of poses [B, C]: root transforms [B, 7], elbow and hand points in the root frame [B, A, 3]."""
+        model = self.model
+        X = eval_fk(model, qs, device="cpu").numpy()
+        Tr = X[:, self.root]
+        pts = []
+        for e_ in self.ee:
+            Tl = X[:, int(model.ee_link[e_])]
+            p = Tl[:, :3] + quat_rotate(Tl[:, 3:], np.asarray(model.ee_offset[e_], dtype=float))
+            pts.append(quat_rotate(quat_conjugate(Tr[:, 3:]), p - Tr[:, :3]))
+        P = np.stack(pts, axis=1)
+        return Tr, P[:, :self.A], P[:, self.A:]
+
+    def dirs(self, name: str) -> tuple[np.ndarray, np.ndarray]:
+        """Upper-arm and forearm directions [A, 3] of key pose ``name`` (mirrored for right arms)."""
+        u, f = _KEY_POSES[name]
+        U = np.array([[u[0], s * u[1], u[2]] for s in self.side])
+        Fd = np.array([[f[0], s * f[1], f[2]] for s in self.side])
+        return _unit(U), _unit(Fd)
+
+    def solve(self, q: np.ndarray, u0: np.ndarray, f0: np.ndarray, u1: np.ndarray, f1: np.ndarray,
+              stages: int) -> tuple[np.ndarray, np.ndarray]:
+        """Move elbows and hands of poses [B, C] from directions (u0, f0) to (u1, f1) [B, A, 3] in stages; returns
+        the poses and each arm's larger residual of elbow and hand [B, A] [m]."""
+        model, ee, mask, A, reach = self.model, self.ee, self.mask, self.A, self.reach
+        Tr = np.repeat(self.Tr0, len(q), axis=0)
+        for k in range(1, stages + 1):
+            w = k / stages
+            u, f = _slerp_dir(u0, u1, w), _slerp_dir(f0, f1, w)
+            E = self.sh[None] + self.l1[None, :, None] * u
+            H = E + self.l2[None, :, None] * f
+            tg = np.concatenate([_world(Tr, E), _world(Tr, H)], axis=1)
+            it = 40 if k < stages else 120
+            for _ in range(it):
+                qa, _ = ik_step(model, q, tg, ee=ee, dof_mask=mask, damping=0.01 * float(reach.mean()),
+                                max_step=0.3, max_error=0.1 * float(reach.mean()), device="cpu")
+                q = qa.numpy()
+        _, resw = ik_step(model, q, tg, ee=ee, dof_mask=mask, damping=0.01, max_step=0.3, device="cpu")
+        err = np.linalg.norm(resw.numpy(), axis=-1)  # [B, 2A]
+        return q, np.maximum(err[:, :A], err[:, A:])
+
+    def key_poses(self, q_stance: np.ndarray, upright: bool) -> tuple[np.ndarray, np.ndarray]:
+        """Every key pose but the wave's middle [K, C] (:data:`POSE_NAMES` order; neutral first: hanging arms for an
+        upright biped, else the stance's), reached from the neutral one, and residuals [K, A] [m]."""
+        A = self.A
+        u_rest = _unit(self.elb0[0] - self.sh)[None]
+        f_rest = _unit(self.tip0[0] - self.elb0[0])[None]
+        names = [n for n in POSE_NAMES if n not in (_NEUTRAL, _WAVE_MID)]
+        K = len(POSE_NAMES)
+        q_keys = np.repeat(q_stance[None], K, axis=0)
+        err = np.zeros((K, A))
+        if upright:
+            u_h, f_h = self.dirs("hang")
+            q_n, err_n = self.solve(q_stance[None].copy(), u_rest, f_rest, u_h[None], f_h[None], stages=6)
+            u_n, f_n = u_h, f_h
+        else:
+            q_n, err_n = q_stance[None].copy(), np.zeros((1, A))
+            u_n, f_n = u_rest[0], f_rest[0]
+        q_keys[0], err[0] = q_n[0], err_n[0]
+        U1 = np.stack([self.dirs(n)[0] for n in names])
+        F1 = np.stack([self.dirs(n)[1] for n in names])
+        qs, es = self.solve(np.repeat(q_n, len(names), axis=0), np.broadcast_to(u_n, U1.shape),
+                            np.broadcast_to(f_n, F1.shape), U1, F1, stages=4)
+        for k, n in enumerate(names):
+            q_keys[POSE_NAMES.index(n)] = qs[k]
+            err[POSE_NAMES.index(n)] = es[k]
+        return q_keys, err
+
+
+def _world(Tr: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """Root-frame points ``p`` [B, A, 3] in the world, for root transforms ``Tr`` [B, 7]."""
+    return Tr[:, None, :3] + quat_rotate(Tr[:, None, 3:], p)
+
+
+def _chain_coords(m: Morphology, chains: list[list[int]]) -> tuple[list[np.ndarray], list[tuple[int, ...]]]:
+    """Per arm: indices in ``q`` of its joints' coordinates, and the offsets among them where a quaternion starts."""
+    coords, quats = [], []
+    for js in chains:
+        c, o = [], []
+        for j in js:
+            s0, s1 = m.joint_q_start[j], m.joint_q_start[j + 1]
+            if m.joints[j].type == JointType.SPHERICAL:
+                o.append(len(c))
+            c.extend(range(s0, s1))
+        coords.append(np.asarray(c, dtype=np.int64))
+        quats.append(tuple(o))
+    return coords, quats
+
+
+class _ArmClearance:
+    """Whether poses keep the hand arms' links clear of each other and the body (by ``collision_margin``, or half
+    their distance at rest) and above the ground (2 cm, or 1 cm below the stance's lowest arm link) [m]."""
+
+    def __init__(self, m: Morphology, plan: BodyPlan, arms: list[int], kp: _KeyPoseSolver, cfg: ActionConfig) -> None:
+        self.model, self.cfg = kp.model, cfg
+        arm_links: set[str] = set()
+        for i in arms:
+            arm_links |= limb_links(m, plan.arms[i].joints)
+        self.aidx = aidx = np.array(sorted(kp.model.link_index(n) for n in arm_links), dtype=np.int64)
+        self.pairs = self_collision_pairs(kp.model, rest_margin=cfg.collision_rest_margin).touching(aidx)
+        # the ground limit [m, world]: 2 cm, or lower where the stance itself reaches lower
+        self.ground = min(0.02, float(kp.X0[aidx, 2].min()) - 0.01) if aidx.size else -np.inf
+
+    def clear(self, qs: np.ndarray) -> np.ndarray:
+        """[B] bool for poses ``qs`` [B, C]."""
+        model, pairs, aidx = self.model, self.pairs, self.aidx
+        Xw = eval_fk(model, qs, device="cpu")
+        ok = np.ones(len(qs), dtype=bool)
+        if pairs.pair_count:
+            need = np.minimum(self.cfg.collision_margin, 0.5 * pairs.rest_distance)
+            ok &= (eval_self_collision_distance(model, pairs, Xw).numpy() > need).all(axis=1)
+        if aidx.size:
+            ok &= (Xw.numpy()[:, aidx, 2] > self.ground).all(axis=1)
+        return ok
+
+
+def _drop_colliding_poses(clearance: _ArmClearance, q_keys: np.ndarray, key_q: list[np.ndarray],
+                          coords: list[np.ndarray], quats: list[tuple[int, ...]], valid: np.ndarray) -> None:
+    """Mark key poses invalid (``valid`` [K, A], in place) where an arm collides: alone at the pose or along the
+    blends actions use (the other arms neutral); an arm colliding when neutral loses every pose; the push
+    poses with both arms at once."""
+    A, K = len(key_q), len(POSE_NAMES)
+    ia, ib = POSE_NAMES.index("wave_a"), POSE_NAMES.index("wave_b")
+
+    def full(a: int, rows: np.ndarray) -> np.ndarray:
+        q = np.repeat(q_keys[:1], len(rows), axis=0)
+        for b in range(A):
+            q[:, coords[b]] = key_q[b][0]
+        q[:, coords[a]] = rows
+        return q
+
+    blends = [(0, k) for k in range(1, K)] + [(ia, ib), (POSE_NAMES.index("push_chest"), POSE_NAMES.index("push_out"))]
+    ws = np.array([0.25, 0.5, 0.75, 1.0])
+    for a in range(A):
+        rows, owners = [key_q[a][0][None]], [(0, 0)]
+        for i0, i1 in blends:
+            r = _blend(np.repeat(key_q[a][i0][None], len(ws), 0), np.repeat(key_q[a][i1][None], len(ws), 0), ws,
+                       quats[a])
+            rows.append(r)
+            owners += [(i0, i1)] * len(ws)
+        ok = clearance.clear(full(a, np.concatenate(rows)))
+        for (i0, i1), good in zip(owners, ok, strict=True):
+            if not good:
+                valid[i1, a] = False
+                if (i0, i1) == (0, 0):
+                    valid[:, a] = False
+    # push moves both arms at once
+    ip, io = POSE_NAMES.index("push_chest"), POSE_NAMES.index("push_out")
+    both = np.repeat(q_keys[:1], 2, axis=0)
+    for b in range(A):
+        both[0, coords[b]] = key_q[b][ip]
+        both[1, coords[b]] = key_q[b][io]
+    if A > 1 and not clearance.clear(both).all():
+        valid[[ip, io]] = False
+
+
 def calibrate_actions(m: Morphology, plan: BodyPlan, q_stance: np.ndarray, cfg: ActionConfig, *,
                       upright: bool, nominal_xy: np.ndarray | None = None) -> ActionRig | None:
     """Key poses of the arms that end in hands, with the creature standing at ``q_stance`` [C].
@@ -248,210 +489,36 @@ def calibrate_actions(m: Morphology, plan: BodyPlan, q_stance: np.ndarray, cfg: 
 
         raise ConfigError(f"actions: unknown kinds {sorted(unknown)} (expected some of {sorted(_KIND_POSES)}) "
                           "or weights not one per kind")
-    cand = [i for i, arm in enumerate(plan.arms) if arm.role == EndEffectorRole.HAND]
-    rest = m.rest_link_poses()
-    arms, shoulders, elbows, masks_j, chains = [], [], [], [], []
-    for i in cand:
-        arm = plan.arms[i]
-        mov = _moving(m, arm.joints)
-        ee = m.end_effector(arm.end_effector)
-        T = rest[m.link_index(ee.link)]
-        tip = T[:3] + quat_rotate(T[3:], np.asarray(ee.offset, dtype=float))
-        pts = [rest[m.link_index(m.joints[j].child), :3] for j in mov] + [tip]
-        seg = np.array([np.linalg.norm(pts[k + 1] - pts[k]) for k in range(len(mov))])
-        if len(mov) < 2 or seg.sum() <= 0:
-            continue
-        s = int(np.argmax(seg[:-1])) if len(seg) > 1 else 0
-        # joints at the shoulder's place belong to it (a yaw-pitch-roll shoulder of three revolutes)
-        near = 0.02 * seg.sum()
-        first = s
-        while first > 0 and np.linalg.norm(pts[first - 1] - pts[s]) < near:
-            first -= 1
-        e = s + 1
-        while e < len(mov) - 1 and np.linalg.norm(pts[e] - pts[s]) < near:
-            e += 1
-        last = e
-        while last + 1 < len(mov) and np.linalg.norm(pts[last + 1] - pts[e]) < near:
-            last += 1
-        arms.append(i)
-        shoulders.append(s)
-        elbows.append(mov[e])
-        masks_j.append(mov[first:last + 1])
-        chains.append(mov)
-    if not arms:
+    chains = _hand_arms(m, plan)
+    if not chains.arms:
         return None
-    A = len(arms)
-    proxies = tuple(EndEffector(_PROXY_PREFIX + plan.arms[i].end_effector, m.joints[elbows[a]].child,
-                                (0.0, 0.0, 0.0), EndEffectorRole.TOOL) for a, i in enumerate(arms))
-    ik_m = dataclasses.replace(m, end_effectors=m.end_effectors + proxies)
-    model = compile_model(ik_m, device="cpu")
-    tip_ee = np.array([model.ee_index(plan.arms[i].end_effector) for i in arms], dtype=np.int64)
-    elb_ee = np.array([model.ee_index(p.name) for p in proxies], dtype=np.int64)
-    ee = np.concatenate([elb_ee, tip_ee])
-    qd = m.joint_qd_start
-    D = qd[-1] if m.joints else m.base_dof
-    mask = np.zeros(D, dtype=bool)
-    for js in masks_j:
-        for j in js:
-            mask[qd[j]:qd[j + 1]] = True
-
-    # stance geometry in the root frame
-    root = model.link_index(m.root)
-
-    def root_frame(qs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """FK of poses [B, C]: root transforms [B, 7], elbow and hand points in the root frame [B, A, 3]."""
-        X = eval_fk(model, qs, device="cpu").numpy()
-        Tr = X[:, root]
-        pts = []
-        for e_ in ee:
-            Tl = X[:, int(model.ee_link[e_])]
-            p = Tl[:, :3] + quat_rotate(Tl[:, 3:], np.asarray(model.ee_offset[e_], dtype=float))
-            pts.append(quat_rotate(quat_conjugate(Tr[:, 3:]), p - Tr[:, :3]))
-        P = np.stack(pts, axis=1)
-        return Tr, P[:, :A], P[:, A:]
-
-    Tr0, elb0, tip0 = root_frame(q_stance[None])
-    sh = np.zeros((A, 3))
-    X0 = eval_fk(model, q_stance[None], device="cpu").numpy()[0]
-    for a in range(A):
-        p = X0[m.link_index(m.joints[chains[a][shoulders[a]]].child), :3]
-        sh[a] = quat_rotate(quat_conjugate(Tr0[0, 3:]), p - Tr0[0, :3])
-    l1 = np.linalg.norm(elb0[0] - sh, axis=-1)
-    l2 = np.linalg.norm(tip0[0] - elb0[0], axis=-1)
-    side = np.where(sh[:, 1] < -1e-3, -1.0, 1.0)
-    reach = np.array([plan.arms[i].reach for i in arms])
-
-    def world(Tr: np.ndarray, p: np.ndarray) -> np.ndarray:
-        return Tr[:, None, :3] + quat_rotate(Tr[:, None, 3:], p)
-
-    def dirs(name: str) -> tuple[np.ndarray, np.ndarray]:
-        u, f = _KEY_POSES[name]
-        U = np.array([[u[0], s * u[1], u[2]] for s in side])
-        Fd = np.array([[f[0], s * f[1], f[2]] for s in side])
-        return _unit(U), _unit(Fd)
-
-    def solve(q: np.ndarray, u0: np.ndarray, f0: np.ndarray, u1: np.ndarray, f1: np.ndarray,
-              stages: int) -> tuple[np.ndarray, np.ndarray]:
-        """Move elbows and hands of poses [B, C] from directions (u0, f0) to (u1, f1) [B, A, 3] in stages."""
-        Tr = np.repeat(Tr0, len(q), axis=0)
-        for k in range(1, stages + 1):
-            w = k / stages
-            u, f = _slerp_dir(u0, u1, w), _slerp_dir(f0, f1, w)
-            E = sh[None] + l1[None, :, None] * u
-            H = E + l2[None, :, None] * f
-            tg = np.concatenate([world(Tr, E), world(Tr, H)], axis=1)
-            it = 40 if k < stages else 120
-            for _ in range(it):
-                qa, _ = ik_step(model, q, tg, ee=ee, dof_mask=mask, damping=0.01 * float(reach.mean()),
-                                  max_step=0.3, max_error=0.1 * float(reach.mean()), device="cpu")
-                q = qa.numpy()
-        _, resw = ik_step(model, q, tg, ee=ee, dof_mask=mask, damping=0.01, max_step=0.3, device="cpu")
-        err = np.linalg.norm(resw.numpy(), axis=-1)  # [B, 2A]
-        return q, np.maximum(err[:, :A], err[:, A:])
-
-    u_rest = _unit(elb0[0] - sh)[None]
-    f_rest = _unit(tip0[0] - elb0[0])[None]
-    names = [n for n in POSE_NAMES if n not in (_NEUTRAL, _WAVE_MID)]
-    K = len(POSE_NAMES)
-    q_keys = np.repeat(q_stance[None], K, axis=0)
-    err = np.zeros((K, A))
-    if upright:
-        u_h, f_h = dirs("hang")
-        q_n, err_n = solve(q_stance[None].copy(), u_rest, f_rest, u_h[None], f_h[None], stages=6)
-        u_n, f_n = u_h, f_h
-    else:
-        q_n, err_n = q_stance[None].copy(), np.zeros((1, A))
-        u_n, f_n = u_rest[0], f_rest[0]
-    q_keys[0], err[0] = q_n[0], err_n[0]
-    U1 = np.stack([dirs(n)[0] for n in names])
-    F1 = np.stack([dirs(n)[1] for n in names])
-    qs, es = solve(np.repeat(q_n, len(names), axis=0), np.broadcast_to(u_n, U1.shape),
-                   np.broadcast_to(f_n, F1.shape), U1, F1, stages=4)
-    for k, n in enumerate(names):
-        q_keys[POSE_NAMES.index(n)] = qs[k]
-        err[POSE_NAMES.index(n)] = es[k]
-    coords, quats = [], []
-    for js in chains:
-        c, o = [], []
-        for j in js:
-            s0, s1 = m.joint_q_start[j], m.joint_q_start[j + 1]
-            if m.joints[j].type == JointType.SPHERICAL:
-                o.append(len(c))
-            c.extend(range(s0, s1))
-        coords.append(np.asarray(c, dtype=np.int64))
-        quats.append(tuple(o))
+    kp = _KeyPoseSolver(m, plan, chains, q_stance)
+    A = kp.A
+    q_keys, err = kp.key_poses(q_stance, upright)
+    coords, quats = _chain_coords(m, chains.chains)
     key_q = [q_keys[:, c].copy() for c in coords]
     iw = POSE_NAMES.index(_WAVE_MID)
     ia, ib = POSE_NAMES.index("wave_a"), POSE_NAMES.index("wave_b")
     for a in range(A):
         key_q[a][iw] = _blend(key_q[a][ia][None], key_q[a][ib][None], np.array([0.5]), quats[a])[0]
     err[iw] = np.maximum(err[ia], err[ib])
-    valid = err <= cfg.reach_tolerance * reach[None]
+    valid = err <= cfg.reach_tolerance * kp.reach[None]
+    _drop_colliding_poses(_ArmClearance(m, plan, chains.arms, kp, cfg), q_keys, key_q, coords, quats, valid)
 
-    # collisions: each arm alone at each key pose and along the blends actions use (the others neutral)
-    def full(a: int, rows: np.ndarray) -> np.ndarray:
-        q = np.repeat(q_keys[:1], len(rows), axis=0)
-        for b in range(A):
-            q[:, coords[b]] = key_q[b][0]
-        q[:, coords[a]] = rows
-        return q
-
-    arm_links: set[str] = set()
-    for i in arms:
-        arm_links |= limb_links(m, plan.arms[i].joints)
-    aidx = np.array(sorted(model.link_index(n) for n in arm_links), dtype=np.int64)
-    pairs = self_collision_pairs(model, rest_margin=cfg.collision_rest_margin).touching(aidx)
-    # the ground limit [m, world]: 2 cm, or lower where the stance itself reaches lower
-    ground = min(0.02, float(X0[aidx, 2].min()) - 0.01) if aidx.size else -np.inf
-
-    def clear(qs: np.ndarray) -> np.ndarray:
-        Xw = eval_fk(model, qs, device="cpu")
-        ok = np.ones(len(qs), dtype=bool)
-        if pairs.pair_count:
-            need = np.minimum(cfg.collision_margin, 0.5 * pairs.rest_distance)
-            ok &= (eval_self_collision_distance(model, pairs, Xw).numpy() > need).all(axis=1)
-        if aidx.size:
-            ok &= (Xw.numpy()[:, aidx, 2] > ground).all(axis=1)
-        return ok
-
-    blends = [(0, k) for k in range(1, K)] + [(ia, ib), (POSE_NAMES.index("push_chest"), POSE_NAMES.index("push_out"))]
-    ws = np.array([0.25, 0.5, 0.75, 1.0])
-    for a in range(A):
-        rows, owners = [key_q[a][0][None]], [(0, 0)]
-        for i0, i1 in blends:
-            r = _blend(np.repeat(key_q[a][i0][None], len(ws), 0), np.repeat(key_q[a][i1][None], len(ws), 0), ws,
-                       quats[a])
-            rows.append(r)
-            owners += [(i0, i1)] * len(ws)
-        ok = clear(full(a, np.concatenate(rows)))
-        for (i0, i1), good in zip(owners, ok, strict=True):
-            if not good:
-                valid[i1, a] = False
-                if (i0, i1) == (0, 0):
-                    valid[:, a] = False
-    # push moves both arms at once
-    ip, io = POSE_NAMES.index("push_chest"), POSE_NAMES.index("push_out")
-    both = np.repeat(q_keys[:1], 2, axis=0)
-    for b in range(A):
-        both[0, coords[b]] = key_q[b][ip]
-        both[1, coords[b]] = key_q[b][io]
-    if A > 1 and not clear(both).all():
-        valid[[ip, io]] = False
-
-    qk = np.repeat(q_stance[None], K, axis=0)
+    qk = np.repeat(q_stance[None], len(POSE_NAMES), axis=0)
     for a in range(A):
         qk[:, coords[a]] = key_q[a]
-    _, _, tips = root_frame(qk)  # [K, A, 3]
+    _, _, tips = kp.root_frame(qk)  # [K, A, 3]
     # arms that cannot take the neutral pose do not act
     keep = [a for a in range(A) if valid[0, a]]
     if not keep:
         return None
     sel = np.asarray(keep)
-    arms = [arms[a] for a in keep]
+    arms = [chains.arms[a] for a in keep]
     coords = [coords[a] for a in keep]
     quats = [quats[a] for a in keep]
     key_q = [key_q[a] for a in keep]
-    valid, side, tips = valid[:, sel], side[sel], tips[:, sel]
+    valid, side, tips = valid[:, sel], kp.side[sel], tips[:, sel]
     A = len(keep)
     ipsi = np.full((A, 2), -1, dtype=np.int64)
     if nominal_xy is not None and len(nominal_xy) == 2:

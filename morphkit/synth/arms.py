@@ -206,6 +206,134 @@ def other_joints(m: Morphology, plan: BodyPlan) -> tuple[list[int], list[int]]:
     return out, carrying
 
 
+class _UpperBodyCheck:
+    """Whether upper-body poses keep clear of the body (legs by ``leg_clearance`` of their reach) and above the
+    ground floor [m, world], and where the arm tips are (root frame, [B, A, 3] [m]).
+
+    The floor is ``ground_clearance``, or lower where the stance itself reaches lower (a fixed base mounted at
+    the origin hangs its arms below z = 0).
+    """
+
+    def __init__(self, m: Morphology, plan: BodyPlan, solver: LimbSolver, q_stance: np.ndarray, cfg: ArmConfig,
+                 all_joints: list[int]) -> None:
+        self.model = model = solver.model
+        self.A = len(plan.arms)
+        # which shape pairs and links concern the upper body
+        upper_links: set[str] = set()
+        for ji in all_joints:
+            upper_links |= limb_links(m, (m.joints[ji].name,))
+        self.uidx = np.array(sorted(model.link_index(n) for n in upper_links), dtype=np.int64)
+        self.pairs = pairs = self_collision_pairs(model, rest_margin=cfg.collision_rest_margin).touching(self.uidx)
+        leg_links: set[str] = set()
+        for leg in plan.legs:
+            leg_links |= limb_links(m, leg.joints)
+        lidx = np.array(sorted(model.link_index(n) for n in leg_links - upper_links), dtype=np.int64)
+        self.leg_pair = np.isin(pairs.link_a, lidx) ^ np.isin(pairs.link_b, lidx)
+        self.leg_clear = cfg.leg_clearance * float(np.mean([leg.reach for leg in plan.legs])) if plan.legs else 0.0
+        self.ee = solver.arm_ee
+        root = q_stance[:3].copy() if m.base_coordinate_count >= 3 else np.zeros(3)
+        if m.base_coordinate_count == 3:  # planar / wheeled: (x, y, yaw)
+            root = np.array([q_stance[0], q_stance[1], 0.0])
+        self.root = root
+        """The stance's root position [3] [m] (world)."""
+        self.floor = -np.inf
+        _, tips0 = self.check(q_stance[None], -np.inf)
+        X0 = eval_fk(model, q_stance[None], device="cpu").numpy()[0]
+        lowest = min([float(X0[self.uidx, 2].min())] if self.uidx.size else [np.inf])
+        if self.A:
+            lowest = min(lowest, float(tips0[0, :, 2].min() + root[2]))
+        self.floor = min(cfg.ground_clearance, lowest - 0.01)
+
+    def check(self, qs: np.ndarray, margin: float) -> tuple[np.ndarray, np.ndarray]:
+        """[B] ok flags (no contact closer than ``margin``, above the ground) and arm tips [B, A, 3] (root frame)."""
+        model, pairs, uidx, A, root = self.model, self.pairs, self.uidx, self.A, self.root
+        Xw = eval_fk(model, qs, device="cpu")
+        X = Xw.numpy()
+        ok = np.ones(len(qs), dtype=bool)
+        if pairs.pair_count:
+            # pairs that are close at rest by design only need to keep half their rest clearance
+            need = np.minimum(np.where(self.leg_pair, max(margin, self.leg_clear), margin), 0.5 * pairs.rest_distance)
+            ok &= (eval_self_collision_distance(model, pairs, Xw).numpy() > need).all(axis=1)
+        if uidx.size:
+            ok &= (X[:, uidx, 2] > self.floor).all(axis=1)
+        tips = np.zeros((len(qs), A, 3))
+        for a in range(A):
+            e = int(self.ee[a])
+            T = X[:, int(model.ee_link[e])]
+            tips[:, a] = T[:, :3] + quat_rotate(T[:, 3:], np.asarray(model.ee_offset[e], dtype=float)) - root
+        if A:
+            ok &= (tips[:, :, 2] + root[2] > self.floor).all(axis=1)
+        return ok, tips
+
+    def lowest_point(self, qs: np.ndarray) -> np.ndarray:
+        """[B] height of the lowest upper-body link origin or arm tip of poses ``qs`` [B, C] [m]."""
+        X = eval_fk(self.model, qs, device="cpu").numpy()
+        _, tips = self.check(qs, -np.inf)
+        low = X[:, self.uidx, 2].min(axis=1) if self.uidx.size else np.full(len(qs), np.inf)
+        return np.minimum(low, tips[:, :, 2].min(axis=1) + self.root[2]) if self.A else low
+
+
+def _draw_poses(rng: np.random.Generator, m: Morphology, q_stance: np.ndarray, cfg: ArmConfig, flat_arm: list[int],
+                others: list[int], carrying: list[int], held: set[int], ends: list[int]) -> np.ndarray:
+    """``pool_size`` random upper-body poses [P, C] about the stance: arm joints (but ``held``) within
+    ``joint_range``, other joints within ``other_range`` (a third of it for those ``carrying`` legs); a
+    ``limit_share`` of rows with one joint of ``ends`` (q indices) in the outer 5 % of its travel."""
+    lower, upper = m.coordinate_limits
+    q = np.repeat(q_stance[None], cfg.pool_size, axis=0)
+    for ji in flat_arm:
+        if ji not in held:
+            _sample(rng, m, q, ji, cfg.joint_range, cfg.spherical_angle, cfg.continuous_angle)
+    for ji in others:
+        k = 1.0 / 3.0 if ji in carrying else 1.0
+        _sample(rng, m, q, ji, cfg.other_range * k, cfg.other_angle * k, np.pi * k)
+    if ends and cfg.limit_share > 0:
+        # a joint near its limit is often feasible only with the rest of its chain in a narrow region
+        # that uniform draws rarely hit: some draws put one joint within the outer 5 % of its travel
+        rows = np.nonzero(rng.random(cfg.pool_size) < cfg.limit_share)[0]
+        cols = np.asarray(ends)[rng.integers(len(ends), size=rows.size)]
+        edge = 0.05 * rng.random(rows.size)
+        top = rng.random(rows.size) < 0.5
+        q[rows, cols] = np.where(top, upper[cols] - edge * (upper[cols] - lower[cols]),
+                                 lower[cols] + edge * (upper[cols] - lower[cols]))
+    return q
+
+
+def _validate_moves(solver: LimbSolver, checker: _UpperBodyCheck, cfg: ArmConfig, q: np.ndarray, tips: np.ndarray,
+                    pool_q: np.ndarray, coords: list[int], quats: list[int], arm_coords: list[int],
+                    arm_quats: list[int], src: np.ndarray, dst: np.ndarray) -> np.ndarray:
+    """[E] bool: whether each move ``src`` -> ``dst`` (pool indices) stays clear along the way, stepped as
+    rollouts step it (joint-space blend, arms pulled toward it and their tips tracked by IK)."""
+    A = checker.A
+    valid = np.ones(len(src), dtype=bool)
+    if not len(src):
+        return valid
+    arm_pos = np.arange(len(arm_coords))  # arm joints come first in coords
+    direct = np.arange(len(arm_coords), len(coords))
+    cur = q[src].copy()
+    mask = solver.arm_mask
+    # rollouts pull toward the blend every frame: over the frames one check stands for (a move of
+    # mean length at 30 fps) the pull compounds to gain_eff
+    frames_per_step = 30.0 * 0.5 * (cfg.move_seconds[0] + cfg.move_seconds[1]) / cfg.validation_steps
+    gain_eff = 1.0 - (1.0 - cfg.posture_gain) ** max(frames_per_step, 1.0)
+    for k in range(1, cfg.validation_steps + 1):
+        a = np.full(len(src), smoothstep(k / cfg.validation_steps))
+        blend = _blend(pool_q[src], pool_q[dst], a, quats)
+        nxt = cur.copy()
+        nxt[:, np.asarray(coords)[direct]] = blend[:, direct]
+        if A:
+            target = tips[src] + (tips[dst] - tips[src]) * a[:, None, None] + checker.root
+            nxt[:, arm_coords] = nxt[:, arm_coords] + gain_eff * (blend[:, arm_pos] - nxt[:, arm_coords])
+            for o in arm_quats:
+                sl = slice(o, o + 4)
+                nxt[:, np.asarray(arm_coords)[sl]] = nlerp(cur[:, np.asarray(arm_coords)[sl]],
+                                                         blend[:, arm_pos[sl]], a * 0 + gain_eff)
+            nxt, _ = solver.step(nxt, target, ee=solver.arm_ee, mask=mask, iterations=3)
+        step_ok, _ = checker.check(nxt, 0.0)
+        valid &= step_ok
+        cur = nxt
+    return valid
+
+
 def calibrate_arms(m: Morphology, plan: BodyPlan, solver: LimbSolver, q_stance: np.ndarray, cfg: ArmConfig,
                    seed: int = 0, fixed_arms: Sequence[int] = ()) -> PosePool:
     """The upper-body pose pool and its validated move graph, with the creature standing at ``q_stance`` [C].
@@ -226,67 +354,15 @@ def calibrate_arms(m: Morphology, plan: BodyPlan, solver: LimbSolver, q_stance: 
     if not coords:
         return PosePool(np.zeros(0, np.int64), (), np.zeros((1, 0)), np.zeros((1, A, 3)), np.full((1, 1), -1),
                         np.zeros(0, np.int64), (), np.zeros(0, np.int64), np.zeros(A))
-    # which shape pairs and links concern the upper body
-    upper_links: set[str] = set()
-    for ji in all_joints:
-        upper_links |= limb_links(m, (m.joints[ji].name,))
-    uidx = np.array(sorted(model.link_index(n) for n in upper_links), dtype=np.int64)
-    pairs = self_collision_pairs(model, rest_margin=cfg.collision_rest_margin).touching(uidx)
-    leg_links: set[str] = set()
-    for leg in plan.legs:
-        leg_links |= limb_links(m, leg.joints)
-    lidx = np.array(sorted(model.link_index(n) for n in leg_links - upper_links), dtype=np.int64)
-    leg_pair = np.isin(pairs.link_a, lidx) ^ np.isin(pairs.link_b, lidx)
-    leg_clear = cfg.leg_clearance * float(np.mean([leg.reach for leg in plan.legs])) if plan.legs else 0.0
-    ee = solver.arm_ee
-    root = q_stance[:3].copy() if m.base_coordinate_count >= 3 else np.zeros(3)
-    if m.base_coordinate_count == 3:  # planar / wheeled: (x, y, yaw)
-        root = np.array([q_stance[0], q_stance[1], 0.0])
-
-    def check(qs: np.ndarray, margin: float) -> tuple[np.ndarray, np.ndarray]:
-        """[B] ok flags (no contact closer than ``margin``, above the ground) and arm tips [B, A, 3] (root frame)."""
-        Xw = eval_fk(model, qs, device="cpu")
-        X = Xw.numpy()
-        ok = np.ones(len(qs), dtype=bool)
-        if pairs.pair_count:
-            # pairs that are close at rest by design only need to keep half their rest clearance
-            need = np.minimum(np.where(leg_pair, max(margin, leg_clear), margin), 0.5 * pairs.rest_distance)
-            ok &= (eval_self_collision_distance(model, pairs, Xw).numpy() > need).all(axis=1)
-        if uidx.size:
-            ok &= (X[:, uidx, 2] > floor[0]).all(axis=1)
-        tips = np.zeros((len(qs), A, 3))
-        for a in range(A):
-            e = int(ee[a])
-            T = X[:, int(model.ee_link[e])]
-            tips[:, a] = T[:, :3] + quat_rotate(T[:, 3:], np.asarray(model.ee_offset[e], dtype=float)) - root
-        if A:
-            ok &= (tips[:, :, 2] + root[2] > floor[0]).all(axis=1)
-        return ok, tips
-
-    # the ground limit: ground_clearance, or lower where the stance itself reaches lower (a fixed base
-    # mounted at the origin hangs its arms below z = 0)
-    floor = [-np.inf]
-    _, tips0 = check(q_stance[None], -np.inf)
-    X0 = eval_fk(model, q_stance[None], device="cpu").numpy()[0]
-    lowest = min([float(X0[uidx, 2].min())] if uidx.size else [np.inf])
-    if A:
-        lowest = min(lowest, float(tips0[0, :, 2].min() + root[2]))
-    floor[0] = min(cfg.ground_clearance, lowest - 0.01)
+    checker = _UpperBodyCheck(m, plan, solver, q_stance, cfg, all_joints)
     # each non-leg chain's end-effector at its lowest and highest, as pool poses beside the stance
     kept_q = [q_stance[None]]
     lower, upper = m.coordinate_limits
     free = {ji for ji in others if ji not in carrying}
     if cfg.joint_range >= 1.0:
         free |= {ji for ji in flat_arm if ji not in held}
-
-    def lowest_point(qs: np.ndarray) -> np.ndarray:
-        X = eval_fk(model, qs, device="cpu").numpy()
-        _, tips = check(qs, -np.inf)
-        low = X[:, uidx, 2].min(axis=1) if uidx.size else np.full(len(qs), np.inf)
-        return np.minimum(low, tips[:, :, 2].min(axis=1) + root[2]) if A else low
-
-    extremes = (_reach_extremes(m, model, q_stance, free, lambda qs: check(qs, cfg.collision_margin)[0],
-                                lowest_point, 0.5 * cfg.ground_clearance)
+    extremes = (_reach_extremes(m, model, q_stance, free, lambda qs: checker.check(qs, cfg.collision_margin)[0],
+                                checker.lowest_point, 0.5 * cfg.ground_clearance)
                 if cfg.reach_extremes else np.zeros((0, len(q_stance))))
     kept_q.append(extremes)
     # draw until the pool is full (poses that collide are dropped), at most four rounds
@@ -297,26 +373,11 @@ def calibrate_arms(m: Morphology, plan: BodyPlan, solver: LimbSolver, q_stance: 
         need = cfg.pool_size - sum(len(k) for k in kept_q) + 1
         if need <= 0:
             break
-        q = np.repeat(q_stance[None], cfg.pool_size, axis=0)
-        for ji in flat_arm:
-            if ji not in held:
-                _sample(rng, m, q, ji, cfg.joint_range, cfg.spherical_angle, cfg.continuous_angle)
-        for ji in others:
-            k = 1.0 / 3.0 if ji in carrying else 1.0
-            _sample(rng, m, q, ji, cfg.other_range * k, cfg.other_angle * k, np.pi * k)
-        if ends and cfg.limit_share > 0:
-            # a joint near its limit is often feasible only with the rest of its chain in a narrow region
-            # that uniform draws rarely hit: some draws put one joint within the outer 5 % of its travel
-            rows = np.nonzero(rng.random(cfg.pool_size) < cfg.limit_share)[0]
-            cols = np.asarray(ends)[rng.integers(len(ends), size=rows.size)]
-            edge = 0.05 * rng.random(rows.size)
-            top = rng.random(rows.size) < 0.5
-            q[rows, cols] = np.where(top, upper[cols] - edge * (upper[cols] - lower[cols]),
-                                     lower[cols] + edge * (upper[cols] - lower[cols]))
-        ok, _ = check(q, cfg.collision_margin)
+        q = _draw_poses(rng, m, q_stance, cfg, flat_arm, others, carrying, held, ends)
+        ok, _ = checker.check(q, cfg.collision_margin)
         kept_q.append(q[ok][:need])
     q = np.concatenate(kept_q)
-    _, tips = check(q, cfg.collision_margin)
+    _, tips = checker.check(q, cfg.collision_margin)
     P = len(q)
     pool_q = q[:, coords]
 
@@ -328,32 +389,7 @@ def calibrate_arms(m: Morphology, plan: BodyPlan, solver: LimbSolver, q_stance: 
     nbr = np.argsort(d2, axis=1)[:, :K] if K > 0 else np.zeros((P, 0), dtype=np.int64)
     src = np.repeat(np.arange(P), K)
     dst = nbr.reshape(-1)
-    valid = np.ones(len(src), dtype=bool)
-    if len(src):
-        arm_pos = np.arange(len(arm_coords))  # arm joints come first in coords
-        direct = np.arange(len(arm_coords), len(coords))
-        cur = q[src].copy()
-        mask = solver.arm_mask
-        # rollouts pull toward the blend every frame: over the frames one check stands for (a move of
-        # mean length at 30 fps) the pull compounds to gain_eff
-        frames_per_step = 30.0 * 0.5 * (cfg.move_seconds[0] + cfg.move_seconds[1]) / cfg.validation_steps
-        gain_eff = 1.0 - (1.0 - cfg.posture_gain) ** max(frames_per_step, 1.0)
-        for k in range(1, cfg.validation_steps + 1):
-            a = np.full(len(src), smoothstep(k / cfg.validation_steps))
-            blend = _blend(pool_q[src], pool_q[dst], a, quats)
-            nxt = cur.copy()
-            nxt[:, np.asarray(coords)[direct]] = blend[:, direct]
-            if A:
-                target = tips[src] + (tips[dst] - tips[src]) * a[:, None, None] + root
-                nxt[:, arm_coords] = nxt[:, arm_coords] + gain_eff * (blend[:, arm_pos] - nxt[:, arm_coords])
-                for o in arm_quats:
-                    sl = slice(o, o + 4)
-                    nxt[:, np.asarray(arm_coords)[sl]] = nlerp(cur[:, np.asarray(arm_coords)[sl]],
-                                                             blend[:, arm_pos[sl]], a * 0 + gain_eff)
-                nxt, _ = solver.step(nxt, target, ee=ee, mask=mask, iterations=3)
-            step_ok, _ = check(nxt, 0.0)
-            valid &= step_ok
-            cur = nxt
+    valid = _validate_moves(solver, checker, cfg, q, tips, pool_q, coords, quats, arm_coords, arm_quats, src, dst)
     graph = np.where(valid.reshape(P, K), nbr, -1) if K > 0 else np.full((P, 1), -1)
     arm_q_off = tuple(int(o) for o in arm_quats)
     direct = np.arange(len(arm_coords), len(coords))

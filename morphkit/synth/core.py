@@ -420,47 +420,68 @@ def _scalar_and_quat_coords(m: Morphology) -> tuple[np.ndarray, np.ndarray]:
     return np.array(scalar, dtype=np.int64), np.array(quats, dtype=np.int64)
 
 
-def _run_batch(rig: SynthRig, seeds: Sequence[np.random.SeedSequence], lengths: Sequence[int], drawn: int,
-               tick: Callable[[int], None]) -> dict[str, np.ndarray]:
-    """Step ``len(seeds)`` rollouts together for ``max(lengths)`` frames; returns per-frame arrays [R, T, ...].
+class _BatchRollout:
+    """``R`` rollouts stepped together, one frame per :meth:`step`, carrying the previous two poses.
 
-    Randomness is drawn for ``drawn`` frames whatever the lengths, so a rollout does not depend on
-    its batch.
+    The constructor draws everything random first (for ``drawn`` frames whatever the lengths, so a rollout does
+    not depend on its batch: start yaw, commands, upper-body walks, actions), integrates the root path and plans
+    the footsteps; :meth:`step` then warm-starts, places the root, sets the targets and solves the IK of frame
+    ``t``; :meth:`results` hands over the per-frame arrays [R, T, ...].
     """
-    frames = max(lengths)
-    active = np.asarray(lengths)
-    m, cfg, fps = rig.morphology, rig.config, rig.fps
-    rngs = [np.random.default_rng(s) for s in seeds]
-    R = len(rngs)
-    yaw0 = np.array([rng.uniform(-np.pi, np.pi) for rng in rngs])
-    if rig.locomotion == Locomotion.FIXED:
-        yaw0[:] = 0.0  # a fixed base stays where its description put it
-    pad = int(np.ceil(cfg.look_ahead_seconds * fps))
-    cmds = draw_commands(rngs, drawn + pad, fps, cfg.commands, rig.limits)
-    pool = rig.arms
-    ub = draw_upper_body(rngs, pool, drawn, fps, cfg.arms)
-    acts = None
-    if rig.actions is not None:
-        acts = draw_actions(rngs, rig.actions, drawn, fps, cfg.actions)
-        busy = acts.activity(drawn + pad, fps, cfg.actions.speed_ramp_seconds)
-        vmax = cfg.actions.max_speed * rig.scale
-        limit_speed(cmds.command, busy, vmax, cfg.actions.max_yaw_rate)
-        limit_speed(cmds.target, busy, vmax, cfg.actions.max_yaw_rate)
-        cmds.settled &= (busy == 0.0) | (busy == 1.0)
-    path_xy, path_yaw = integrate_root(cmds.command, fps, yaw0)
-    direct = pool.coords[pool.direct]
-    n_arm = len(pool.arm_coords)
-    solver = rig.solver
-    NL = len(rig.plan.legs)
-    feet = foot_yaw = stance = None
-    z_upright = None
-    if rig.legs is not None:
-        # footsteps depend on the root path only: plan them for every frame first
+
+    def __init__(self, rig: SynthRig, seeds: Sequence[np.random.SeedSequence], lengths: Sequence[int],
+                 drawn: int) -> None:
+        self.rig = rig
+        self.m, self.cfg, self.fps = rig.morphology, rig.config, rig.fps
+        self.solver = rig.solver
+        self.pool = rig.arms
+        self.frames = max(lengths)
+        """T: frames stepped (the longest rollout's)."""
+        self.active = np.asarray(lengths)
+        """[R] frames each rollout keeps."""
+        self.NL = len(rig.plan.legs)
+        self._draw(seeds, drawn)
+        self._plan_feet()
+        self._choose_ik_targets()
+        self._prepare_warm_start()
+
+    def _draw(self, seeds: Sequence[np.random.SeedSequence], drawn: int) -> None:
+        """Start yaws [R], commands, upper-body walks and actions (speeds limited while acting), and the root
+        path they give (``path_xy`` [R, T', 2] [m], ``path_yaw`` [R, T'] [rad])."""
+        rig, cfg, fps = self.rig, self.cfg, self.fps
+        rngs = [np.random.default_rng(s) for s in seeds]
+        self.R = len(rngs)
+        yaw0 = np.array([rng.uniform(-np.pi, np.pi) for rng in rngs])
+        if rig.locomotion == Locomotion.FIXED:
+            yaw0[:] = 0.0  # a fixed base stays where its description put it
+        pad = int(np.ceil(cfg.look_ahead_seconds * fps))
+        self.cmds = cmds = draw_commands(rngs, drawn + pad, fps, cfg.commands, rig.limits)
+        self.ub = draw_upper_body(rngs, self.pool, drawn, fps, cfg.arms)
+        self.acts = None
+        if rig.actions is not None:
+            self.acts = acts = draw_actions(rngs, rig.actions, drawn, fps, cfg.actions)
+            busy = acts.activity(drawn + pad, fps, cfg.actions.speed_ramp_seconds)
+            vmax = cfg.actions.max_speed * rig.scale
+            limit_speed(cmds.command, busy, vmax, cfg.actions.max_yaw_rate)
+            limit_speed(cmds.target, busy, vmax, cfg.actions.max_yaw_rate)
+            cmds.settled &= (busy == 0.0) | (busy == 1.0)
+        self.path_xy, self.path_yaw = integrate_root(cmds.command, fps, yaw0)
+
+    def _plan_feet(self) -> None:
+        """Footsteps for every frame (they depend on the root path only): ``feet`` [R, T, NL, 3] [m], ``foot_yaw``
+        [R, T, NL] [rad], ``stance`` [R, T, NL] bool, ``gait_code`` [R, T]; an upright biped's root height
+        ``z_upright`` [R, T] [m]; the arms' swing with the steps. All None without legs."""
+        rig, cfg, fps, R, frames, NL = self.rig, self.cfg, self.fps, self.R, self.frames, self.NL
+        cmds, path_xy, path_yaw, acts = self.cmds, self.path_xy, self.path_yaw, self.acts
+        self.feet = self.foot_yaw = self.stance = self.gait_code = None
+        self.z_upright = None
+        if rig.legs is None:
+            return
         legs = LeggedController(rig.legs, cfg.legs, fps, path_xy[:, 0], path_yaw[:, 0])
-        feet = np.empty((R, frames, NL, 3))
-        foot_yaw = np.empty((R, frames, NL))
-        stance = np.empty((R, frames, NL), dtype=bool)
-        gait_code = np.empty((R, frames), dtype=np.int8)
+        self.feet = feet = np.empty((R, frames, NL, 3))
+        self.foot_yaw = foot_yaw = np.empty((R, frames, NL))
+        self.stance = stance = np.empty((R, frames, NL), dtype=bool)
+        self.gait_code = gait_code = np.empty((R, frames), dtype=np.int8)
         for t in range(frames):
             c = cmds.command[:, t]
             legs.step(t, path_xy, path_yaw, c[:, [CMD_VX, CMD_VY]], c[:, CMD_WZ], cmds.choice[:, t])
@@ -473,95 +494,134 @@ def _run_batch(rig: SynthRig, seeds: Sequence[np.random.SeedSequence], lengths: 
             yaw_t = path_yaw[:, :frames]
             rot_t = quat_from_rpy(np.stack([c[..., CMD_ROLL], c[..., CMD_PITCH], yaw_t], axis=-1))
             ik_pts = feet - rig.solver.ankle_offsets(foot_yaw.reshape(R * frames, NL)).reshape(R, frames, NL, 3)
-            z_upright = upright_root_height(rig.legs, ik_pts, path_xy[:, :frames], rot_t,
-                                            rig.legs.stance_height + c[..., CMD_DH], fps,
-                                            cfg.legs.upright_smoothing_seconds)
+            self.z_upright = upright_root_height(rig.legs, ik_pts, path_xy[:, :frames], rot_t,
+                                                 rig.legs.stance_height + c[..., CMD_DH], fps,
+                                                 cfg.legs.upright_smoothing_seconds)
         if acts is not None and rig.actions is not None and rig.actions.swing:
             stride = 2.0 * cfg.legs.stroke_usage * float(rig.legs.semi_axes[:, 0].mean())
             speed = np.linalg.norm(cmds.command[:, :frames, :2], axis=-1)
             acts.swing = arm_swing(rig.actions, rig.legs.nominal_xy, stride, feet[..., :2], path_xy[:, :frames],
                                    path_yaw[:, :frames], speed, cfg.actions.swing_full_speed * rig.scale, fps,
                                    cfg.actions)
-    # IK end-effectors: legs and the arms that actions do not move
-    ik_ee, ik_mask, ik_key, free_arms = solver.all_ee, solver.all_mask, "all", np.arange(len(rig.plan.arms))
-    if acts is not None and rig.actions is not None:
-        free_arms = np.array([a for a in range(len(rig.plan.arms)) if a not in rig.actions.arms], dtype=np.int64)
-        ik_mask = solver.leg_mask.copy()
-        qd = m.joint_qd_start
-        for a in free_arms:
-            for n in rig.plan.arms[a].joints:
-                ji = m.joint_index(n)
-                if m.joints[ji].mimic is None:
-                    ik_mask[qd[ji]:qd[ji + 1]] = True
-        ik_ee = np.concatenate([solver.leg_targets_ee, solver.arm_ee[free_arms]]).astype(np.int64)
-        ik_key = "legs+free_arms"
-    C = m.coordinate_count
-    nb = m.base_coordinate_count
-    scalar, quats = _scalar_and_quat_coords(m)
-    leg_balls = np.array([c[0] for c in solver.ball_constraints], dtype=np.int64)
-    knees: list[tuple[int, int, float]] = []
-    if rig.legs is not None and rig.legs.upright:
-        # nearly straight legs: keep ball knees on the side they bend to at stance
-        for s, ax, h in solver.ball_constraints:
-            if h == -2:
-                th = 2.0 * np.arctan2(rig.q_stance[s + ax], rig.q_stance[s + 3])
-                knees.append((int(s), int(ax), 1.0 if th >= 0 else -1.0))
-    hinge_knees = rig.legs.hinge_knees if rig.legs is not None else ()
-    lower, upper = m.coordinate_limits
-    lo_s, hi_s = lower[scalar], upper[scalar]
-    out_q = np.empty((R, frames, C))
-    contact = np.zeros((R, frames, NL), dtype=bool)
-    gait = np.full((R, frames), -1, dtype=np.int8)
-    q_prev = np.repeat(rig.q_stance[None], R, axis=0)
-    if not pool.empty:
-        q_prev[:, pool.coords] = pool.q[ub.i0[:, 0]]  # the upper body starts where its walk does
-    q_prev2 = q_prev.copy()
-    glide_z = rig.q_stance[2] if rig.locomotion == Locomotion.GLIDE else 0.0
-    gain = cfg.arms.posture_gain
-    arm_pairs = rig.arm_pairs if n_arm else None
-    arm_checks: dict[int, RecordedSelfCollision] = {}
-    ground_stats = GroundStats()
-    for t in range(frames):
-        c = cmds.command[:, t]
-        xy, yaw = path_xy[:, t], path_yaw[:, t]
-        # warm start: constant-velocity extrapolation of the joints, clamped into the limits
+
+    def _choose_ik_targets(self) -> None:
+        """IK end-effectors: legs and the arms that actions do not move (``ik_ee``, ``ik_mask``, ``ik_key``,
+        ``free_arms``)."""
+        rig, m, solver = self.rig, self.m, self.solver
+        self.ik_ee, self.ik_mask, self.ik_key = solver.all_ee, solver.all_mask, "all"
+        self.free_arms = np.arange(len(rig.plan.arms))
+        if self.acts is not None and rig.actions is not None:
+            self.free_arms = free_arms = np.array([a for a in range(len(rig.plan.arms)) if a not in rig.actions.arms],
+                                                  dtype=np.int64)
+            self.ik_mask = ik_mask = solver.leg_mask.copy()
+            qd = m.joint_qd_start
+            for a in free_arms:
+                for n in rig.plan.arms[a].joints:
+                    ji = m.joint_index(n)
+                    if m.joints[ji].mimic is None:
+                        ik_mask[qd[ji]:qd[ji + 1]] = True
+            self.ik_ee = np.concatenate([solver.leg_targets_ee, solver.arm_ee[free_arms]]).astype(np.int64)
+            self.ik_key = "legs+free_arms"
+
+    def _prepare_warm_start(self) -> None:
+        """Coordinate groups and knee constraints of the warm start, the output arrays and the first two poses."""
+        rig, m, solver, pool, R, frames = self.rig, self.m, self.solver, self.pool, self.R, self.frames
+        self.scalar, self.quats = _scalar_and_quat_coords(m)
+        self.leg_balls = np.array([c[0] for c in solver.ball_constraints], dtype=np.int64)
+        self.knees: list[tuple[int, int, float]] = []
+        if rig.legs is not None and rig.legs.upright:
+            # nearly straight legs: keep ball knees on the side they bend to at stance
+            for s, ax, h in solver.ball_constraints:
+                if h == -2:
+                    th = 2.0 * np.arctan2(rig.q_stance[s + ax], rig.q_stance[s + 3])
+                    self.knees.append((int(s), int(ax), 1.0 if th >= 0 else -1.0))
+        self.hinge_knees = rig.legs.hinge_knees if rig.legs is not None else ()
+        self.lower, self.upper = m.coordinate_limits
+        self.lo_s, self.hi_s = self.lower[self.scalar], self.upper[self.scalar]
+        self.out_q = np.empty((R, frames, m.coordinate_count))
+        self.contact = np.zeros((R, frames, self.NL), dtype=bool)
+        self.gait = np.full((R, frames), -1, dtype=np.int8)
+        self.q_prev = np.repeat(rig.q_stance[None], R, axis=0)
+        if not pool.empty:
+            self.q_prev[:, pool.coords] = pool.q[self.ub.i0[:, 0]]  # the upper body starts where its walk does
+        self.q_prev2 = self.q_prev.copy()
+        self.glide_z = rig.q_stance[2] if rig.locomotion == Locomotion.GLIDE else 0.0
+        self.arm_pairs = rig.arm_pairs if len(pool.arm_coords) else None
+        self.arm_checks: dict[int, RecordedSelfCollision] = {}
+        self.ground_stats = GroundStats()
+
+    def step(self, t: int) -> None:
+        """Frame ``t`` of every rollout: warm start, root, targets, IK, ground lift."""
+        q = self._warm_start()
+        z, rot = self._place_root(q, t)
+        targets, ref = self._targets(q, t, z, rot)
+        if targets:
+            q = self._solve(q, t, np.concatenate(targets, axis=1), ref)
+        if self.rig.ground is not None:
+            q = self.rig.ground.lift(q, self.ground_stats)
+        self.out_q[:, t] = q
+        self.q_prev2, self.q_prev = self.q_prev, q
+
+    def _warm_start(self) -> np.ndarray:
+        """Constant-velocity extrapolation of the last two poses [R, C], clamped into the limits, ball legs leaned
+        toward stance and knees kept bent."""
+        cfg, solver, q_prev, q_prev2 = self.cfg, self.solver, self.q_prev, self.q_prev2
+        scalar = self.scalar
         q = q_prev.copy()
         if scalar.size:
-            q[:, scalar] = np.clip(2.0 * q_prev[:, scalar] - q_prev2[:, scalar], lo_s, hi_s)
-        for s in quats:
+            q[:, scalar] = np.clip(2.0 * q_prev[:, scalar] - q_prev2[:, scalar], self.lo_s, self.hi_s)
+        for s in self.quats:
             q[:, s:s + 4] = quat_delta_extrapolate(q_prev[:, s:s + 4], q_prev2[:, s:s + 4])
-        if leg_balls.size:
+        if self.leg_balls.size:
             # ball-jointed legs have no limits to keep them on the knee-forward branch: lean toward stance
-            for s in leg_balls:
-                q[:, s:s + 4] = nlerp(q[:, s:s + 4], np.broadcast_to(rig.q_stance[s:s + 4], (R, 4)),
-                                      np.full(R, cfg.legs.ball_posture_gain))
+            for s in self.leg_balls:
+                q[:, s:s + 4] = nlerp(q[:, s:s + 4], np.broadcast_to(self.rig.q_stance[s:s + 4], (self.R, 4)),
+                                      np.full(self.R, cfg.legs.ball_posture_gain))
         solver.constrain(q)
-        if knees:
-            keep_knees_bent(q, knees, cfg.legs.upright_knee_margin)
-        if hinge_knees:
-            keep_hinge_knees_bent(q, hinge_knees, cfg.legs.upright_knee_margin, lower, upper)
+        if self.knees:
+            keep_knees_bent(q, self.knees, cfg.legs.upright_knee_margin)
+        if self.hinge_knees:
+            keep_hinge_knees_bent(q, self.hinge_knees, cfg.legs.upright_knee_margin, self.lower, self.upper)
+        return q
+
+    def _place_root(self, q: np.ndarray, t: int) -> tuple[np.ndarray, np.ndarray]:
+        """Set the base coordinates of ``q`` in place from the root path (and the feet's contacts); returns the
+        root height [R] [m] and orientation [R, 4] (xyzw)."""
+        rig, m, c = self.rig, self.m, self.cmds.command[:, t]
+        xy, yaw = self.path_xy[:, t], self.path_yaw[:, t]
+        nb = m.base_coordinate_count
         if rig.locomotion == Locomotion.LEGGED:
-            assert stance is not None and rig.legs is not None
-            z = rig.legs.stance_height + c[:, CMD_DH] if z_upright is None else z_upright[:, t]
+            assert self.stance is not None and rig.legs is not None and self.gait_code is not None
+            z = rig.legs.stance_height + c[:, CMD_DH] if self.z_upright is None else self.z_upright[:, t]
             rot = quat_from_rpy(np.stack([c[:, CMD_ROLL], c[:, CMD_PITCH], yaw], axis=-1))
             q[:, :nb] = base_coordinates(m, xy, yaw, z, rot)
-            contact[:, t] = stance[:, t]
-            gait[:, t] = gait_code[:, t]
+            self.contact[:, t] = self.stance[:, t]
+            self.gait[:, t] = self.gait_code[:, t]
         else:
-            z = np.full(R, glide_z)
+            z = np.full(self.R, self.glide_z)
             rot = quat_from_yaw(yaw)
             q[:, :nb] = base_coordinates(m, xy, yaw, z, rot)
+        return z, rot
+
+    def _targets(self, q: np.ndarray, t: int, z: np.ndarray, rot: np.ndarray
+                 ) -> tuple[list[np.ndarray], np.ndarray | None]:
+        """IK targets of frame ``t`` (world [R, n, 3] [m]: legs, then free arms' tips), the upper-body posture set
+        into ``q`` in place (arms pulled toward it by ``posture_gain``, actions' joints set); also the arms' pooled
+        posture [R, A] (None without arms)."""
+        rig, solver, pool, ub, R = self.rig, self.solver, self.pool, self.ub, self.R
         targets = []
-        if NL:
-            assert feet is not None and foot_yaw is not None
-            feet_t = feet[:, t]
+        ref = None
+        if self.NL:
+            assert self.feet is not None and self.foot_yaw is not None
+            feet_t = self.feet[:, t]
             if solver.balls:
                 feet_t = feet_t.copy()
                 feet_t[..., 2] += solver.rolling_lift(q)  # at the warm start: the turn is second order
-            targets.append(solver.leg_targets(feet_t, foot_yaw[:, t]))
+            targets.append(solver.leg_targets(feet_t, self.foot_yaw[:, t]))
         if not pool.empty:
+            n_arm, gain = len(pool.arm_coords), self.cfg.arms.posture_gain
             post = ub.posture(pool, t)
-            q[:, direct] = post[:, pool.direct]
+            q[:, pool.coords[pool.direct]] = post[:, pool.direct]
             if n_arm:
                 cur = q[:, pool.arm_coords]
                 ref = post[:, :n_arm]
@@ -569,69 +629,91 @@ def _run_batch(rig: SynthRig, seeds: Sequence[np.random.SeedSequence], lengths: 
                 for o in pool.arm_quat_offsets:
                     new[:, o:o + 4] = nlerp(cur[:, o:o + 4], ref[:, o:o + 4], np.full(R, gain))
                 q[:, pool.arm_coords] = new
-                if free_arms.size:
-                    root_pos = np.concatenate([xy, z[:, None]], axis=1)
-                    tips = ub.tips(pool, t)[:, free_arms]
+                if self.free_arms.size:
+                    root_pos = np.concatenate([self.path_xy[:, t], z[:, None]], axis=1)
+                    tips = ub.tips(pool, t)[:, self.free_arms]
                     targets.append(root_pos[:, None, :] + quat_rotate(rot[:, None, :], tips))
-        if acts is not None and rig.actions is not None:
-            for coords, post_a in zip(rig.actions.coords, acts.posture(rig.actions, t), strict=True):
+        if self.acts is not None and rig.actions is not None:
+            for coords, post_a in zip(rig.actions.coords, self.acts.posture(rig.actions, t), strict=True):
                 q[:, coords] = post_a
-        if targets:
-            tg = np.concatenate(targets, axis=1)
-            weight = np.ones(tg.shape[:2])
-            if NL:
-                assert stance is not None
-                # swinging feet and arms need no sub-millimetre accuracy: iterate for stance feet
-                n_leg = len(solver.leg_targets_ee)
-                weight[:, :n_leg] = solver.leg_weights(np.where(stance[:, t], 1.0, 0.02))
-                weight[:, n_leg:] = 0.0
-            else:
-                weight[:] = 0.02
-            q = solver.solve(q, tg, key=ik_key, ee=ik_ee, mask=ik_mask,
-                             min_iterations=cfg.ik_iterations, max_iterations=cfg.ik_max_iterations,
-                             tolerance=cfg.ik_tolerance, weight=weight)
-            if NL and solver.tilt_ee.size and not stance[:, t].all():
-                # feet in the air held level as far as their ankles allow, then placed exactly (see leg_step_weights)
-                free = np.ones(tg.shape[:2])
-                free[:, :n_leg] = solver.leg_step_weights(stance[:, t])
-                q = solver.solve(q, tg, key=ik_key, ee=ik_ee, mask=ik_mask, min_iterations=1,
-                                 max_iterations=cfg.ik_max_iterations, tolerance=cfg.ik_tolerance,
-                                 weight=weight * free, ee_weight=free)
-            if foot_yaw is not None:
-                q = solver.level_ankles(q, foot_yaw[:, t])
-            if arm_pairs is not None:
-                # IK that strays far from the pooled posture may have flipped to another branch of the arm
-                # (an elbow at its limit) that the validated moves never saw: such an arm, if it collides,
-                # takes the posture, whose branch the next frames' IK then keeps
-                far = np.flatnonzero(np.abs(q[:, pool.arm_coords] - ref).max(axis=1) > cfg.arms.branch_check)
-                if far.size:
-                    # padded to a power of two so the recorded launches are reused
-                    size = min(R, 1 << int(np.ceil(np.log2(max(far.size, 8)))))
-                    size = max(size, far.size)
-                    check = arm_checks.get(size)
-                    if check is None:
-                        check = arm_checks[size] = RecordedSelfCollision(solver.model, arm_pairs, size)
-                    rows = np.concatenate([far, np.full(size - far.size, far[0])])
-                    d = check(solver.link_transforms(q[rows]))[:far.size]
-                    hit = far[(d < 0.0).any(axis=1)]
-                    q[np.ix_(hit, pool.arm_coords)] = ref[hit]
-        if rig.ground is not None:
-            q = rig.ground.lift(q, ground_stats)
-        out_q[:, t] = q
-        q_prev2, q_prev = q_prev, q
-        tick(int((t < active).sum()))
-    return {
-        "q": out_q,
-        "command": cmds.command[:, :frames],
-        "target": cmds.target[:, :frames],
-        "settled": cmds.settled[:, :frames],
-        "contact": contact,
-        "gait": gait,
-        "clamped": cmds.clamped[:, :frames],
-        "action": acts.code[:, :frames] if acts is not None else None,
-        "spans": acts.spans if acts is not None else None,
-        "ground": ground_stats,
-    }
+        return targets, ref
+
+    def _solve(self, q: np.ndarray, t: int, tg: np.ndarray, ref: np.ndarray | None) -> np.ndarray:
+        """IK of targets ``tg`` [R, n, 3] from ``q`` [R, C]: stance feet accurately, airborne feet held level, ankles
+        levelled, arms that flipped branch and collide put back to their posture ``ref``."""
+        cfg, solver, NL = self.cfg, self.solver, self.NL
+        ik = {"key": self.ik_key, "ee": self.ik_ee, "mask": self.ik_mask}
+        weight = np.ones(tg.shape[:2])
+        if NL:
+            assert self.stance is not None
+            # swinging feet and arms need no sub-millimetre accuracy: iterate for stance feet
+            n_leg = len(solver.leg_targets_ee)
+            weight[:, :n_leg] = solver.leg_weights(np.where(self.stance[:, t], 1.0, 0.02))
+            weight[:, n_leg:] = 0.0
+        else:
+            weight[:] = 0.02
+        q = solver.solve(q, tg, **ik, min_iterations=cfg.ik_iterations, max_iterations=cfg.ik_max_iterations,
+                         tolerance=cfg.ik_tolerance, weight=weight)
+        if NL and solver.tilt_ee.size and not self.stance[:, t].all():
+            # feet in the air held level as far as their ankles allow, then placed exactly (see leg_step_weights)
+            free = np.ones(tg.shape[:2])
+            free[:, :n_leg] = solver.leg_step_weights(self.stance[:, t])
+            q = solver.solve(q, tg, **ik, min_iterations=1, max_iterations=cfg.ik_max_iterations,
+                             tolerance=cfg.ik_tolerance, weight=weight * free, ee_weight=free)
+        if self.foot_yaw is not None:
+            q = solver.level_ankles(q, self.foot_yaw[:, t])
+        if self.arm_pairs is not None:
+            assert ref is not None
+            self._restore_flipped_arms(q, ref)
+        return q
+
+    def _restore_flipped_arms(self, q: np.ndarray, ref: np.ndarray) -> None:
+        """IK that strays far from the pooled posture ``ref`` [R, A] may have flipped to another branch of the arm
+        (an elbow at its limit) that the validated moves never saw: such an arm, if it collides, takes the
+        posture (in ``q`` [R, C], in place), whose branch the next frames' IK then keeps."""
+        pool, R = self.pool, self.R
+        far = np.flatnonzero(np.abs(q[:, pool.arm_coords] - ref).max(axis=1) > self.cfg.arms.branch_check)
+        if far.size:
+            # padded to a power of two so the recorded launches are reused
+            size = min(R, 1 << int(np.ceil(np.log2(max(far.size, 8)))))
+            size = max(size, far.size)
+            check = self.arm_checks.get(size)
+            if check is None:
+                check = self.arm_checks[size] = RecordedSelfCollision(self.solver.model, self.arm_pairs, size)
+            rows = np.concatenate([far, np.full(size - far.size, far[0])])
+            d = check(self.solver.link_transforms(q[rows]))[:far.size]
+            hit = far[(d < 0.0).any(axis=1)]
+            q[np.ix_(hit, pool.arm_coords)] = ref[hit]
+
+    def results(self) -> dict[str, np.ndarray]:
+        """Per-frame arrays [R, T, ...]: ``q``, commands, contacts, gaits, actions; the ground lift's statistics."""
+        cmds, acts, frames = self.cmds, self.acts, self.frames
+        return {
+            "q": self.out_q,
+            "command": cmds.command[:, :frames],
+            "target": cmds.target[:, :frames],
+            "settled": cmds.settled[:, :frames],
+            "contact": self.contact,
+            "gait": self.gait,
+            "clamped": cmds.clamped[:, :frames],
+            "action": acts.code[:, :frames] if acts is not None else None,
+            "spans": acts.spans if acts is not None else None,
+            "ground": self.ground_stats,
+        }
+
+
+def _run_batch(rig: SynthRig, seeds: Sequence[np.random.SeedSequence], lengths: Sequence[int], drawn: int,
+               tick: Callable[[int], None]) -> dict[str, np.ndarray]:
+    """Step ``len(seeds)`` rollouts together for ``max(lengths)`` frames; returns per-frame arrays [R, T, ...].
+
+    Randomness is drawn for ``drawn`` frames whatever the lengths, so a rollout does not depend on
+    its batch. ``tick`` gets the number of rollouts still running after each frame.
+    """
+    rollout = _BatchRollout(rig, seeds, lengths, drawn)
+    for t in range(rollout.frames):
+        rollout.step(t)
+        tick(int((t < rollout.active).sum()))
+    return rollout.results()
 
 
 def synthesize(morphology: Morphology, *, frames: int, fps: float = 30.0, seed: int = 0,

@@ -64,7 +64,6 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass, field
-from types import SimpleNamespace
 
 import numpy as np
 
@@ -472,6 +471,363 @@ def keep_hinge_knees_bent(q: np.ndarray, knees: tuple[tuple[int, float, float], 
     return q
 
 
+@dataclass
+class _Stance:
+    """One candidate stance (:meth:`_StanceSearch.stance_at`): its heights and poses, the body poses it allows and
+    its step region (semi-axis factors ``a``, ``b`` of the leg reach)."""
+
+    h: float
+    """Root height the step region is calibrated at [m] (an upright biped's root dips to it)."""
+    h_stand: float
+    """Root height at stance [m]."""
+    q_nom: np.ndarray
+    """Coordinates [C] at height ``h``, feet on their nominal points."""
+    q_stand: np.ndarray
+    """Coordinates [C] at stance."""
+    err: np.ndarray
+    """IK residual [NL] of the nominal posture [m]."""
+    upright: bool
+    lengths: np.ndarray | None
+    """Upright bipeds: chain length per leg [NL] [m]."""
+    mounts: np.ndarray | None
+    """Upright bipeds: leg mount points in the root frame [NL, 3] [m]."""
+    fixed: np.ndarray
+    """[NL, 2] bool: directions (fore-aft, sideways) a leg cannot move its foot along the ground."""
+    region: _StepRegion
+    """The step-region test, with the body-pose bounds (``hr``, ``pitch``, ``roll``) it ended with."""
+    bound_stats: dict
+    bound_warnings: list[str]
+    a: float
+    b: float
+
+
+class _StepRegion:
+    """Whether step ellipses of semi-axes ``(a, b)`` times each leg's reach are feasible at one stance: IK reaches
+    every foot on the ellipse at every corner of the body poses (heights ``hr`` [m], pitch and roll ±[rad]),
+    neighbouring legs at opposite extremes do not collide, and random feet inside collide in at most 1 % of
+    poses. Random poses come from a fixed seed (12345)."""
+
+    def __init__(self, cal: _Calibrator, nominal_xy: np.ndarray, h: float, q_nom: np.ndarray, fixed: np.ndarray,
+                 hr: tuple[float, float], pitch: float, roll: float) -> None:
+        cfg, NL = cal.cfg, cal.NL
+        self.cal = cal
+        self.nominal_xy = nominal_xy
+        self.h = h
+        self.q_nom = q_nom
+        self.free = (~fixed).astype(float)
+        self.hr, self.pitch, self.roll = hr, pitch, roll
+        self.corners = self._corners()
+        rng = np.random.default_rng(12345)
+        self.rand_body = np.stack([
+            rng.uniform(hr[0], hr[1], cfg.calibration_random_poses),
+            rng.uniform(-pitch, pitch, cfg.calibration_random_poses),
+            rng.uniform(-roll, roll, cfg.calibration_random_poses),
+        ], axis=1)
+        self.rand_r = np.sqrt(rng.random((cfg.calibration_random_poses, NL)))
+        self.rand_t = rng.uniform(0, 2 * np.pi, (cfg.calibration_random_poses, NL))
+        self.angles = np.linspace(0, 2 * np.pi, 8, endpoint=False)
+        # neighbouring legs (each leg's two nearest by nominal foot distance): tested at opposite extremes
+        dist = np.linalg.norm(nominal_xy[:, None] - nominal_xy[None], axis=-1) + np.eye(NL) * 1e9
+        self.pairs = sorted({tuple(sorted((i, int(j)))) for i in range(NL)
+                             for j in np.argsort(dist[i])[:min(2, NL - 1)]})
+        self.pair_angles = np.array([0.0, 0.5 * np.pi, np.pi, 1.5 * np.pi])
+        self.lift_test = 0.5 * cfg.swing_height * cal.reach
+
+    def _corners(self) -> np.ndarray:
+        """Body poses [9, 3] (height offset [m], pitch, roll [rad]): every extreme, and level."""
+        hr, pitch, roll = self.hr, self.pitch, self.roll
+        return np.array([*itertools.product(hr, (-pitch, pitch), (-roll, roll)), (0.0, 0.0, 0.0)])
+
+    def halve_body_poses(self) -> None:
+        """Halve the body poses tested (heights, pitch, roll, the random ones too)."""
+        self.hr = (0.5 * self.hr[0], 0.5 * self.hr[1])
+        self.pitch *= 0.5
+        self.roll *= 0.5
+        self.corners = self._corners()
+        self.rand_body *= 0.5
+
+    def poses(self, a: float, b: float, lift: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, int]:
+        """Body poses [B, 3], foot offsets [B, NL, 2] and lifts [B, NL]; counts of boundary and pair poses."""
+        NL, reach = self.cal.NL, self.cal.reach
+        corners, angles = self.corners, self.angles
+        ax = np.stack([a * reach, b * reach], axis=1) * self.free  # [NL, 2]
+        # boundary poses: every corner x every angle, all legs at the same angle
+        body = [np.repeat(corners, len(angles), axis=0)]
+        th = np.tile(angles, len(corners))[:, None].repeat(NL, axis=1)
+        off = [np.stack([np.cos(th) * ax[:, 0], np.sin(th) * ax[:, 1]], axis=-1)]
+        up = [np.full((len(body[0]), NL), lift)]
+        nb = len(body[0])
+        # neighbouring pairs at opposite extremes, one of them lifted or not, body level or low and pitched
+        npair = 0
+        for i, j in self.pairs:
+            for t in self.pair_angles:
+                for lifted in (0.0, 1.0):
+                    for bp in ((0.0, 0.0, 0.0), (self.hr[0], self.pitch, 0.0)):
+                        o = np.zeros((NL, 2))
+                        o[i] = (np.cos(t) * ax[i, 0], np.sin(t) * ax[i, 1])
+                        o[j] = (-np.cos(t) * ax[j, 0], -np.sin(t) * ax[j, 1])
+                        u = np.full(NL, lift)
+                        u[i] = max(lift, lifted * self.lift_test[i])
+                        body.append(np.array([bp]))
+                        off.append(o[None])
+                        up.append(u[None])
+                        npair += 1
+        rand_r, rand_t = self.rand_r, self.rand_t
+        body.append(self.rand_body)
+        off.append(np.stack([rand_r * np.cos(rand_t) * ax[:, 0], rand_r * np.sin(rand_t) * ax[:, 1]], axis=-1))
+        up.append(np.full((len(self.rand_body), NL), lift))
+        return np.concatenate(body), np.concatenate(off), np.concatenate(up), nb, npair
+
+    def feasible(self, a: float, b: float, lift: float = 0.0) -> bool:
+        """Whether semi-axes ``(a, b)`` of the reach work, with every foot raised ``lift`` [m] (one of a pair more)."""
+        cal, cfg = self.cal, self.cal.cfg
+        body, off, up, nb, npair = self.poses(a, b, lift)
+        B = len(body)
+        feet = np.concatenate([self.nominal_xy[None] + off, up[..., None]], axis=-1)
+        q = cal.root_q(np.repeat(self.q_nom[None], B, axis=0), self.h + body[:, 0], body[:, 1], body[:, 2])
+        q, err = cal.solve(q, feet, cfg.calibration_iterations)
+        if err.max() > cfg.reach_tolerance:
+            return False
+        hit = cal.collisions(q)
+        return not hit[:nb + npair].any() and hit[nb + npair:].mean() <= 0.01
+
+
+def _bisect(test, lo: float, hi: float, steps: int = 6) -> float:
+    """The largest value in [lo, hi] that passes ``test`` (``hi`` if it does, else ``steps`` bisections)."""
+    if test(hi):
+        return hi
+    for _ in range(steps):
+        mid = 0.5 * (lo + hi)
+        if test(mid):
+            lo = mid
+        else:
+            hi = mid
+    return lo
+
+
+class _StanceSearch:
+    """The stance calibration's state (:func:`calibrate_legs`): the legs' rest geometry and effective reach, and the
+    steps that find a stance at a given leg extension (:meth:`stance_at`)."""
+
+    def __init__(self, m: Morphology, plan: BodyPlan, solver: LimbSolver, cfg: LegConfig, *,
+                 height_fraction: tuple[float, float], pitch: float, roll: float, ground: GroundGuard | None) -> None:
+        self.cal = cal = _Calibrator(m, plan, solver, cfg)
+        self.m, self.plan, self.solver, self.cfg, self.ground = m, plan, solver, cfg, ground
+        self.NL = NL = cal.NL
+        self.q_rest = m.rest_q()
+        self.feet_rest = np.array([leg.tip_rest for leg in plan.legs])
+        """Feet at rest in the root frame [NL, 3] [m]."""
+        self.nominal_xy = self.feet_rest[:, :2].copy()
+        self.default_extension = cfg.stance_extension if cfg.stance_extension is not None else (
+            0.88 if NL <= 2 else 0.8)
+        self.upright = is_upright_biped(plan) if cfg.upright is None else bool(cfg.upright)
+        if self.upright:
+            k, kh = cfg.upright_pose_scale, cfg.upright_height_scale
+            height_fraction = (kh * height_fraction[0], kh * height_fraction[1])
+            pitch, roll = k * pitch, k * roll
+        self.height_fraction, self.pitch, self.roll = height_fraction, pitch, roll
+        self.q0 = _prebend(m, solver, self.q_rest, plan)
+        # IK points at rest (foot, or ankle for levelled feet) and their chains' reach
+        self.ank = solver.ankle_offsets(np.zeros((1, NL)))[0]  # foot - ik point at rest (level foot)
+        self.h_rest = plan.body_height
+        self.eff = self._effective_reach()
+
+    def _effective_reach(self) -> np.ndarray:
+        """[NL] how far each leg's IK point gets from its mount when stretched toward the rest direction [m] (joint
+        limits may stop it well short of the summed segment lengths)."""
+        cal, solver, plan, NL = self.cal, self.solver, self.plan, self.NL
+        feet_rest, ank = self.feet_rest, self.ank
+        q_far = cal.root_q(self.q0[None], np.zeros(1), np.zeros(1), np.zeros(1))
+        far = np.zeros((1, NL, 3))
+        for li, leg in enumerate(plan.legs):
+            mount = np.asarray(leg.mount_rest)
+            d = feet_rest[li] - ank[li] - mount
+            far[0, li] = mount + d / max(np.linalg.norm(d), 1e-9) * 1.5 * leg.reach
+        q_far, _ = solver.step(q_far, far, ee=solver.leg_ee, mask=solver.leg_mask, iterations=150,
+                               max_error=0.05 * float(cal.reach.mean()))
+        X = eval_fk(cal.model, q_far, device="cpu").numpy()[0]
+        eff = np.array([np.linalg.norm(_ee_point(cal.model, X, int(solver.leg_ee[li])) - np.asarray(leg.mount_rest))
+                        for li, leg in enumerate(plan.legs)])
+        # a six-hinge leg (its IK holds the foot level) reaches at least as far as its own rest pose: the stretch
+        # of its redundant chain stalls short of a nearly straight rest pose (OP3's keyframe: 1.08 of the stretch)
+        rest_dist = np.array([np.linalg.norm(feet_rest[li] - ank[li] - np.asarray(leg.mount_rest))
+                              for li, leg in enumerate(plan.legs)])
+        posed = np.isin(np.arange(NL), solver.tilt_leg)
+        return np.where(posed, np.maximum(eff, rest_dist), eff)
+
+    def rest_extension(self) -> float:
+        """The rest pose's largest mount-to-IK-point distance as a fraction of the effective reach."""
+        return float(max(np.linalg.norm(self.feet_rest[li] - self.ank[li] - np.asarray(leg.mount_rest)) / self.eff[li]
+                         for li, leg in enumerate(self.plan.legs)))
+
+    def height_at(self, e: float) -> float:
+        """Root height at which no leg is stretched beyond ``e`` of its effective reach (at most the rest's)."""
+        hh = self.h_rest
+        for li, leg in enumerate(self.plan.legs):
+            mount = np.asarray(leg.mount_rest)
+            target = self.feet_rest[li] - self.ank[li]  # ik point relative to the root at rest
+            dxy = np.hypot(*(target[:2] - mount[:2]))
+            lim = e * self.eff[li]
+            if dxy < lim:
+                # at stance height hh the ik point is at z = -hh - ank_z (root frame): mount_z + hh + ank_z = vertical
+                hh = min(hh, np.sqrt(lim**2 - dxy**2) - mount[2] - self.ank[li, 2])
+        return max(hh, 0.3 * self.h_rest)
+
+    def nominal(self, hh: float) -> tuple[np.ndarray, np.ndarray]:
+        """IK posture [C] with the root level at height ``hh`` [m] and the feet on their nominal points, and the
+        residual [NL] [m]."""
+        q = self.q0.copy()[None]
+        q = self.cal.root_q(q, np.array([hh]), np.zeros(1), np.zeros(1))
+        feet = np.concatenate([self.nominal_xy, np.zeros((self.NL, 1))], axis=1)[None]
+        qs, err = self.cal.solve(q, feet, 150)
+        return qs[0], err[0]
+
+    def settle(self, hh: float) -> tuple[float, np.ndarray, np.ndarray]:
+        """``hh`` raised toward the rest height until IK puts every foot at its nominal point."""
+        q_n, e_n = self.nominal(hh)
+        tries = 0
+        while e_n.max() > 5e-4 and tries < 4:
+            tries += 1
+            hh = hh + 0.5 * (self.h_rest - hh)
+            q_n, e_n = self.nominal(hh)
+        return hh, q_n, e_n
+
+    def stand_tall(self, h: float) -> tuple[float, np.ndarray, np.ndarray, np.ndarray] | None:
+        """Upright bipeds: the tall standing height [m] and pose [C] (legs at ``upright_extension`` of their chain
+        lengths), the chain lengths [NL] and mounts [NL, 3]; None where that is no taller than ``h`` or IK fails."""
+        cfg, plan = self.cfg, self.plan
+        # stand tall: the step region is still calibrated at the lower height h (the root dips to
+        # where every stance foot is reachable, see upright_root_height), the stance is upright
+        ik_rest = self.feet_rest - self.ank
+        lengths = _leg_lengths(self.m, self.solver, plan, ik_rest)
+        mounts = np.array([leg.mount_rest for leg in plan.legs])
+        hh = self.h_rest
+        for li in range(self.NL):
+            dxy = np.hypot(*(ik_rest[li, :2] - mounts[li, :2]))
+            lim = cfg.upright_extension * lengths[li]
+            if dxy < lim:
+                hh = min(hh, float(np.sqrt(lim**2 - dxy**2) - mounts[li, 2] - self.ank[li, 2]))
+        if hh > h:
+            q_up, err_up = self.nominal(hh)
+            if err_up.max() <= 5e-4:
+                return hh, q_up, lengths, mounts
+        return None
+
+    def stance_at(self, ext: float) -> _Stance:
+        """Stance, body-pose bounds and step region with the legs at ``ext`` of their reach."""
+        upright = self.upright
+        pitch, roll = self.pitch, self.roll
+        h, q_nom, err = self.settle(self.height_at(ext))
+        if err.max() > 5e-4:  # keep the rest pose: feet on the ground by construction
+            h = self.h_rest
+            q_nom = self.cal.root_q(self.q_rest[None], np.array([h]), np.zeros(1), np.zeros(1))[0]
+        h_stand, q_stand = h, q_nom
+        lengths = mounts = None
+        if upright:
+            tall = self.stand_tall(h)
+            if tall is None:
+                upright = False
+            else:
+                h_stand, q_stand, lengths, mounts = tall
+
+        # legs whose joints cannot move the foot along the ground in some direction (all pitch: no
+        # sideways step) calibrate and step only in the directions they can; the body keeps level
+        # across the direction they cannot (roll needs sideways reach, pitch fore-aft reach)
+        fixed = ~ground_mobility(self.solver, q_nom)
+        if fixed[:, 0].any():
+            pitch = 0.0
+        if fixed[:, 1].any():
+            roll = 0.0
+
+        hr = (self.height_fraction[0] * h_stand, self.height_fraction[1] * h_stand)
+        bound_warnings: list[str] = []
+        bound_stats: dict = {}
+        if self.ground is not None:
+            low, hr, pitch, roll, bound_stats, bound_warnings = _bound_body(self.cal, self.ground, q_stand, h, h_stand,
+                                                                           hr, pitch, roll)
+            if low > h + 1e-6:  # an upright biped's root dips to h: calibrate its steps where the links stay up
+                q_up, err_up = self.nominal(low)
+                if err_up.max() <= 5e-4:
+                    h, q_nom = low, q_up
+                    if not upright:
+                        h_stand, q_stand = h, q_nom
+        region = _StepRegion(self.cal, self.nominal_xy, h, q_nom, fixed, hr, pitch, roll)
+        small = 0.02
+        if not region.feasible(small, small):
+            # the commanded body poses are out of reach: shrink them until the stance works
+            for _ in range(4):
+                region.halve_body_poses()
+                if region.feasible(small, small):
+                    break
+        a = _bisect(lambda x: region.feasible(x, small), small, 0.6)
+        b = _bisect(lambda y: region.feasible(a, y), small, 0.6)
+        a *= 0.95
+        b *= 0.95
+        return _Stance(h=h, h_stand=h_stand, q_nom=q_nom, q_stand=q_stand, err=err, upright=upright, lengths=lengths,
+                       mounts=mounts, fixed=fixed, region=region, bound_stats=bound_stats,
+                       bound_warnings=bound_warnings, a=a, b=b)
+
+    def described_stance(self, rest_ext: float) -> tuple[_Stance, float, str | None, str | None]:
+        """The described stance: legs as extended as at rest, or as near it as leaves them room to step.
+
+        Returns the stance, its extension, and a note and a warning (or None) on standing lower than described.
+        """
+        cfg, ext = self.cfg, self.default_extension
+        stance_note = stance_warning = None
+        st = None
+        if cfg.stance_extension is None and not self.upright and rest_ext > ext + 1e-3:
+            tried = [e for e in (min(rest_ext, cfg.stance_extension_max), *cfg.stance_extension_steps)
+                     if ext < e <= rest_ext]
+            chosen = ext
+            for e in tried:
+                cand = self.stance_at(e)
+                if cand.err.max() <= 5e-4 and all(cand.fixed[:, k].all() or ab >= cfg.stance_step_test[k]
+                                                  for k, ab in enumerate((cand.a, cand.b))):
+                    st, chosen = cand, e
+                    break
+            reasons = []
+            if rest_ext > cfg.stance_extension_max:
+                reasons.append(f"straighter than {cfg.stance_extension_max:g} the legs are singular")
+            failed = [x for x in tried if x > chosen]
+            if failed:
+                reasons.append(f"at {min(failed):.2f} and above they step less than "
+                               f"{100 * cfg.stance_step_test[0]:g} % of their reach fore-aft")
+            if chosen < rest_ext - 0.01:
+                stance_note = (f"legs stand at {chosen:.2f} of their reach, the rest pose's at {rest_ext:.2f}: "
+                               + "; ".join(reasons))
+            if st is None:
+                stance_warning = (f"legs: stand lower than described ({stance_note}): bend the legs in the rest "
+                                  "pose, or widen their joints' limits")
+            ext = chosen
+        if st is None:
+            st = self.stance_at(ext)
+        return st, ext, stance_note, stance_warning
+
+
+def _leg_warnings(plan: BodyPlan, cfg: LegConfig, fixed: np.ndarray, a: float, b: float, reach: np.ndarray,
+                  swing_height: float) -> list[str]:
+    """One line per leg that cannot step along the ground (``fixed`` [NL, 2]), for short step regions (semi-axis
+    factors ``a``, ``b`` of the ``reach`` [NL] [m]) and for a low swing height [m]."""
+    warnings = []
+    for li, leg in enumerate(plan.legs):
+        if fixed[li].all():
+            warnings.append(f"leg {leg.end_effector}: its joints cannot move the foot along the ground at all: "
+                            "the creature stands in place")
+        elif fixed[li].any():
+            cannot, can = ("fore-aft", "sideways") if fixed[li, 0] else ("sideways", "fore-aft")
+            warnings.append(f"leg {leg.end_effector}: its joints cannot move the foot {cannot} on the ground (they all "
+                            f"turn in one plane): it steps only {can}, turns at most {cfg.fixed_axis_yaw_rate:g} rad/s")
+    longest = np.where(fixed, 0.0, [a, b]).max(axis=1)  # the longest step each leg can take, / reach
+    small = ~fixed.all(axis=1) & (longest < 0.1)
+    if small.any():
+        names = ", ".join(plan.legs[li].end_effector for li in np.flatnonzero(small))
+        warnings.append(f"legs {names}: step at most {100 * float((longest * reach)[small].min()):.2g} cm from their "
+                        "stance point: IK reaches no further at the commanded body poses, or the legs would collide")
+    if swing_height < 0.5 * cfg.swing_height * float(reach.mean()):
+        warnings.append(f"legs: lift their feet at most {100 * swing_height:.2g} cm: a higher foot is out of reach")
+    return warnings
+
+
 def calibrate_legs(m: Morphology, plan: BodyPlan, solver: LimbSolver, cfg: LegConfig, *, fps: float,
                    height_fraction: tuple[float, float], pitch: float, roll: float,
                    ground: GroundGuard | None = None) -> LegRig:
@@ -489,254 +845,18 @@ def calibrate_legs(m: Morphology, plan: BodyPlan, solver: LimbSolver, cfg: LegCo
         ground: The upper body's ground guard: the body's dip, pitch and roll are bounded so that its joints
             can keep every upper-body link above the ground (:func:`_bound_body`).
     """
-    cal = _Calibrator(m, plan, solver, cfg)
-    NL = cal.NL
-    model = solver.model
-    q_rest = m.rest_q()
-    feet_rest = np.array([leg.tip_rest for leg in plan.legs])
-    nominal_xy = feet_rest[:, :2].copy()
-    ext = cfg.stance_extension if cfg.stance_extension is not None else (0.88 if NL <= 2 else 0.8)
-    upright = is_upright_biped(plan) if cfg.upright is None else bool(cfg.upright)
-    if upright:
-        k, kh = cfg.upright_pose_scale, cfg.upright_height_scale
-        height_fraction = (kh * height_fraction[0], kh * height_fraction[1])
-        pitch, roll = k * pitch, k * roll
-
-    q0 = _prebend(m, solver, q_rest, plan)
-    # IK points at rest (foot, or ankle for levelled feet) and their chains' reach
-    yaw0 = np.zeros((1, NL))
-    ank = solver.ankle_offsets(yaw0)[0]  # foot - ik point at rest (level foot)
-    h_rest = plan.body_height
-    # Effective reach: how far each leg's IK point gets from its mount when stretched toward the
-    # rest direction (joint limits may stop it well short of the summed segment lengths).
-    q_far = cal.root_q(q0[None], np.zeros(1), np.zeros(1), np.zeros(1))
-    far = np.zeros((1, NL, 3))
-    for li, leg in enumerate(plan.legs):
-        mount = np.asarray(leg.mount_rest)
-        d = feet_rest[li] - ank[li] - mount
-        far[0, li] = mount + d / max(np.linalg.norm(d), 1e-9) * 1.5 * leg.reach
-    q_far, _ = solver.step(q_far, far, ee=solver.leg_ee, mask=solver.leg_mask, iterations=150,
-                           max_error=0.05 * float(cal.reach.mean()))
-    X = eval_fk(model, q_far, device="cpu").numpy()[0]
-    eff = np.array([np.linalg.norm(_ee_point(model, X, int(solver.leg_ee[li])) - np.asarray(leg.mount_rest))
-                    for li, leg in enumerate(plan.legs)])
-    # a six-hinge leg (its IK holds the foot level) reaches at least as far as its own rest pose: the stretch
-    # of its redundant chain stalls short of a nearly straight rest pose (OP3's keyframe: 1.08 of the stretch)
-    rest_dist = np.array([np.linalg.norm(feet_rest[li] - ank[li] - np.asarray(leg.mount_rest))
-                          for li, leg in enumerate(plan.legs)])
-    posed = np.isin(np.arange(NL), solver.tilt_leg)
-    eff = np.where(posed, np.maximum(eff, rest_dist), eff)
-
-    def height_at(e: float) -> float:
-        """Root height at which no leg is stretched beyond ``e`` of its effective reach (at most the rest's)."""
-        hh = h_rest
-        for li, leg in enumerate(plan.legs):
-            mount = np.asarray(leg.mount_rest)
-            target = feet_rest[li] - ank[li]  # ik point relative to the root at rest
-            dxy = np.hypot(*(target[:2] - mount[:2]))
-            lim = e * eff[li]
-            if dxy < lim:
-                # at stance height hh the ik point is at z = -hh - ank_z (root frame): mount_z + hh + ank_z = vertical
-                hh = min(hh, np.sqrt(lim**2 - dxy**2) - mount[2] - ank[li, 2])
-        return max(hh, 0.3 * h_rest)
-
-    def nominal(hh: float) -> tuple[np.ndarray, np.ndarray]:
-        q = q0.copy()[None]
-        q = cal.root_q(q, np.array([hh]), np.zeros(1), np.zeros(1))
-        feet = np.concatenate([nominal_xy, np.zeros((NL, 1))], axis=1)[None]
-        qs, err = cal.solve(q, feet, 150)
-        return qs[0], err[0]
-
-    def settle(hh: float) -> tuple[float, np.ndarray, np.ndarray]:
-        """``hh`` raised toward the rest height until IK puts every foot at its nominal point."""
-        q_n, e_n = nominal(hh)
-        tries = 0
-        while e_n.max() > 5e-4 and tries < 4:
-            tries += 1
-            hh = hh + 0.5 * (h_rest - hh)
-            q_n, e_n = nominal(hh)
-        return hh, q_n, e_n
-
-    def stance_at(ext: float) -> SimpleNamespace:
-        """Stance, body-pose bounds and step region with the legs at ``ext`` of their reach."""
-        upright = upright0
-        pitch, roll = pitch0, roll0
-        h, q_nom, err = settle(height_at(ext))
-        if err.max() > 5e-4:  # keep the rest pose: feet on the ground by construction
-            h = h_rest
-            q_nom = cal.root_q(q_rest[None], np.array([h]), np.zeros(1), np.zeros(1))[0]
-        h_stand, q_stand = h, q_nom
-        lengths = mounts = None
-        if upright:
-            # stand tall: the step region is still calibrated at the lower height h (the root dips to
-            # where every stance foot is reachable, see upright_root_height), the stance is upright
-            ik_rest = feet_rest - ank
-            lengths = _leg_lengths(m, solver, plan, ik_rest)
-            mounts = np.array([leg.mount_rest for leg in plan.legs])
-            hh = h_rest
-            for li in range(NL):
-                dxy = np.hypot(*(ik_rest[li, :2] - mounts[li, :2]))
-                lim = cfg.upright_extension * lengths[li]
-                if dxy < lim:
-                    hh = min(hh, float(np.sqrt(lim**2 - dxy**2) - mounts[li, 2] - ank[li, 2]))
-            if hh > h:
-                q_up, err_up = nominal(hh)
-                if err_up.max() <= 5e-4:
-                    h_stand, q_stand = hh, q_up
-                else:
-                    upright = False
-            else:
-                upright = False
-
-        # legs whose joints cannot move the foot along the ground in some direction (all pitch: no
-        # sideways step) calibrate and step only in the directions they can; the body keeps level
-        # across the direction they cannot (roll needs sideways reach, pitch fore-aft reach)
-        fixed = ~ground_mobility(solver, q_nom)
-        free = (~fixed).astype(float)
-        if fixed[:, 0].any():
-            pitch = 0.0
-        if fixed[:, 1].any():
-            roll = 0.0
-
-        hr = (height_fraction[0] * h_stand, height_fraction[1] * h_stand)
-        bound_warnings: list[str] = []
-        bound_stats: dict = {}
-        if ground is not None:
-            low, hr, pitch, roll, bound_stats, bound_warnings = _bound_body(cal, ground, q_stand, h, h_stand, hr, pitch,
-                                                                           roll)
-            if low > h + 1e-6:  # an upright biped's root dips to h: calibrate its steps where the links stay up
-                q_up, err_up = nominal(low)
-                if err_up.max() <= 5e-4:
-                    h, q_nom = low, q_up
-                    if not upright:
-                        h_stand, q_stand = h, q_nom
-        corners = np.array([*itertools.product(hr, (-pitch, pitch), (-roll, roll)), (0.0, 0.0, 0.0)])
-        rng = np.random.default_rng(12345)
-        rand_body = np.stack([
-            rng.uniform(hr[0], hr[1], cfg.calibration_random_poses),
-            rng.uniform(-pitch, pitch, cfg.calibration_random_poses),
-            rng.uniform(-roll, roll, cfg.calibration_random_poses),
-        ], axis=1)
-        rand_r = np.sqrt(rng.random((cfg.calibration_random_poses, NL)))
-        rand_t = rng.uniform(0, 2 * np.pi, (cfg.calibration_random_poses, NL))
-        angles = np.linspace(0, 2 * np.pi, 8, endpoint=False)
-        reach = cal.reach
-
-        # neighbouring legs (each leg's two nearest by nominal foot distance): tested at opposite extremes
-        dist = np.linalg.norm(nominal_xy[:, None] - nominal_xy[None], axis=-1) + np.eye(NL) * 1e9
-        pairs = sorted({tuple(sorted((i, int(j)))) for i in range(NL) for j in np.argsort(dist[i])[:min(2, NL - 1)]})
-        pair_angles = np.array([0.0, 0.5 * np.pi, np.pi, 1.5 * np.pi])
-        lift_test = 0.5 * cfg.swing_height * reach
-
-        def poses(a: float, b: float, lift: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, int]:
-            """Body poses [B, 3], foot offsets [B, NL, 2] and lifts [B, NL]; counts of boundary and pair poses."""
-            ax = np.stack([a * reach, b * reach], axis=1) * free  # [NL, 2]
-            # boundary poses: every corner x every angle, all legs at the same angle
-            body = [np.repeat(corners, len(angles), axis=0)]
-            th = np.tile(angles, len(corners))[:, None].repeat(NL, axis=1)
-            off = [np.stack([np.cos(th) * ax[:, 0], np.sin(th) * ax[:, 1]], axis=-1)]
-            up = [np.full((len(body[0]), NL), lift)]
-            nb = len(body[0])
-            # neighbouring pairs at opposite extremes, one of them lifted or not, body level or low and pitched
-            npair = 0
-            for i, j in pairs:
-                for t in pair_angles:
-                    for lifted in (0.0, 1.0):
-                        for bp in ((0.0, 0.0, 0.0), (hr[0], pitch, 0.0)):
-                            o = np.zeros((NL, 2))
-                            o[i] = (np.cos(t) * ax[i, 0], np.sin(t) * ax[i, 1])
-                            o[j] = (-np.cos(t) * ax[j, 0], -np.sin(t) * ax[j, 1])
-                            u = np.full(NL, lift)
-                            u[i] = max(lift, lifted * lift_test[i])
-                            body.append(np.array([bp]))
-                            off.append(o[None])
-                            up.append(u[None])
-                            npair += 1
-            body.append(rand_body)
-            off.append(np.stack([rand_r * np.cos(rand_t) * ax[:, 0], rand_r * np.sin(rand_t) * ax[:, 1]], axis=-1))
-            up.append(np.full((len(rand_body), NL), lift))
-            return np.concatenate(body), np.concatenate(off), np.concatenate(up), nb, npair
-
-        def feasible(a: float, b: float, lift: float = 0.0) -> bool:
-            body, off, up, nb, npair = poses(a, b, lift)
-            B = len(body)
-            feet = np.concatenate([nominal_xy[None] + off, up[..., None]], axis=-1)
-            q = cal.root_q(np.repeat(q_nom[None], B, axis=0), h + body[:, 0], body[:, 1], body[:, 2])
-            q, err = cal.solve(q, feet, cfg.calibration_iterations)
-            if err.max() > cfg.reach_tolerance:
-                return False
-            hit = cal.collisions(q)
-            return not hit[:nb + npair].any() and hit[nb + npair:].mean() <= 0.01
-
-        def bisect(test, lo: float, hi: float, steps: int = 6) -> float:
-            if test(hi):
-                return hi
-            for _ in range(steps):
-                mid = 0.5 * (lo + hi)
-                if test(mid):
-                    lo = mid
-                else:
-                    hi = mid
-            return lo
-
-        small = 0.02
-        if not feasible(small, small):
-            # the commanded body poses are out of reach: shrink them until the stance works
-            for _ in range(4):
-                hr = (0.5 * hr[0], 0.5 * hr[1])
-                pitch *= 0.5
-                roll *= 0.5
-                corners = np.array([*itertools.product(hr, (-pitch, pitch), (-roll, roll)), (0.0, 0.0, 0.0)])
-                rand_body *= 0.5
-                if feasible(small, small):
-                    break
-        a = bisect(lambda x: feasible(x, small), small, 0.6)
-        b = bisect(lambda y: feasible(a, y), small, 0.6)
-        a *= 0.95
-        b *= 0.95
-        return SimpleNamespace(h=h, h_stand=h_stand, q_nom=q_nom, q_stand=q_stand, err=err, upright=upright,
-                               lengths=lengths, mounts=mounts, fixed=fixed, hr=hr, pitch=pitch, roll=roll,
-                               bound_stats=bound_stats, bound_warnings=bound_warnings, feasible=feasible, a=a, b=b)
-
-    # the described stance: legs as extended as at rest, or as near it as leaves them room to step
-    upright0, pitch0, roll0 = upright, pitch, roll
-    rest_ext = float(max(np.linalg.norm(feet_rest[li] - ank[li] - np.asarray(leg.mount_rest)) / eff[li]
-                         for li, leg in enumerate(plan.legs)))
-    stance_note = stance_warning = None
-    st = None
-    if cfg.stance_extension is None and not upright and rest_ext > ext + 1e-3:
-        tried = [e for e in (min(rest_ext, cfg.stance_extension_max), *cfg.stance_extension_steps)
-                 if ext < e <= rest_ext]
-        for e in tried:
-            cand = stance_at(e)
-            if cand.err.max() <= 5e-4 and all(cand.fixed[:, k].all() or ab >= cfg.stance_step_test[k]
-                                              for k, ab in enumerate((cand.a, cand.b))):
-                st = cand
-                break
-        chosen = e if st is not None else ext
-        reasons = []
-        if rest_ext > cfg.stance_extension_max:
-            reasons.append(f"straighter than {cfg.stance_extension_max:g} the legs are singular")
-        failed = [x for x in tried if x > chosen]
-        if failed:
-            reasons.append(f"at {min(failed):.2f} and above they step less than {100 * cfg.stance_step_test[0]:g} % "
-                           "of their reach fore-aft")
-        if chosen < rest_ext - 0.01:
-            stance_note = (f"legs stand at {chosen:.2f} of their reach, the rest pose's at {rest_ext:.2f}: "
-                           + "; ".join(reasons))
-        if st is None:
-            stance_warning = (f"legs: stand lower than described ({stance_note}): bend the legs in the rest "
-                              "pose, or widen their joints' limits")
-        ext = chosen
-    if st is None:
-        st = stance_at(ext)
+    search = _StanceSearch(m, plan, solver, cfg, height_fraction=height_fraction, pitch=pitch, roll=roll,
+                           ground=ground)
+    nominal_xy, eff = search.nominal_xy, search.eff
+    rest_ext = search.rest_extension()
+    st, ext, stance_note, stance_warning = search.described_stance(rest_ext)
     h, h_stand, q_stand, err, upright = st.h, st.h_stand, st.q_stand, st.err, st.upright
-    lengths, mounts, fixed, hr, pitch, roll = st.lengths, st.mounts, st.fixed, st.hr, st.pitch, st.roll
-    bound_stats, bound_warnings, feasible, a, b = st.bound_stats, st.bound_warnings, st.feasible, st.a, st.b
-    reach = cal.reach
+    lengths, mounts, fixed, a, b = st.lengths, st.mounts, st.fixed, st.a, st.b
+    hr, pitch, roll = st.region.hr, st.region.pitch, st.region.roll
+    reach = search.cal.reach
     H = cfg.swing_height * float(reach.mean())
     for _ in range(8):
-        if feasible(0.3 * a, 0.3 * b, lift=H):
+        if st.region.feasible(0.3 * a, 0.3 * b, lift=H):
             break
         H *= 0.75
     t_swing_min = max(cfg.min_swing_seconds, cfg.min_swing_frames / fps)
@@ -744,32 +864,17 @@ def calibrate_legs(m: Morphology, plan: BodyPlan, solver: LimbSolver, cfg: LegCo
     semi_axes = np.where(fixed, cfg.fixed_axis_semi_axis * reach[:, None], semi_axes)
     stats = {"ellipse_factors": (float(a), float(b)), "nominal_residual_m": float(err.max()),
              "effective_reach_m": eff.round(4).tolist(), "stance_extension": round(float(ext), 4),
-             "rest_extension": round(rest_ext, 4), **bound_stats}
+             "rest_extension": round(rest_ext, 4), **st.bound_stats}
     if stance_note:
         stats["stance_note"] = stance_note
-    warnings = list(bound_warnings) + ([stance_warning] if stance_warning else [])
-    for li, leg in enumerate(plan.legs):
-        if fixed[li].all():
-            warnings.append(f"leg {leg.end_effector}: its joints cannot move the foot along the ground at all: "
-                            "the creature stands in place")
-        elif fixed[li].any():
-            cannot, can = ("fore-aft", "sideways") if fixed[li, 0] else ("sideways", "fore-aft")
-            warnings.append(f"leg {leg.end_effector}: its joints cannot move the foot {cannot} on the ground (they all "
-                            f"turn in one plane): it steps only {can}, turns at most {cfg.fixed_axis_yaw_rate:g} rad/s")
-    longest = np.where(fixed, 0.0, [a, b]).max(axis=1)  # the longest step each leg can take, / reach
-    small = ~fixed.all(axis=1) & (longest < 0.1)
-    if small.any():
-        names = ", ".join(plan.legs[li].end_effector for li in np.flatnonzero(small))
-        warnings.append(f"legs {names}: step at most {100 * float((longest * reach)[small].min()):.2g} cm from their "
-                        "stance point: IK reaches no further at the commanded body poses, or the legs would collide")
-    if H < 0.5 * cfg.swing_height * float(reach.mean()):
-        warnings.append(f"legs: lift their feet at most {100 * H:.2g} cm: a higher foot is out of reach")
+    warnings = list(st.bound_warnings) + ([stance_warning] if stance_warning else [])
+    warnings += _leg_warnings(plan, cfg, fixed, a, b, reach, H)
     if fixed.any():
         stats["fixed_axes"] = fixed.tolist()
     if upright:
         assert lengths is not None
         stats.update(calibration_height_m=round(float(h), 4), leg_length_m=lengths.round(4).tolist())
-    rig = LegRig(
+    return LegRig(
         nominal_xy=nominal_xy,
         stance_height=float(h_stand),
         semi_axes=semi_axes,
@@ -792,7 +897,6 @@ def calibrate_legs(m: Morphology, plan: BodyPlan, solver: LimbSolver, cfg: LegCo
         hinge_knees=_hinge_knees(m, solver, plan, q_stand) if upright else (),
         warnings=tuple(warnings),
     )
-    return rig
 
 
 def _bound_body(cal: _Calibrator, ground: GroundGuard, q: np.ndarray, h: float, h_stand: float,

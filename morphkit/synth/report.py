@@ -124,6 +124,212 @@ def _swings(h: np.ndarray, xy: np.ndarray, contact: np.ndarray) -> list[tuple[in
     return out
 
 
+class _KinematicTally:
+    """Per-frame measures of motions of one creature, summed over groups of equally long motions (:meth:`add`):
+    limit violations, feet's sliding [m/s] and penetration [m] in contact, every link's depth below the ground
+    [m], self-collision; feet heights [T, F] and positions [T, F, 2] [m] per motion."""
+
+    def __init__(self, m: Morphology, model: Any, feet: np.ndarray, motion_count: int, *, height_threshold: float,
+                 collision_tolerance: float, rest_margin: float) -> None:
+        from morphkit.kernels.contact import self_collision_pairs
+
+        self.m, self.model, self.feet = m, model, feet
+        self.height_threshold, self.collision_tolerance = height_threshold, collision_tolerance
+        self.pairs = self_collision_pairs(model, rest_margin=rest_margin)
+        self.allow = _ground_allowance(m, model, feet)
+        self.others = np.array([e for e in range(model.ee_count) if e not in set(feet.tolist())], dtype=np.int64)
+        self.deepest = 0.0
+        self.deepest_link: str | None = None
+        self.link_depth: dict[str, float] = {}
+        self.foot_xy: list[np.ndarray | None] = [None] * motion_count
+        self.lower, self.upper = m.coordinate_limits
+        self.finite = np.isfinite(self.lower) | np.isfinite(self.upper)
+        self.slide_sum = 0.0
+        self.slide_n = 0
+        self.slides: list[np.ndarray] = []
+        self.leg_slides: list[np.ndarray] = []
+        """Per group: sliding speed [N*T, F] [m/s], NaN out of contact."""
+        self.pen_max = 0.0
+        self.pen_sum = 0.0
+        self.pen_n = 0
+        self.coll_frames = 0
+        self.limit_frames = 0
+        self.frames = 0
+        self.heights_all: list[np.ndarray | None] = [None] * motion_count
+
+    def add(self, idx: list[int], q: np.ndarray, fps: float) -> None:
+        """Measure motions ``idx`` of coordinates ``q`` [N, T, C]."""
+        from morphkit.kernels import eval_fk, eval_wheel_angles
+        from morphkit.kernels.contact import eval_self_collision_distance
+
+        model, lower, upper, finite = self.model, self.lower, self.upper, self.finite
+        self.frames += q.shape[0] * q.shape[1]
+        bad = ((q[..., finite] < lower[finite] - 1e-6) | (q[..., finite] > upper[finite] + 1e-6)).any(axis=-1)
+        self.limit_frames += int(bad.sum())
+        wheel_q = eval_wheel_angles(model, q) if model.wheel_count else None
+        X = eval_fk(model, q, wheel_q=wheel_q, device="cpu")
+        if len(self.feet):
+            self._add_feet(idx, q, X, fps)
+        self._add_depths(q, X)
+        if self.pairs.pair_count:
+            d = eval_self_collision_distance(model, self.pairs, X).numpy()
+            self.coll_frames += int((d < -self.collision_tolerance).any(axis=-1).sum())
+
+    def _add_feet(self, idx: list[int], q: np.ndarray, X: Any, fps: float) -> None:
+        """Feet's heights, sliding and penetration of motions ``idx`` (``q`` [N, T, C], link transforms ``X``)."""
+        from morphkit.kernels import eval_end_effectors
+        from morphkit.kernels.contact import eval_foot_heights, eval_penetration_depth, eval_sliding_speed
+
+        feet = self.feet
+        pos, _ = eval_end_effectors(self.model, q, Ts_world_link=X)
+        h = eval_foot_heights(pos, feet=feet).numpy()  # [N, T, F]
+        sl = eval_sliding_speed(pos, fps, feet=feet, height_threshold=self.height_threshold).numpy()
+        contact = h < self.height_threshold
+        self.leg_slides.append(np.where(contact, sl, np.nan).reshape(-1, sl.shape[-1]))
+        self.slide_sum += float(sl[contact].sum())
+        self.slide_n += int(contact.sum())
+        self.slides.append(sl[contact])
+        pen = eval_penetration_depth(pos, feet=feet).numpy()
+        self.pen_max = max(self.pen_max, float(pen.max()))
+        self.pen_sum += float(pen.sum())
+        self.pen_n += pen.size
+        fpos = pos.numpy()[..., feet, :2]
+        for k, i in enumerate(idx):
+            self.heights_all[i] = h[k]
+            self.foot_xy[i] = fpos[k]
+
+    def _add_depths(self, q: np.ndarray, X: Any) -> None:
+        """Everything else: every shape (a foot's own beyond its rest reach below the foot point), every other
+        end-effector point; the deepest per link."""
+        from morphkit.kernels import eval_end_effectors
+        from morphkit.kernels.contact import eval_shape_ground_distance
+
+        model, others = self.model, self.others
+        depth = {}
+        if model.shape_count:
+            d = eval_shape_ground_distance(model, X).numpy()  # [N, T, S]
+            below = np.maximum(-(d + self.allow), 0.0).max(axis=(0, 1))
+            for sh in range(model.shape_count):
+                name = model.link_names[int(model.shape_link[sh])]
+                depth[name] = max(depth.get(name, 0.0), float(below[sh]))
+        if others.size:
+            pe, _ = eval_end_effectors(model, q, Ts_world_link=X)
+            z = pe.numpy()[..., others, 2].min(axis=(0, 1))
+            for e, zz in zip(others, z, strict=True):
+                name = model.link_names[int(model.ee_link[int(e)])]
+                depth[name] = max(depth.get(name, 0.0), float(-zz))
+        for name, dd in depth.items():
+            self.link_depth[name] = max(self.link_depth.get(name, 0.0), dd)
+            if dd > self.deepest:
+                self.deepest, self.deepest_link = dd, name
+
+    def summary(self, result: Any) -> dict[str, Any]:
+        """The report's first entries (:data:`REPORT_KEYS`; ``tracking_error`` left None)."""
+        frames, slide_n, pen_n = self.frames, self.slide_n, self.pen_n
+        return {
+            "frames": int(frames),
+            "frames_per_s": round(float(result.frames_per_s), 1) if hasattr(result, "frames_per_s") else None,
+            "foot_sliding_cm_s": round(100.0 * self.slide_sum / slide_n, 4) if slide_n else 0.0,
+            "penetration_mm": round(1000.0 * max(self.pen_max, self.deepest), 4),
+            "self_collision_frac": round(self.coll_frames / frames, 6),
+            "limit_violation_frac": round(self.limit_frames / frames, 6),
+            "tracking_error": None,
+            "foot_sliding_p95_cm_s": round(100.0 * float(np.percentile(np.concatenate(self.slides), 95)), 4)
+            if slide_n else 0.0,
+            "penetration_mean_mm": round(1000.0 * self.pen_sum / pen_n, 4) if pen_n else 0.0,
+            "foot_penetration_mm": round(1000.0 * self.pen_max, 4),
+            "deepest_link": self.deepest_link if self.deepest > self.pen_max + 1e-6 else None,
+        }
+
+
+def _tracking(result: Any, motions: list[Motion], speed_floor: float | None, frames: int) -> dict[str, Any]:
+    """How well the root follows its settled commands: mean relative velocity and yaw-rate errors, and the
+    fraction of frames measured."""
+    from morphkit.motion.motion import base_pose_from_q
+    from morphkit.synth.locomotion_commands import CMD_VX, CMD_VY, CMD_WZ
+
+    m, fps = motions[0].morphology, motions[0].fps
+    scale = getattr(getattr(result, "rig", None), "scale", 1.0)
+    floor = 0.1 * scale if speed_floor is None else speed_floor
+    lin_err, yaw_err = [], []
+    for i, mo in enumerate(motions):
+        if mo.frame_count < 3:
+            continue
+        pose = base_pose_from_q(m, mo.q)
+        fwd = np.stack([1 - 2 * (pose[:, 4] ** 2 + pose[:, 5] ** 2),
+                        2 * (pose[:, 3] * pose[:, 4] + pose[:, 5] * pose[:, 6])], axis=1)
+        yaw = np.unwrap(np.arctan2(fwd[:, 1], fwd[:, 0]))
+        vw = np.gradient(pose[:, :2], axis=0) * fps
+        c, s = np.cos(yaw), np.sin(yaw)
+        v = np.stack([c * vw[:, 0] + s * vw[:, 1], -s * vw[:, 0] + c * vw[:, 1]], axis=1)
+        w = np.gradient(yaw) * fps
+        tgt = result.target[i]
+        ok = result.settled[i].copy()
+        ok[0] = ok[-1] = False
+        vt = tgt[:, [CMD_VX, CMD_VY]]
+        lin_err.append((np.linalg.norm(v - vt, axis=1) / np.maximum(np.linalg.norm(vt, axis=1), floor))[ok])
+        yaw_err.append((np.abs(w - tgt[:, CMD_WZ]) / np.maximum(np.abs(tgt[:, CMD_WZ]), 0.1))[ok])
+    le = np.concatenate(lin_err) if lin_err else np.zeros(0)
+    ye = np.concatenate(yaw_err) if yaw_err else np.zeros(0)
+    return {"tracking_error": round(float(le.mean()), 6) if le.size else None,
+            "yaw_rate_error": round(float(ye.mean()), 6) if ye.size else None,
+            "settled_frac": round(float(le.size / frames), 4)}
+
+
+def _steps(result: Any, tally: _KinematicTally, warnings: list[str]) -> dict[str, Any]:
+    """Swing clearance, contact fraction, step lengths and heights overall and per leg (feet are the legs in
+    body-plan order); warnings for legs that slide, step short or lift low are appended to ``warnings``."""
+    m, rig, feet, heights_all = tally.m, result.rig, tally.feet, tally.heights_all
+    out: dict[str, Any] = {}
+    swing_ok, swing_n, contact_n = 0, 0, 0
+    fidx = list(range(len(feet)))  # feet are the legs in body-plan order here
+    for i, h in enumerate(heights_all):
+        if h is None:
+            continue
+        c = result.contact[i]
+        contact_n += int(c.sum())
+        airborne = ~c
+        airborne[1:] &= ~c[:-1]
+        airborne[:-1] &= ~c[1:]
+        hh = h[:, fidx]
+        swing_ok += int((hh[airborne] > 0.01).sum())
+        swing_n += int(airborne.sum())
+    out["swing_clearance_frac"] = round(swing_ok / swing_n, 6) if swing_n else None
+    out["contact_frac"] = round(contact_n / (tally.frames * len(feet)), 4)
+    swings = [sw for i, h in enumerate(heights_all) if h is not None
+              for sw in _swings(h, tally.foot_xy[i], result.contact[i])]  # type: ignore[arg-type]
+    sl = np.array([sw[1] for sw in swings])
+    ap = np.array([sw[2] for sw in swings])
+    out["step_length_m"] = round(float(sl.mean()), 4) if sl.size else 0.0
+    out["step_height_m"] = round(float(ap.mean()), 4) if ap.size else 0.0
+    legs = {}
+    for li, leg in enumerate(rig.plan.legs):
+        mine = np.array([sw[0] == li for sw in swings], dtype=bool)
+        speed = np.concatenate([s_[:, li] for s_ in tally.leg_slides]) if tally.leg_slides else np.zeros(0)
+        speed = speed[np.isfinite(speed)]  # frames in contact
+        entry = {
+            "step_length_m": round(float(sl[mine].mean()), 4) if mine.any() else 0.0,
+            "step_height_m": round(float(ap[mine].mean()), 4) if mine.any() else 0.0,
+            "sliding_cm_s": round(100.0 * float(speed.mean()), 4) if speed.size else 0.0,
+            "swings": int(mine.sum()),
+        }
+        legs[leg.end_effector] = entry
+        if entry["sliding_cm_s"] > WARN_SLIDING_CM_S:
+            warnings.append(f"leg {leg.end_effector}: its stance foot slides {entry['sliding_cm_s']:.2g} cm/s "
+                            "on average: IK cannot hold it where it stands at the body's dips and tilts (a joint "
+                            f"at its limit, or the foot out of reach): {limit_advice(m, leg)}")
+        if entry["swings"] and entry["step_length_m"] < WARN_STEP_FRACTION * leg.reach:
+            warnings.append(f"leg {leg.end_effector}: steps {100 * entry['step_length_m']:.2g} cm on average, "
+                            f"under a tenth of its {100 * leg.reach:.3g} cm reach: {limit_advice(m, leg)}"
+                            ", or space the legs further apart if they would collide")
+        if entry["swings"] and entry["step_height_m"] < WARN_STEP_HEIGHT_M:
+            warnings.append(f"leg {leg.end_effector}: lifts its foot {100 * entry['step_height_m']:.2g} cm "
+                            "on average: a higher foot is out of reach (bend the knee in the rest pose, or "
+                            f"{limit_advice(m, leg)})")
+    out["legs"] = legs
+    return out
+
+
 def quality_report(result: Any, *, height_threshold: float = 0.02, collision_tolerance: float = 0.001,
                    rest_margin: float = 0.005, speed_floor: float | None = None) -> dict[str, Any]:
     """Measure a :class:`~morphkit.synth.SynthResult` (or any sequence of motions of one creature).
@@ -139,16 +345,7 @@ def quality_report(result: Any, *, height_threshold: float = 0.02, collision_tol
     Returns:
         A JSON-friendly dict (see the module docstring).
     """
-    from morphkit.kernels import eval_end_effectors, eval_fk, eval_wheel_angles
-    from morphkit.kernels.contact import (
-        eval_foot_heights,
-        eval_penetration_depth,
-        eval_self_collision_distance,
-        eval_shape_ground_distance,
-        eval_sliding_speed,
-        foot_indices,
-        self_collision_pairs,
-    )
+    from morphkit.kernels.contact import foot_indices
 
     motions: list[Motion] = list(result)
     if not motions:
@@ -162,163 +359,16 @@ def quality_report(result: Any, *, height_threshold: float = 0.02, collision_tol
         feet = np.array([model.ee_index(leg.end_effector) for leg in rig.plan.legs], dtype=np.int32)
     else:
         feet = foot_indices(model)
-    pairs = self_collision_pairs(model, rest_margin=rest_margin)
-    allow = _ground_allowance(m, model, feet)
-    others = np.array([e for e in range(model.ee_count) if e not in set(feet.tolist())], dtype=np.int64)
-    deepest = 0.0
-    deepest_link: str | None = None
-    link_depth: dict[str, float] = {}
-    foot_xy: list[np.ndarray | None] = [None] * len(motions)
-    lower, upper = m.coordinate_limits
-    finite = np.isfinite(lower) | np.isfinite(upper)
-    slide_sum = 0.0
-    slide_n = 0
-    slides: list[np.ndarray] = []
-    leg_slides: list[np.ndarray] = []
-    pen_max = 0.0
-    pen_sum = 0.0
-    pen_n = 0
-    coll_frames = 0
-    limit_frames = 0
-    frames = 0
-    heights_all: list[np.ndarray | None] = [None] * len(motions)
-    for T, idx in _groups(motions).items():
-        q = np.stack([motions[i].q for i in idx])  # [N, T, C]
-        frames += q.shape[0] * T
-        bad = ((q[..., finite] < lower[finite] - 1e-6) | (q[..., finite] > upper[finite] + 1e-6)).any(axis=-1)
-        limit_frames += int(bad.sum())
-        wheel_q = eval_wheel_angles(model, q) if model.wheel_count else None
-        X = eval_fk(model, q, wheel_q=wheel_q, device="cpu")
-        if len(feet):
-            pos, _ = eval_end_effectors(model, q, Ts_world_link=X)
-            h = eval_foot_heights(pos, feet=feet).numpy()  # [N, T, F]
-            sl = eval_sliding_speed(pos, fps, feet=feet, height_threshold=height_threshold).numpy()
-            contact = h < height_threshold
-            leg_slides.append(np.where(contact, sl, np.nan).reshape(-1, sl.shape[-1]))
-            slide_sum += float(sl[contact].sum())
-            slide_n += int(contact.sum())
-            slides.append(sl[contact])
-            pen = eval_penetration_depth(pos, feet=feet).numpy()
-            pen_max = max(pen_max, float(pen.max()))
-            pen_sum += float(pen.sum())
-            pen_n += pen.size
-            fpos = pos.numpy()[..., feet, :2]
-            for k, i in enumerate(idx):
-                heights_all[i] = h[k]
-                foot_xy[i] = fpos[k]
-        # everything else: every shape (a foot's own beyond its rest reach below the foot point), every
-        # other end-effector point
-        depth = {}
-        if model.shape_count:
-            d = eval_shape_ground_distance(model, X).numpy()  # [N, T, S]
-            below = np.maximum(-(d + allow), 0.0).max(axis=(0, 1))
-            for sh in range(model.shape_count):
-                name = model.link_names[int(model.shape_link[sh])]
-                depth[name] = max(depth.get(name, 0.0), float(below[sh]))
-        if others.size:
-            pe, _ = eval_end_effectors(model, q, Ts_world_link=X)
-            z = pe.numpy()[..., others, 2].min(axis=(0, 1))
-            for e, zz in zip(others, z, strict=True):
-                name = model.link_names[int(model.ee_link[int(e)])]
-                depth[name] = max(depth.get(name, 0.0), float(-zz))
-        for name, dd in depth.items():
-            link_depth[name] = max(link_depth.get(name, 0.0), dd)
-            if dd > deepest:
-                deepest, deepest_link = dd, name
-        if pairs.pair_count:
-            d = eval_self_collision_distance(model, pairs, X).numpy()
-            coll_frames += int((d < -collision_tolerance).any(axis=-1).sum())
-    out: dict[str, Any] = {
-        "frames": int(frames),
-        "frames_per_s": round(float(result.frames_per_s), 1) if hasattr(result, "frames_per_s") else None,
-        "foot_sliding_cm_s": round(100.0 * slide_sum / slide_n, 4) if slide_n else 0.0,
-        "penetration_mm": round(1000.0 * max(pen_max, deepest), 4),
-        "self_collision_frac": round(coll_frames / frames, 6),
-        "limit_violation_frac": round(limit_frames / frames, 6),
-        "tracking_error": None,
-        "foot_sliding_p95_cm_s": round(100.0 * float(np.percentile(np.concatenate(slides), 95)), 4)
-        if slide_n else 0.0,
-        "penetration_mean_mm": round(1000.0 * pen_sum / pen_n, 4) if pen_n else 0.0,
-        "foot_penetration_mm": round(1000.0 * pen_max, 4),
-        "deepest_link": deepest_link if deepest > pen_max + 1e-6 else None,
-    }
+    tally = _KinematicTally(m, model, feet, len(motions), height_threshold=height_threshold,
+                            collision_tolerance=collision_tolerance, rest_margin=rest_margin)
+    for idx in _groups(motions).values():
+        tally.add(idx, np.stack([motions[i].q for i in idx]), fps)  # [N, T, C]
+    out = tally.summary(result)
     warnings: list[str] = list(getattr(result, "warnings", ()))
     if hasattr(result, "target") and m.base_coordinate_count:
-        from morphkit.motion.motion import base_pose_from_q
-        from morphkit.synth.locomotion_commands import CMD_VX, CMD_VY, CMD_WZ
-
-        scale = getattr(getattr(result, "rig", None), "scale", 1.0)
-        floor = 0.1 * scale if speed_floor is None else speed_floor
-        lin_err, yaw_err = [], []
-        for i, mo in enumerate(motions):
-            if mo.frame_count < 3:
-                continue
-            pose = base_pose_from_q(m, mo.q)
-            fwd = np.stack([1 - 2 * (pose[:, 4] ** 2 + pose[:, 5] ** 2),
-                            2 * (pose[:, 3] * pose[:, 4] + pose[:, 5] * pose[:, 6])], axis=1)
-            yaw = np.unwrap(np.arctan2(fwd[:, 1], fwd[:, 0]))
-            vw = np.gradient(pose[:, :2], axis=0) * fps
-            c, s = np.cos(yaw), np.sin(yaw)
-            v = np.stack([c * vw[:, 0] + s * vw[:, 1], -s * vw[:, 0] + c * vw[:, 1]], axis=1)
-            w = np.gradient(yaw) * fps
-            tgt = result.target[i]
-            ok = result.settled[i].copy()
-            ok[0] = ok[-1] = False
-            vt = tgt[:, [CMD_VX, CMD_VY]]
-            lin_err.append((np.linalg.norm(v - vt, axis=1) / np.maximum(np.linalg.norm(vt, axis=1), floor))[ok])
-            yaw_err.append((np.abs(w - tgt[:, CMD_WZ]) / np.maximum(np.abs(tgt[:, CMD_WZ]), 0.1))[ok])
-        le = np.concatenate(lin_err) if lin_err else np.zeros(0)
-        ye = np.concatenate(yaw_err) if yaw_err else np.zeros(0)
-        out["tracking_error"] = round(float(le.mean()), 6) if le.size else None
-        out["yaw_rate_error"] = round(float(ye.mean()), 6) if ye.size else None
-        out["settled_frac"] = round(float(le.size / frames), 4)
+        out.update(_tracking(result, motions, speed_floor, tally.frames))
     if rig is not None and len(feet) and result.contact and result.contact[0].shape[1] == len(feet):
-        swing_ok, swing_n, contact_n = 0, 0, 0
-        fidx = list(range(len(feet)))  # feet are the legs in body-plan order here
-        for i, h in enumerate(heights_all):
-            if h is None:
-                continue
-            c = result.contact[i]
-            contact_n += int(c.sum())
-            airborne = ~c
-            airborne[1:] &= ~c[:-1]
-            airborne[:-1] &= ~c[1:]
-            hh = h[:, fidx]
-            swing_ok += int((hh[airborne] > 0.01).sum())
-            swing_n += int(airborne.sum())
-        out["swing_clearance_frac"] = round(swing_ok / swing_n, 6) if swing_n else None
-        out["contact_frac"] = round(contact_n / (frames * len(feet)), 4)
-        swings = [sw for i, h in enumerate(heights_all) if h is not None
-                  for sw in _swings(h, foot_xy[i], result.contact[i])]  # type: ignore[arg-type]
-        sl = np.array([sw[1] for sw in swings])
-        ap = np.array([sw[2] for sw in swings])
-        out["step_length_m"] = round(float(sl.mean()), 4) if sl.size else 0.0
-        out["step_height_m"] = round(float(ap.mean()), 4) if ap.size else 0.0
-        legs = {}
-        for li, leg in enumerate(rig.plan.legs):
-            mine = np.array([sw[0] == li for sw in swings], dtype=bool)
-            speed = np.concatenate([s_[:, li] for s_ in leg_slides]) if leg_slides else np.zeros(0)
-            speed = speed[np.isfinite(speed)]  # frames in contact
-            entry = {
-                "step_length_m": round(float(sl[mine].mean()), 4) if mine.any() else 0.0,
-                "step_height_m": round(float(ap[mine].mean()), 4) if mine.any() else 0.0,
-                "sliding_cm_s": round(100.0 * float(speed.mean()), 4) if speed.size else 0.0,
-                "swings": int(mine.sum()),
-            }
-            legs[leg.end_effector] = entry
-            if entry["sliding_cm_s"] > WARN_SLIDING_CM_S:
-                warnings.append(f"leg {leg.end_effector}: its stance foot slides {entry['sliding_cm_s']:.2g} cm/s "
-                                "on average: IK cannot hold it where it stands at the body's dips and tilts (a joint "
-                                f"at its limit, or the foot out of reach): {limit_advice(m, leg)}")
-            if entry["swings"] and entry["step_length_m"] < WARN_STEP_FRACTION * leg.reach:
-                warnings.append(f"leg {leg.end_effector}: steps {100 * entry['step_length_m']:.2g} cm on average, "
-                                f"under a tenth of its {100 * leg.reach:.3g} cm reach: {limit_advice(m, leg)}"
-                                ", or space the legs further apart if they would collide")
-            if entry["swings"] and entry["step_height_m"] < WARN_STEP_HEIGHT_M:
-                warnings.append(f"leg {leg.end_effector}: lifts its foot {100 * entry['step_height_m']:.2g} cm "
-                                "on average: a higher foot is out of reach (bend the knee in the rest pose, or "
-                                f"{limit_advice(m, leg)})")
-        out["legs"] = legs
+        out.update(_steps(result, tally, warnings))
     if hasattr(result, "gait") and getattr(result, "gait_names", ()):
         g = np.concatenate(result.gait)
         out["gait_frac"] = {n: round(float((g == k).mean()), 4) for k, n in enumerate(result.gait_names)}
@@ -326,7 +376,7 @@ def quality_report(result: Any, *, height_threshold: float = 0.02, collision_tol
         out["calibration"] = result.rig.summary()
     if hasattr(result, "clamped") and result.clamped:
         out["command_clamped_frac"] = round(float(np.concatenate(result.clamped).mean()), 4)
-    for name, dd in sorted(link_depth.items(), key=lambda kv: -kv[1]):
+    for name, dd in sorted(tally.link_depth.items(), key=lambda kv: -kv[1]):
         if dd > WARN_PENETRATION_M:
             warnings.append(f"link {name}: goes {100 * dd:.2g} cm below the ground")
     out["base"] = m.base.name.lower()
