@@ -88,6 +88,11 @@ class DataConfig:
     and tail keep moving: in-place upper-body motion); ``None``: the synthesis' own default
     (:attr:`morphkit.synth.CommandConfig.stand_probability`, 0.1). Ours: the paper draws random
     commands only, while held-out humans mostly stand, bend and reach."""
+    yaw_rate: float | None = None
+    """Largest yaw rate [rad/s] of the character's synthesised commands (±); ``None``: the synthesis' own
+    (:attr:`morphkit.synth.CommandConfig.yaw_rate`, ±1 rad/s, the paper's §7.1). Ours: mocap humans turn at up to
+    2 rad/s (95th percentile of the CMU development split), and a character whose data never turns faster cannot
+    follow them (docs/experiments/human-std-floor.md)."""
     arm_hang_share: float | None = None
     """Share of the synthesised arm moves that go to the lowest-hanging neighbouring pose
     (:attr:`morphkit.synth.ArmConfig.hang_share`); ``None``: the synthesis' own (0, every move random). Ours."""
@@ -104,7 +109,7 @@ class DataConfig:
     ones, and G learnt to turn the quadruped with an arm left whichever way the human turned (see the docs)."""
 
 
-SYNTHESIS_OPTIONS: tuple[str, ...] = ("stand_probability", "arm_hang_share", "full_arm_travel")
+SYNTHESIS_OPTIONS: tuple[str, ...] = ("stand_probability", "yaw_rate", "arm_hang_share", "full_arm_travel")
 """The :class:`DataConfig` fields that shape the creature's synthesised data besides its length, frame rate and
 seed. Another trainer that synthesises the creature (NKN's cross-morphology mode) carries the same fields and
 copies them from ACE's config (:func:`synthesis_options`) when a table compares both, so both see one data set."""
@@ -135,6 +140,7 @@ def _morphology_key(morphology: Morphology) -> str:
 
 def _synth_key(data: DataConfig) -> str:
     key = "" if data.stand_probability is None else f"|stand={data.stand_probability!r}"
+    key += "" if data.yaw_rate is None else f"|yaw={float(data.yaw_rate)!r}"
     key += "" if data.arm_hang_share is None else f"|hang={float(data.arm_hang_share)!r}"
     return key + ("|arms=full" if data.full_arm_travel else "|arms=partial")
 
@@ -145,6 +151,8 @@ def _synth_config(data: DataConfig) -> Any:
     changed: dict[str, Any] = {}
     if data.stand_probability is not None:
         changed["stand_probability"] = data.stand_probability
+    if data.yaw_rate is not None:
+        changed["yaw_rate"] = (-float(data.yaw_rate), float(data.yaw_rate))
     commands = CommandConfig(**changed)
     arms = ArmConfig() if data.full_arm_travel else ArmConfig.partial_travel()
     if data.arm_hang_share is not None:

@@ -394,7 +394,7 @@ def test_table_nkn_sees_the_creature_data_ace_sees(tmp_path):
     assert fields == not_synthesis | set(SYNTHESIS_OPTIONS)
     assert set(SYNTHESIS_OPTIONS) <= {f.name for f in dataclasses.fields(NknDataConfig)}
 
-    chosen = {"stand_probability": 0.2, "arm_hang_share": 0.4, "full_arm_travel": False}
+    chosen = {"stand_probability": 0.2, "yaw_rate": 1.5, "arm_hang_share": 0.4, "full_arm_travel": False}
     assert set(chosen) == set(SYNTHESIS_OPTIONS)
     for name, value in chosen.items():  # none is its default, so a field left uncopied would show
         assert getattr(DataConfig(), name) != value
