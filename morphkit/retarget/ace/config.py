@@ -146,7 +146,7 @@ class AceConfig:
     centre_features: bool = True
     """Centre each side's Ψ end-effector blocks and root height on its data set's mean; ours, False: the paper's Ψ
     (docs/experiments/centre-features.md)."""
-    human_std_floor: float = 0.1
+    human_std_floor: float = 0.5
     """Floor of each human state dimension's normalising std, as a fraction of its field's RMS (0: none, the data's
     own std, as runs before it). Ours: G never sees a dimension the training humans barely move scaled into
     hundreds of deviations when another human moves it (docs/experiments/human-std-floor.md)."""
