@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
-from morphkit.graph import EndEffector, EndEffectorRole, JointType, Morphology, ShapeType
+from morphkit.graph import EndEffector, EndEffectorRole, JointType, Morphology, Shape, ShapeType
 from morphkit.kernels import eval_fk, fk_module
 from morphkit.kernels.ik import dls_step_kernel, eval_ee_jacobian, ik_step
 from morphkit.kernels.launch import cpu_pool, cpu_thread_count
@@ -237,21 +237,10 @@ def _redundant_last_joint(model: KinematicModel, m: Morphology, mov: list[int], 
     return (3 if above is None else _rank(above)) == (3 if whole is None else _rank(whole))
 
 
-def _sphere_under(m: Morphology, ee: EndEffector) -> list[tuple[np.ndarray, float]]:
-    """``[(centre, radius)]`` of the sphere on ``ee``'s link whose surface holds the point (a ball foot's sole,
-    as :mod:`morphkit.io.anatomy` places it); empty for any other foot (Spot's point is its ball's centre)."""
+def _round_shapes_holding(m: Morphology, ee: EndEffector) -> list[Shape]:
+    """The spheres and capsules of ``ee``'s link whose surface holds its point (a toe ball, a paw)."""
     offset = np.asarray(ee.offset, dtype=float)
-    for shape in m.link(ee.link).shapes:
-        if shape.type == ShapeType.SPHERE and shape.radius > 0:
-            c = np.asarray(shape.origin.xyz, dtype=float)
-            if abs(np.linalg.norm(offset - c) - shape.radius) < 1e-4 * max(1.0, shape.radius):
-                return [(c, float(shape.radius))]
-    return []
-
-
-def _on_round_shape(m: Morphology, ee: EndEffector) -> bool:
-    """Whether ``ee``'s point lies on the surface of a sphere or capsule of its link (a paw, a toe ball)."""
-    offset = np.asarray(ee.offset, dtype=float)
+    found: list[Shape] = []
     for shape in m.link(ee.link).shapes:
         if shape.type not in (ShapeType.SPHERE, ShapeType.CAPSULE) or shape.radius <= 0:
             continue
@@ -261,15 +250,22 @@ def _on_round_shape(m: Morphology, ee: EndEffector) -> bool:
         half = 0.5 * shape.length if shape.type == ShapeType.CAPSULE else 0.0
         core = np.array([0.0, 0.0, np.clip(local[2], -half, half)])
         if abs(np.linalg.norm(local - core) - shape.radius) < 1e-4 * max(1.0, shape.radius):
-            return True
-    return False
+            found.append(shape)
+    return found
+
+
+def _sphere_under(m: Morphology, ee: EndEffector) -> list[tuple[np.ndarray, float]]:
+    """``[(centre, radius)]`` of the sphere on ``ee``'s link whose surface holds the point (a ball foot's sole,
+    as :mod:`morphkit.io.anatomy` places it); empty for any other foot (Spot's point is its ball's centre)."""
+    return [(np.asarray(sh.origin.xyz, dtype=float), float(sh.radius))
+            for sh in _round_shapes_holding(m, ee) if sh.type == ShapeType.SPHERE][:1]
 
 
 def _poses_foot(model: KinematicModel, m: Morphology, mov: list[int], ee: EndEffector) -> bool:
     """Whether a leg of 1-DoF joints sets its flat foot's whole pose (position and orientation: rank 6 at a
     generic pose), as the six-hinge legs of humanoids do: its IK then holds the foot level itself. A round
     foot (its point on a sphere or capsule) rolls on any orientation and is left to the position IK."""
-    if len(mov) < 6 or _on_round_shape(m, ee):
+    if len(mov) < 6 or _round_shapes_holding(m, ee):
         return False
     q = _generic_pose(model, m, mov)
     # three points of the foot, not on one line, stand for its pose
@@ -362,6 +358,9 @@ class LimbSolver:
         self.balls = [(li, m.link_index(e.link), c, r) for li, leg in enumerate(plan.legs)
                       for e in [m.end_effector(leg.end_effector)]
                       for c, r in _sphere_under(m, e)]
+        """Ball feet ``(leg, link, centre, radius)`` whose point is the ball's bottom (:meth:`rolling_lift`)."""
+        self._ball_down = [(np.asarray(m.end_effector(plan.legs[li].end_effector).offset) - c) / r
+                           for li, _link, c, r in self.balls]
         self.tilt_ee = np.array([self.model.ee_index(e.name) for e in extra if e.name.startswith(_TILT_PREFIX)],
                                 dtype=np.int64)
         """End-effector index in :attr:`model` of the points that hold six-hinge legs' feet level [P]."""
@@ -632,9 +631,8 @@ class LimbSolver:
         if not self.balls:
             return lift
         X = self.link_transforms(np.ascontiguousarray(q, dtype=np.float64))
-        for li, link, c, r in self.balls:
-            ee = self.morphology.end_effector(self.plan.legs[li].end_effector)
-            down = quat_rotate(X[:, link, 3:], np.broadcast_to((np.asarray(ee.offset) - c) / r, (q.shape[0], 3)))
+        for (li, link, _c, r), local in zip(self.balls, self._ball_down, strict=True):
+            down = quat_rotate(X[:, link, 3:], np.broadcast_to(local, (q.shape[0], 3)))
             lift[:, li] = r * (1.0 + down[:, 2])
         return lift
 
@@ -663,6 +661,19 @@ class LimbSolver:
         """
         tilt = np.where(planted[:, self.tilt_leg], 1.0, 0.0)
         return np.concatenate([np.ones(planted.shape), tilt], axis=1)
+
+    def place_airborne_feet(self, q: np.ndarray, targets: np.ndarray, planted: np.ndarray, *, key: str,
+                            ee: np.ndarray, mask: np.ndarray, weight: np.ndarray, max_iterations: int,
+                            tolerance: float) -> np.ndarray:
+        """After a :meth:`solve` toward ``targets`` [B, E, 3] (:attr:`leg_targets_ee` first), place the feet not
+        ``planted`` [B, NL] exactly with their orientation free (:meth:`leg_step_weights`); ``q`` unchanged where
+        no leg holds its foot level or every foot is planted. ``weight`` as :meth:`solve`'s."""
+        if not self.tilt_ee.size or planted.all():
+            return q
+        free = np.ones(targets.shape[:2])
+        free[:, :len(self.leg_targets_ee)] = self.leg_step_weights(planted)
+        return self.solve(q, targets, key=key, ee=ee, mask=mask, min_iterations=1, max_iterations=max_iterations,
+                          tolerance=tolerance, weight=weight * free, ee_weight=free)
 
     def ankle_offsets(self, foot_yaw: np.ndarray) -> np.ndarray:
         """World vector from each leg's IK point to its foot point [B, NL, 3] (0 for legs without ankle)."""

@@ -654,12 +654,10 @@ class _BatchRollout:
             weight[:] = 0.02
         q = solver.solve(q, tg, **ik, min_iterations=cfg.ik_iterations, max_iterations=cfg.ik_max_iterations,
                          tolerance=cfg.ik_tolerance, weight=weight)
-        if NL and solver.tilt_ee.size and not self.stance[:, t].all():
-            # feet in the air held level as far as their ankles allow, then placed exactly (see leg_step_weights)
-            free = np.ones(tg.shape[:2])
-            free[:, :n_leg] = solver.leg_step_weights(self.stance[:, t])
-            q = solver.solve(q, tg, **ik, min_iterations=1, max_iterations=cfg.ik_max_iterations,
-                             tolerance=cfg.ik_tolerance, weight=weight * free, ee_weight=free)
+        if NL:
+            # feet in the air held level as far as their ankles allow, then placed exactly
+            q = solver.place_airborne_feet(q, tg, self.stance[:, t], **ik, weight=weight,
+                                           max_iterations=cfg.ik_max_iterations, tolerance=cfg.ik_tolerance)
         if self.foot_yaw is not None:
             q = solver.level_ankles(q, self.foot_yaw[:, t])
         if self.arm_pairs is not None:

@@ -108,12 +108,10 @@ def replan_legs(motion: Motion, *, config: SynthConfig | None = None, smoothing_
         q = solver.solve(q, targets, key="replan_legs", ee=solver.leg_targets_ee, mask=leg_mask,
                          min_iterations=cfg.ik_iterations, max_iterations=cfg.ik_max_iterations,
                          tolerance=cfg.ik_tolerance, weight=weight)
-        if solver.tilt_ee.size and not legs.stance.all():
-            # feet in the air held level as far as their ankles allow, then placed exactly (as the synthesis)
-            free = solver.leg_step_weights(legs.stance)
-            q = solver.solve(q, targets, key="replan_legs", ee=solver.leg_targets_ee, mask=leg_mask,
-                             min_iterations=1, max_iterations=cfg.ik_max_iterations, tolerance=cfg.ik_tolerance,
-                             weight=weight * free, ee_weight=free)
+        # feet in the air held level as far as their ankles allow, then placed exactly (as the synthesis)
+        q = solver.place_airborne_feet(q, targets, legs.stance, key="replan_legs", ee=solver.leg_targets_ee,
+                                       mask=leg_mask, weight=weight, max_iterations=cfg.ik_max_iterations,
+                                       tolerance=cfg.ik_tolerance)
         q = solver.level_ankles(q, legs.foot_yaw)
         q_legs = q[0, leg_coords].copy()
         out[t, leg_coords] = q_legs
