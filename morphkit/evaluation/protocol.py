@@ -80,16 +80,18 @@ def split_for(methods: Sequence[Method], split: str, *, human_data: str | os.Pat
         raise ConfigError(f"--split {split}: the runs were trained on the embedded default human motion, which has no "
                           "subjects; give --human-data DIR (a folder of human clips)")
     clips = protocol_clips(folder, split, model.data.fps, limit=limit)
-    return clips, trained_on(clips, model.human_data)
+    return clips, trained_on(clips, model.human_data, model.data.human_split)
 
 
-def trained_on(clips: ProtocolClips, run_human_data: str | None) -> list[str]:
-    """Names of ``clips`` a run trained on ``run_human_data`` has seen: every clip outside the held-out list
-    (:func:`~morphkit.retarget.training_data.evaluation_split`) when it is the same folder; none otherwise."""
+def trained_on(clips: ProtocolClips, run_human_data: str | None, run_split: str = "all") -> list[str]:
+    """Names of ``clips`` a run trained on ``run_human_data`` has seen: when it is the same folder, every clip outside
+    the held-out list (:func:`~morphkit.retarget.training_data.evaluation_split`) on the run's side of the subject
+    split (:attr:`~morphkit.retarget.training_data.DataConfig.human_split`); none otherwise."""
     if run_human_data is None or Path(run_human_data).resolve() != Path(clips.folder).resolve():
         return []
     held = set(evaluation_split())
-    return [m.name for m in clips.motions if m.name not in held]
+    return [m.name for m, e in zip(clips.motions, clips.entries, strict=True)
+            if m.name not in held and run_split in ("all", e.side)]
 
 
 @dataclass(frozen=True)

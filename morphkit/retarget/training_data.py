@@ -102,6 +102,11 @@ class DataConfig:
     :meth:`~morphkit.synth.ArmConfig.partial_travel`, within 70 % of each arm joint's span about rest (heads, necks
     and tails over their whole travel either way; runs from before this option was recorded used it). Ours;
     measured with the main job on two seeds, the whole travel did better on the shipped export (see the docs)."""
+    human_split: str = "all"
+    """Which subjects of a human data folder the training clips come from (:func:`morphkit.motion.split.split_clips`):
+    ``all`` (every clip but :func:`evaluation_split`'s), ``dev`` (the protocol's development subjects only, so
+    that ``morphkit evaluate --split test`` scores subjects the run never saw) or ``test``. Ignored for the
+    embedded default human."""
     human_mirror: bool = False
     """Add each human training clip's left-right mirror image (:func:`morphkit.motion.mirror_motion`), so the
     human data turn, step and reach to both sides alike. Ours (PFNN and MANN mirror their mocap the same way):
@@ -282,7 +287,7 @@ def human_motions(
 
     Args:
         path: A human data folder (or file), or ``None``.
-        data: Frame rate and the default's frames and seed.
+        data: Frame rate, the folder's split (:attr:`DataConfig.human_split`), the default's frames and seed.
         exclude_evaluation: Leave the evaluation split out.
         cache_dir: Where read clips are cached (:func:`~morphkit.motion.load_motions`).
         canonical: Map onto the canonical human (``False``: the clips' own skeleton, as runs trained
@@ -306,6 +311,11 @@ def human_motions(
             raise MotionFormatError(
                 f"clip {m.name!r} has another skeleton than {motions[0].name!r}: one human data folder holds one "
                 "skeleton topology", location=SourceLocation(str(path)))
+    if data.human_split != "all":
+        from morphkit.motion.split import split_clips
+
+        side = {e.name for e in split_clips(path, data.human_split)}
+        motions = [m for m in motions if m.name in side]
     if exclude_evaluation:
         motions, held = split_evaluation_clips(motions)
         if not motions:

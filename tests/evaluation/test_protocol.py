@@ -13,11 +13,12 @@ import pytest
 from retarget._ace_fixtures import write_quadruped
 
 from morphkit.cli import main as cli
+from morphkit.errors import ConfigError
 from morphkit.evaluation.protocol import ProtocolClips, trained_on
 from morphkit.io import read_morphology
 from morphkit.io.shipped import resolve_morphology
 from morphkit.motion import write_motion
-from morphkit.motion.split import CLIP_TYPES, folder_split
+from morphkit.motion.split import CLIP_TYPES, ClipEntry, folder_split
 from morphkit.retarget.ace.config import preset
 from morphkit.retarget.ace.train import train_ace
 from morphkit.retarget.config import replace_config
@@ -135,5 +136,26 @@ def test_clips_a_run_trained_on_are_named(tmp_path):
         def __init__(self, name: str) -> None:
             self.name = name
 
-    clips = ProtocolClips("test", str(tmp_path), [Named(held), Named("99_99")], [], [])
-    assert trained_on(clips, str(tmp_path)) == ["99_99"]
+    names = [held, "99_99", "98_01"]
+    entries = [ClipEntry(tmp_path / f"{n}.bvh", n.split("_")[0], 5.0, side, None)
+               for n, side in zip(names, ["dev", "dev", "test"], strict=True)]
+    clips = ProtocolClips("all", str(tmp_path), [Named(n) for n in names], entries, [None] * 3)
+    assert trained_on(clips, str(tmp_path)) == ["99_99", "98_01"]
+    # a run trained on the development subjects only (data.human_split) has seen none of the test subjects' clips
+    assert trained_on(clips, str(tmp_path), "dev") == ["99_99"]
+    assert trained_on(clips, str(tmp_path), "test") == ["98_01"]
+
+
+def test_training_on_the_development_subjects_leaves_the_test_subjects_out(tiny):
+    """``data.human_split``: the dev and test sides of a folder's training clips are its subject split's, apart and
+    together every clip."""
+    from morphkit.retarget.training_data import DataConfig, human_motions
+
+    _, folder = tiny
+    side = {e.name: e.side for e in folder_split(folder)}
+    names = {s: {m.name for m in human_motions(folder, DataConfig(human_split=s), cache_dir=None)}
+             for s in ("all", "dev", "test")}
+    assert names["dev"] and names["test"] and names["dev"] | names["test"] == names["all"] == set(side)
+    assert {side[n] for n in names["dev"]} == {"dev"} and {side[n] for n in names["test"]} == {"test"}
+    with pytest.raises(ConfigError, match="unknown split 'train'"):
+        human_motions(folder, DataConfig(human_split="train"), cache_dir=None)
