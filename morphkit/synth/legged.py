@@ -338,6 +338,8 @@ def _prebend(m: Morphology, solver: LimbSolver, q: np.ndarray, plan: BodyPlan) -
         v = tip - mount
         upright = np.hypot(v[0], v[1]) < abs(v[2])
         for ji in mov[1:]:
+            if ji in solver.held_joints:  # out of the IK: it stays at rest
+                continue
             j = m.joints[ji]
             s = m.joint_q_start[ji]
             cands = []
