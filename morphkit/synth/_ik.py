@@ -13,7 +13,8 @@ All legs and arms of a pose are solved in one :func:`~morphkit.kernels.ik.ik_ste
   This leaves three DoFs per three-segment leg, so warm-started steps never drift in a null space;
 - a leg of 1-DoF joints with two or more hinges that turn it out of its plane of bending (a hip's yaw and
   abduction, a scapula's turns): all but the one that moves the foot most sideways are held at their rest
-  angle, out of the solve (:func:`_held_hinges`), as a ball hip drops its twist;
+  angle, out of the solve (:func:`_held_hinges`), as a ball hip drops its twist; a leg that still has more
+  DoFs than its foot point is leaned toward its stance posture before each solve (by the rollout);
 - a leg of six or more hinges that sets its flat foot's whole pose (a humanoid's hip yaw-roll-pitch,
   knee, ankle pitch-roll): every hinge is in the solve, and two more points of the foot (ahead of and
   beside its sole) hold it level; a foot in the air is then placed exactly by a second solve that
@@ -343,6 +344,9 @@ class LimbSolver:
         ``axis`` (see :meth:`constrain`)."""
         self.held_joints: list[int] = []
         """Leg joints kept at their rest angle, out of the solve (:func:`_held_hinges`)."""
+        self.redundant_coordinates: list[int] = []
+        """``q`` indices of the hinges of legs whose IK point has more DoFs in the solve than its three coordinates:
+        the warm start leans them toward the stance posture, or they drift in the null space."""
         extra: list[EndEffector] = []
         leg_dofs: list[list[int]] = []
         tilt_leg: list[int] = []
@@ -389,6 +393,8 @@ class LimbSolver:
             self.held_joints.extend(held)
             mov = [ji for ji in mov if ji not in held]
             leg_dofs.append(self._leg_dofs(m, leg, mov, rest, ankle, self.ball_constraints))
+            if not poses_foot and len(leg_dofs[-1]) > 3 and all(m.joints[ji].type != JointType.SPHERICAL for ji in mov):
+                self.redundant_coordinates.extend(m.joint_q_start[ji] for ji in mov)
         extra += [EndEffector(f"{_POINT_PREFIX}{i}", link, offset, EndEffectorRole.TOOL)
                   for i, (link, offset) in enumerate(points)]
         self.ik_morphology = dataclasses.replace(m, end_effectors=m.end_effectors + tuple(extra)) if extra else m

@@ -141,7 +141,8 @@ class LegConfig:
     emergency_limit: float = 0.97
     """A stance foot this far out in its ellipse lifts off whatever its phase."""
     ball_posture_gain: float = 0.1
-    """Per-frame pull of leg ball joints (which have no limits) toward the stance posture, before IK."""
+    """Per-frame pull toward the stance posture, before IK, of leg ball joints (which have no limits) and of the
+    hinges of legs with more DoFs in the IK than their foot point has (which drift in the null space)."""
     fixed_axis_semi_axis: float = 0.02
     """Step-ellipse semi-axis, as a fraction of reach, along a direction in which a leg cannot move its
     foot on the ground (sideways for a leg whose joints all pitch): what turning may drift a stance
