@@ -570,7 +570,9 @@ class _StepRegion:
                         o[i] = (np.cos(t) * ax[i, 0], np.sin(t) * ax[i, 1])
                         o[j] = (-np.cos(t) * ax[j, 0], -np.sin(t) * ax[j, 1])
                         u = np.full(NL, lift)
-                        u[i] = max(lift, lifted * self.lift_test[i])
+                        # the swing-height test (lift > 0) lifts no foot above the height it tests: held at lift_test
+                        # below it, a pair that collides there would fail every lower swing height too
+                        u[i] = lift if lift > 0 else lifted * self.lift_test[i]
                         body.append(np.array([bp]))
                         off.append(o[None])
                         up.append(u[None])
