@@ -11,6 +11,10 @@ All legs and arms of a pose are solved in one :func:`~morphkit.kernels.ik.ik_ste
   extra end-effector on the foot link; the hip (first moving joint) drops its twist about the bone;
   every other ball joint (a knee) keeps only its hinge axis, across the leg's plane of bending.
   This leaves three DoFs per three-segment leg, so warm-started steps never drift in a null space;
+- a leg of 1-DoF joints with two or more hinges that turn it out of its plane of bending (a hip's yaw and
+  abduction, a scapula's turns): all but the one that moves the foot most sideways are held at their rest
+  angle, out of the solve (:func:`_held_hinges`), as a ball hip drops its twist; a leg that still has more
+  DoFs than its foot point is leaned toward its stance posture before each solve (by the rollout);
 - a leg of six or more hinges that sets its flat foot's whole pose (a humanoid's hip yaw-roll-pitch,
   knee, ankle pitch-roll): every hinge is in the solve, and two more points of the foot (ahead of and
   beside its sole) hold it level; a foot in the air is then placed exactly by a second solve that
@@ -261,6 +265,40 @@ def _sphere_under(m: Morphology, ee: EndEffector) -> list[tuple[np.ndarray, floa
             for sh in _round_shapes_holding(m, ee) if sh.type == ShapeType.SPHERE][:1]
 
 
+def _held_hinges(m: Morphology, mov: list[int], rest: np.ndarray, tip: np.ndarray) -> list[int]:
+    """Hinges of a leg of 1-DoF joints held at their rest angle, out of the IK: all but one of the joints that
+    turn out of the leg's plane of bending.
+
+    The plane's normal is the axis most of the leg's hinges share at rest (within 45°: a hip's pitch, the knee,
+    the ankle); the other hinges (a hip's yaw, an abduction, a scapula's rotation) swing the foot out of that
+    plane or twist the leg about itself. One of them is enough to reach sideways: the one that moves the foot
+    point ``tip`` [3] (root frame, at rest) most across the plane is kept. With more in the solve the DLS turns
+    the leg in a null space every frame (planted paws twisting and sliding, legs swinging into each other), as
+    a ball hip would with its twist, which :meth:`LimbSolver._leg_dofs` drops for the same reason. Nothing is
+    held in a leg with a ball joint, fewer than two hinges sharing an axis, or fewer than two others.
+    """
+    if any(m.joints[ji].type == JointType.SPHERICAL for ji in mov):
+        return []
+    hinges = [ji for ji in mov if m.joints[ji].type in (JointType.REVOLUTE, JointType.CONTINUOUS)]
+    if len(hinges) < 4:
+        return []
+    # a revolute joint's axis is the same in its child's frame as in its own
+    axes = np.array([quat_rotate(rest[m.link_index(m.joints[ji].child), 3:], np.asarray(m.joints[ji].axis, dtype=float))
+                     for ji in hinges])
+    axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+    shared = np.abs(axes @ axes.T) >= np.sqrt(0.5)
+    group = shared[int(np.argmax(shared.sum(axis=1)))]
+    normal = np.linalg.eigh(axes[group].T @ axes[group])[1][:, -1]  # the group's mean axis, sign-free
+    in_plane = np.abs(axes @ normal) >= np.sqrt(0.5)
+    others = [i for i in range(len(hinges)) if not in_plane[i]]
+    if in_plane.sum() < 2 or len(others) < 2:
+        return []
+    across = [abs(float(np.cross(axes[i], tip - rest[m.link_index(m.joints[hinges[i]].child), :3]) @ normal))
+              for i in others]
+    keep = others[int(np.argmax(across))]
+    return [hinges[i] for i in others if i != keep]
+
+
 def _poses_foot(model: KinematicModel, m: Morphology, mov: list[int], ee: EndEffector) -> bool:
     """Whether a leg of 1-DoF joints sets its flat foot's whole pose (position and orientation: rank 6 at a
     generic pose), as the six-hinge legs of humanoids do: its IK then holds the foot level itself. A round
@@ -304,6 +342,11 @@ class LimbSolver:
         """Leg ball joints ``(q start, axis, hinge)``: a hip (``hinge >= 0``, or -1 without one) loses its
         twist about the local bone ``axis``; a knee (``hinge == -2``) keeps only its rotation about
         ``axis`` (see :meth:`constrain`)."""
+        self.held_joints: list[int] = []
+        """Leg joints kept at their rest angle, out of the solve (:func:`_held_hinges`)."""
+        self.redundant_coordinates: list[int] = []
+        """``q`` indices of the hinges of legs whose IK point has more DoFs in the solve than its three coordinates:
+        the warm start leans them toward the stance posture, or they drift in the null space."""
         extra: list[EndEffector] = []
         leg_dofs: list[list[int]] = []
         tilt_leg: list[int] = []
@@ -314,7 +357,8 @@ class LimbSolver:
             ee = m.end_effector(leg.end_effector)
             mov = _moving(m, leg.joints)
             ankle = None
-            if _poses_foot(base_model, m, mov, ee):
+            poses_foot = _poses_foot(base_model, m, mov, ee)
+            if poses_foot:
                 # a point ahead of the sole and one beside it, held where the level foot has them
                 foot = rest[m.link_index(ee.link), 3:]
                 for k, axis in enumerate(np.eye(3)[:2]):
@@ -345,7 +389,12 @@ class LimbSolver:
                                              EndEffectorRole.TOOL))
                     mov = mov[:-1]
             self.ankles.append(ankle)
+            held = [] if poses_foot else _held_hinges(m, mov, rest, np.asarray(leg.tip_rest, dtype=float))
+            self.held_joints.extend(held)
+            mov = [ji for ji in mov if ji not in held]
             leg_dofs.append(self._leg_dofs(m, leg, mov, rest, ankle, self.ball_constraints))
+            if not poses_foot and len(leg_dofs[-1]) > 3 and all(m.joints[ji].type != JointType.SPHERICAL for ji in mov):
+                self.redundant_coordinates.extend(m.joint_q_start[ji] for ji in mov)
         extra += [EndEffector(f"{_POINT_PREFIX}{i}", link, offset, EndEffectorRole.TOOL)
                   for i, (link, offset) in enumerate(points)]
         self.ik_morphology = dataclasses.replace(m, end_effectors=m.end_effectors + tuple(extra)) if extra else m

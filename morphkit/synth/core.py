@@ -577,6 +577,11 @@ class _BatchRollout:
             for s in self.leg_balls:
                 q[:, s:s + 4] = nlerp(q[:, s:s + 4], np.broadcast_to(self.rig.q_stance[s:s + 4], (self.R, 4)),
                                       np.full(self.R, cfg.legs.ball_posture_gain))
+        if solver.redundant_coordinates:
+            # a leg with more DoFs than its foot point drifts in the null space (a knee straightening, an ankle
+            # folding) until a joint limit stops it short of the ground: lean toward stance, as ball legs do
+            r = solver.redundant_coordinates
+            q[:, r] += cfg.legs.ball_posture_gain * (self.rig.q_stance[r] - q[:, r])
         solver.constrain(q)
         if self.knees:
             keep_knees_bent(q, self.knees, cfg.legs.upright_knee_margin)

@@ -141,7 +141,8 @@ class LegConfig:
     emergency_limit: float = 0.97
     """A stance foot this far out in its ellipse lifts off whatever its phase."""
     ball_posture_gain: float = 0.1
-    """Per-frame pull of leg ball joints (which have no limits) toward the stance posture, before IK."""
+    """Per-frame pull toward the stance posture, before IK, of leg ball joints (which have no limits) and of the
+    hinges of legs with more DoFs in the IK than their foot point has (which drift in the null space)."""
     fixed_axis_semi_axis: float = 0.02
     """Step-ellipse semi-axis, as a fraction of reach, along a direction in which a leg cannot move its
     foot on the ground (sideways for a leg whose joints all pitch): what turning may drift a stance
@@ -338,6 +339,8 @@ def _prebend(m: Morphology, solver: LimbSolver, q: np.ndarray, plan: BodyPlan) -
         v = tip - mount
         upright = np.hypot(v[0], v[1]) < abs(v[2])
         for ji in mov[1:]:
+            if ji in solver.held_joints:  # out of the IK: it stays at rest
+                continue
             j = m.joints[ji]
             s = m.joint_q_start[ji]
             cands = []
@@ -567,7 +570,9 @@ class _StepRegion:
                         o[i] = (np.cos(t) * ax[i, 0], np.sin(t) * ax[i, 1])
                         o[j] = (-np.cos(t) * ax[j, 0], -np.sin(t) * ax[j, 1])
                         u = np.full(NL, lift)
-                        u[i] = max(lift, lifted * self.lift_test[i])
+                        # the swing-height test (lift > 0) lifts no foot above the height it tests: held at lift_test
+                        # below it, a pair that collides there would fail every lower swing height too
+                        u[i] = lift if lift > 0 else lifted * self.lift_test[i]
                         body.append(np.array([bp]))
                         off.append(o[None])
                         up.append(u[None])

@@ -129,9 +129,8 @@ def _synth(m, frames: int = 300):
     return res, quality_report(res)
 
 
-# The legged models of the development set that meet issue 46's synthesis targets today; dm_control's dog
-# (sliding, self-collision of its paws) does not: the issue's closing note gives its figures.
-@pytest.mark.parametrize("name", ["aliengo", "vision60", "spirit40", "dm_quadruped", "berkeley_humanoid", "op3"])
+@pytest.mark.parametrize("name", ["aliengo", "vision60", "spirit40", "dm_quadruped", "dm_dog", "berkeley_humanoid",
+                                  "op3"])
 def test_synthesis_on_the_unedited_file_walks_on_its_feet(name):
     """Legged (not glide), planted feet, nothing under the ground; the feet, measured by FK, touch it."""
     m = _read(DEV_SET[name][0]())
@@ -144,8 +143,11 @@ def test_synthesis_on_the_unedited_file_walks_on_its_feet(name):
     assert np.quantile(z.min(axis=1), 0.5) < 0.01  # some foot is on the ground in most frames
 
 
-# the keyframes the vendors' own walking controllers start from and are held to (Playground's joystick envs)
-@pytest.mark.parametrize(("name", "key"), [("berkeley_humanoid", "home"), ("op3", "stand_bent_knees")])
+# the keyframes the vendors' own walking controllers start from and are held to (Playground's joystick envs);
+# dm_control's dog has one unnamed keyframe (``nkey="1"``): its default pose, from which dog.py measures the
+# stand height its rewards ask for
+@pytest.mark.parametrize(("name", "key"), [("berkeley_humanoid", "home"), ("op3", "stand_bent_knees"),
+                                           ("dm_dog", None)])
 def test_standing_height_is_the_vendors(name, key):
     """The synthesis stands within 15 % of the root height of the vendor's own stance keyframe."""
     import mujoco
@@ -156,7 +158,8 @@ def test_standing_height_is_the_vendors(name, key):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         model = mujoco_model(path)
-    nominal = float(model.key_qpos[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, key)][2])
+    k = 0 if key is None else mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, key)
+    nominal = float(model.key_qpos[k][2])
     res, _ = _synth(_read(path), frames=150)
     height = float(np.median(np.concatenate([mo.q[:, 2] for mo in res])))
     assert height == pytest.approx(nominal, rel=0.15)

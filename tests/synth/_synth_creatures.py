@@ -144,6 +144,34 @@ def walker_yaml() -> str:
     return _yaml("walker", links, joints, ees) + "rest_pose:\n" + "\n".join(rest) + "\n"
 
 
+def swivel_yaml() -> str:
+    """A quadruped whose hips turn three ways (yaw, roll, pitch; then a knee): one hinge more than its round feet
+    need. Its yaws rest at 0.1 rad, its legs bent with the feet under the hips."""
+    links = ["  body: {shapes: [{type: box, size: [0.6, 0.3, 0.12]}]}"]
+    joints: list[str] = []
+    ees: list[str] = []
+    rest: list[str] = []
+    down = "origin: {xyz: [0, 0, -0.125]}"
+    for n, x, y in (("fl", 0.25, 0.12), ("fr", 0.25, -0.12), ("hl", -0.25, 0.12), ("hr", -0.25, -0.12)):
+        links += [f"  {n}_hip_a: {{}}", f"  {n}_hip_b: {{}}",
+                  f"  {n}_thigh: {{shapes: [{{type: capsule, radius: 0.03, length: 0.19, {down}}}]}}",
+                  f"  {n}_shin: {{shapes: [{{type: capsule, radius: 0.025, length: 0.2, {down}}}, "
+                  "{type: sphere, radius: 0.03, origin: {xyz: [0, 0, -0.25]}}]}"]
+        joints += [
+            f"  {n}_yaw: {{type: revolute, parent: body, child: {n}_hip_a, axis: [0, 0, 1], "
+            f"origin: {{xyz: [{x}, {y}, -0.06]}}, limit: {{lower: -0.5, upper: 0.5}}}}",
+            f"  {n}_roll: {{type: revolute, parent: {n}_hip_a, child: {n}_hip_b, axis: [1, 0, 0], "
+            "limit: {lower: -0.5, upper: 0.5}}",
+            f"  {n}_pitch: {{type: revolute, parent: {n}_hip_b, child: {n}_thigh, axis: [0, 1, 0], "
+            "limit: {lower: -1.5, upper: 1.5}}",
+            f"  {n}_knee: {{type: revolute, parent: {n}_thigh, child: {n}_shin, axis: [0, 1, 0], "
+            "origin: {xyz: [0, 0, -0.25]}, limit: {lower: 0.0, upper: 2.3}}",
+        ]
+        ees.append(f"  {n}_foot: {{link: {n}_shin, offset: [0, 0, -0.28], role: foot}}")
+        rest += [f"  {n}_yaw: 0.1", f"  {n}_pitch: -0.5", f"  {n}_knee: 1.0"]
+    return _yaml("swivel", links, joints, ees) + "rest_pose:\n" + "\n".join(rest) + "\n"
+
+
 def tailed_yaml() -> str:
     """A kangaroo-like biped (hip roll, hip and knee pitch) with a three-segment tail hanging to 3 cm above the
     ground at rest, ending in an end-effector without a role (so a ``tool``, moved like an arm)."""
@@ -283,15 +311,15 @@ def hopper_yaml() -> str:
 
 
 _YAML = {"tripod": tripod_yaml, "hopper": hopper_yaml, "spider": spider_yaml, "strider": strider_yaml,
-         "roo": tailed_yaml, "walker": walker_yaml,
+         "roo": tailed_yaml, "walker": walker_yaml, "swivel": swivel_yaml,
          "grazer": grazer_yaml, "grazer_bent": lambda: grazer_yaml(bent_legs=True),
          "grazer_low_tail": lambda: grazer_yaml(low_tail=True),
          "grazer_stuck_tail": lambda: grazer_yaml(stuck_tail=True)}
 
 
 def read_creature(name: str, tmp_dir: Path) -> Morphology:
-    """A shipped creature by name, or one of the YAML-only creatures here (``tripod``, ``spider``,
-    ``strider``, ``roo``, ``hopper``, ``grazer`` and its variants) written to ``tmp_dir`` and read back."""
+    """A shipped creature by name, or one of the YAML-only creatures here (``tripod``, ``spider``, ``strider``,
+    ``roo``, ``hopper``, ``walker``, ``swivel``, ``grazer`` and its variants) written to ``tmp_dir`` and read back."""
     from morphkit.io import read_morphology
     from morphkit.io.shipped import resolve_morphology
 
