@@ -9,7 +9,7 @@ Figures (the ``morphkit synth --report --json`` keys first):
 - ``penetration_mm``: deepest penetration below the ground of anything: the feet's end-effector points
   (:func:`~morphkit.kernels.contact.eval_penetration_depth`), every other end-effector point, and every
   link shape (:func:`~morphkit.kernels.contact.eval_shape_ground_distance`). A foot's own shapes (on its
-  link and below) count only beyond how far they reach below the foot point at rest (Spot's foot
+  link, the links fixed to it, and below) count only beyond how far they reach below the foot point at rest (Spot's foot
   sphere is centred on its foot point); wheels roll on the ground and are not counted.
   ``foot_penetration_mm`` is the feet's points alone, ``deepest_link`` names where the deepest was.
 - ``self_collision_frac``: fraction of frames where any candidate shape pair overlaps by more than
@@ -71,9 +71,23 @@ def _groups(motions: Sequence[Motion]) -> dict[int, list[int]]:
     return groups
 
 
+def _rigid_with(m, link: str) -> set[str]:
+    """``link`` and the links fixed to it (through fixed joints, up and down): one rigid body."""
+    fixed = [j for j in m.joints if j.type == JointType.FIXED]
+    group, grown = {link}, True
+    while grown:
+        grown = False
+        for j in fixed:
+            if (j.parent in group) != (j.child in group):
+                group |= {j.parent, j.child}
+                grown = True
+    return group
+
+
 def _ground_allowance(m, model, feet: np.ndarray) -> np.ndarray:
     """Per shape [S]: how far below the ground [m] it may reach without penetrating: a foot's own shapes
-    (on the foot's link and below) as far below the foot point as at rest, wheels without limit, others 0."""
+    (on the foot's rigid body — its link and the links fixed to it, as a URDF toe fixed to its calf — and below)
+    as far below the foot point as at rest, wheels without limit, others 0."""
     from morphkit.kernels import eval_end_effectors, eval_fk
     from morphkit.kernels.contact import eval_shape_ground_distance
 
@@ -91,7 +105,7 @@ def _ground_allowance(m, model, feet: np.ndarray) -> np.ndarray:
         ee_z = pos.numpy()[0, :, 2]
         for e in feet:
             e = int(e)
-            below = {model.link_names[int(model.ee_link[e])]}
+            below = _rigid_with(m, model.link_names[int(model.ee_link[e])])
             for j in m.joints:  # topological order: parents first
                 if j.parent in below:
                     below.add(j.child)

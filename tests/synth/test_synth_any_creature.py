@@ -160,3 +160,34 @@ def test_a_foot_shape_centred_on_the_foot_point_is_not_penetration(synthesized):
     assert r["penetration_mm"] < 1.0 and r["deepest_link"] is None
     assert r["legs"].keys() == {leg.end_effector for leg in res.rig.plan.legs}
     assert r["step_length_m"] > 0.05 and r["warnings"] == []
+
+
+def test_a_foot_fixed_to_its_shin_is_one_rigid_body_for_the_report(tmp_path):
+    """A URDF toe fixed to its calf (A1's, with the foot point at the toe ball's centre) is one rigid body: the
+    calf reaching below the foot point as at rest is no penetration, as when the foot point is on the calf itself.
+    Truth: splitting a body by a fixed joint changes nothing physical, so both reports agree."""
+    from morphkit.io import read_morphology
+    from morphkit.motion import Motion
+    from morphkit.synth.report import quality_report
+
+    head = ("base: fixed\nroot: body\nlinks:\n"
+            "  body: {shapes: [{type: box, size: [0.4, 0.2, 0.1], origin: {xyz: [0, 0, 0.3]}}]}\n"
+            # the calf's capsule ends 2 cm below the foot point (the toe's centre, 4 cm above its lower end)
+            "  calf: {shapes: [{type: capsule, radius: 0.02, length: 0.2, origin: {xyz: [0, 0, 0.14]}}]}\n")
+    joints = ("joints:\n  slide: {type: prismatic, parent: body, child: calf, axis: [0, 0, 1],"
+              " origin: {xyz: [0.2, 0, 0.04]}, limit: {lower: -0.5, upper: 0.5}}\n")
+    split = (head + "  toe: {shapes: [{type: sphere, radius: 0.02}]}\n" + joints +
+             "  toe_fixed: {type: fixed, parent: calf, child: toe, origin: {xyz: [0, 0, 0.04]}}\n"
+             "end_effectors:\n  foot: {link: toe, offset: [0, 0, 0], role: foot}\n")
+    whole = (head.replace("origin: {xyz: [0, 0, 0.14]}}]}", "origin: {xyz: [0, 0, 0.14]}},"
+                          " {type: sphere, radius: 0.02, origin: {xyz: [0, 0, 0.04]}}]}") + joints +
+             "end_effectors:\n  foot: {link: calf, offset: [0, 0, 0.04], role: foot}\n")
+    reports = []
+    for name, text in (("split", split), ("whole", whole)):
+        (tmp_path / f"{name}.yaml").write_text(f"name: {name}\n" + text)
+        m = read_morphology(tmp_path / f"{name}.yaml")
+        q = np.array([[-0.08], [-0.09]])  # the foot point on the ground, then 1 cm under it
+        reports.append(quality_report([Motion(m, 30.0, q, name)]))
+    split_r, whole_r = reports
+    assert whole_r["penetration_mm"] == pytest.approx(10.0, abs=1e-3)  # only the 1 cm push counts
+    assert split_r["penetration_mm"] == pytest.approx(whole_r["penetration_mm"], abs=1e-6)
