@@ -90,9 +90,9 @@ class DataConfig:
     commands only, while held-out humans mostly stand, bend and reach."""
     yaw_rate: float | None = None
     """Largest yaw rate [rad/s] of the character's synthesised commands (±); ``None``: the synthesis' own
-    (:attr:`morphkit.synth.CommandConfig.yaw_rate`, ±1 rad/s, the paper's §7.1). Ours: mocap humans turn at up to
-    2 rad/s (95th percentile of the CMU development split), and a character whose data never turns faster cannot
-    follow them (docs/experiments/human-std-floor.md)."""
+    (:attr:`morphkit.synth.CommandConfig.yaw_rate`, ±1 rad/s, the paper's §7.1). Ours (``quick`` and ``default``: ±3):
+    mocap humans turn at up to 2 rad/s at the 95th percentile of the CMU development split and spin faster, and a
+    character whose data never turns faster cannot follow them (docs/experiments/turn-range.md)."""
     arm_hang_share: float | None = None
     """Share of the synthesised arm moves that go to the lowest-hanging neighbouring pose
     (:attr:`morphkit.synth.ArmConfig.hang_share`); ``None``: the synthesis' own (0, every move random). Ours."""

@@ -179,10 +179,10 @@ PRESETS: dict[str, AceConfig] = {
     ),
     # The whole main job ≤ 5 min on 2 cores, from a cold cache. G's learning rate doubled for its 240 steps: its
     # feature loss was still falling when D took over. Ground motion ×4 and hand ×2: docs/experiments/hand-weight.md.
-    # Turns to ±2 rad/s: docs/experiments/human-std-floor.md.
+    # Turns to ±3 rad/s: docs/experiments/turn-range.md.
     "quick": AceConfig(
         data=DataConfig(character_frames=12_000, human_frames=3_000, arm_hang_share=0.3, human_mirror=True,
-                        yaw_rate=2.0),
+                        yaw_rate=3.0),
         prior=replace(_QUICK_PRIOR, epochs=8, steps_per_epoch=60, batch_size=64),
         retarget=replace(_QUICK_RET, epochs=8, steps_per_epoch=30, batch_size=32, window=24, generator_average=0.95,
                          lr_generator=2e-4, ground_motion_weight=4.0, hand_weight=2.0),
@@ -191,7 +191,7 @@ PRESETS: dict[str, AceConfig] = {
     # docs/experiments/generator-average.md; ground motion ×2: ground-motion-weight.md; 40 epochs, the epoch chosen
     # on 5 % held out: validation-share.md.
     "default": AceConfig(
-        data=DataConfig(character_frames=60_000, arm_hang_share=0.3, human_mirror=True, yaw_rate=2.0),
+        data=DataConfig(character_frames=60_000, arm_hang_share=0.3, human_mirror=True, yaw_rate=3.0),
         prior=replace(_DEFAULT_PRIOR, epochs=16, steps_per_epoch=100, batch_size=128),
         retarget=replace(_DEFAULT_RET, epochs=40, steps_per_epoch=40, batch_size=64, generator_average=0.95,
                          ground_motion_weight=2.0, validation_share=0.05),
