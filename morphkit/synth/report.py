@@ -38,7 +38,7 @@ The root follows the (scaled) command by construction, so ``tracking_error`` che
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from typing import Any
 
 import numpy as np
@@ -114,9 +114,11 @@ def _ground_allowance(m, model, feet: np.ndarray) -> np.ndarray:
     return allow
 
 
-def limit_advice(m: Morphology, leg: Limb) -> str:
-    """The fix for a leg that cannot reach: widen the limits it has, else (joints that turn freely) its geometry."""
-    limited = [m.joint(n).name for n in leg.joints if m.joint(n).type in (JointType.REVOLUTE, JointType.PRISMATIC)]
+def limit_advice(m: Morphology, leg: Limb, held: Collection[str] = ()) -> str:
+    """The fix for a leg that cannot reach: widen the limits it has, else (joints that turn freely) its geometry.
+    ``held``: joints the synthesis holds at rest (a redundant hip's turn), whose limits are not what stops it."""
+    limited = [m.joint(n).name for n in leg.joints
+               if m.joint(n).type in (JointType.REVOLUTE, JointType.PRISMATIC) and m.joint(n).name not in held]
     if limited:
         return f"widen the limits of {', '.join(limited)} or lengthen the leg's segments in the description"
     return ("its joints turn freely, so the segments are what limit it: lengthen them, or give a rest pose with the "
@@ -317,6 +319,7 @@ def _steps(result: Any, tally: _KinematicTally, warnings: list[str]) -> dict[str
     out["step_length_m"] = round(float(sl.mean()), 4) if sl.size else 0.0
     out["step_height_m"] = round(float(ap.mean()), 4) if ap.size else 0.0
     legs = {}
+    held = {m.joints[j].name for j in rig.solver.held_joints}
     for li, leg in enumerate(rig.plan.legs):
         mine = np.array([sw[0] == li for sw in swings], dtype=bool)
         speed = np.concatenate([s_[:, li] for s_ in tally.leg_slides]) if tally.leg_slides else np.zeros(0)
@@ -331,15 +334,15 @@ def _steps(result: Any, tally: _KinematicTally, warnings: list[str]) -> dict[str
         if entry["sliding_cm_s"] > WARN_SLIDING_CM_S:
             warnings.append(f"leg {leg.end_effector}: its stance foot slides {entry['sliding_cm_s']:.2g} cm/s "
                             "on average: IK cannot hold it where it stands at the body's dips and tilts (a joint "
-                            f"at its limit, or the foot out of reach): {limit_advice(m, leg)}")
+                            f"at its limit, or the foot out of reach): {limit_advice(m, leg, held)}")
         if entry["swings"] and entry["step_length_m"] < WARN_STEP_FRACTION * leg.reach:
             warnings.append(f"leg {leg.end_effector}: steps {100 * entry['step_length_m']:.2g} cm on average, "
-                            f"under a tenth of its {100 * leg.reach:.3g} cm reach: {limit_advice(m, leg)}"
+                            f"under a tenth of its {100 * leg.reach:.3g} cm reach: {limit_advice(m, leg, held)}"
                             ", or space the legs further apart if they would collide")
         if entry["swings"] and entry["step_height_m"] < WARN_STEP_HEIGHT_M:
             warnings.append(f"leg {leg.end_effector}: lifts its foot {100 * entry['step_height_m']:.2g} cm "
                             "on average: a higher foot is out of reach (bend the knee in the rest pose, or "
-                            f"{limit_advice(m, leg)})")
+                            f"{limit_advice(m, leg, held)})")
     out["legs"] = legs
     return out
 

@@ -40,3 +40,15 @@ def test_a_leg_with_one_hinge_out_of_its_plane_holds_nothing(tmp_path):
     for name in ("spider", "walker"):
         m = read_creature(name, tmp_path)
         assert LimbSolver(m, analyse(m)).held_joints == [], name
+
+
+def test_advice_does_not_name_the_held_hinges(tmp_path):
+    """A leg that cannot reach is told to widen the limits of the joints that move it, not of its held hip yaw."""
+    from morphkit.synth.report import limit_advice
+
+    m = read_creature("swivel", tmp_path)
+    leg = analyse(m).legs[0]
+    said = limit_advice(m, leg, held={"fl_yaw", "fr_yaw", "hl_yaw", "hr_yaw"})
+    moving = [n for n in leg.joints if not n.endswith("_yaw")]
+    assert "_yaw" not in said and all(n in said for n in moving), said
+    assert all(n in limit_advice(m, leg) for n in leg.joints)
