@@ -1054,8 +1054,6 @@ class LeggedController:
         self.td_xy = self.foot_xy.copy()
         self.td_yaw = self.foot_yaw.copy()
         self.emergencies = 0
-        self.apex: np.ndarray | None = None
-        """[R, NL] swing apex per leg [m] once a ``hold`` has lowered one (None: ``rig.swing_height`` for all)."""
 
     def step(self, t: int, path_xy: np.ndarray, path_yaw: np.ndarray, v: np.ndarray, w: np.ndarray,
              choice: np.ndarray, *, lift: np.ndarray | None = None, swing_frames: np.ndarray | None = None,
@@ -1074,8 +1072,7 @@ class LeggedController:
             swing_frames: [R, NL] frames from such a lift to its touchdown (at least the shortest swing);
                 needed with ``lift``.
             hold: [R, NL] bool: legs whose lifts the gait's phase does not decide this frame (they lift
-                by ``lift`` or at their ellipse's edge only, the latter a shuffle ``lift_clearance`` high:
-                the foot is meant to be down); None: none.
+                by ``lift`` or at their ellipse's edge only); None: none.
         """
         rig, cfg = self.rig, self.cfg
         p = rig.nominal_xy
@@ -1126,14 +1123,6 @@ class LeggedController:
             if asked is not None and swing_frames is not None:
                 mine = lift & asked
                 self.nsw[mine] = np.maximum(self.n_swing_min, swing_frames[mine])
-            if hold is not None:
-                if self.apex is None:
-                    self.apex = np.full(self.stance.shape, rig.swing_height)
-                self.apex[lift] = rig.swing_height
-                shuffle = lift & hold
-                if asked is not None:
-                    shuffle &= ~asked
-                self.apex[shuffle] = min(rig.swing_height, cfg.lift_clearance)
             self.k[lift] = 0
             self.stance[lift] = False
             self.armed[lift] = False
@@ -1169,8 +1158,8 @@ class LeggedController:
         n = self.nsw[rows, legs]
         hor = smoothstep((k - 1) / np.maximum(n - 2, 1))
         frac = np.clip(k / n, 0.0, 1.0)
-        H = rig.swing_height if self.apex is None else self.apex[rows, legs]
-        z = np.maximum(4.0 * H * frac * (1.0 - frac), np.minimum(H, cfg.lift_clearance))  # parabola, lifted clear
+        H = rig.swing_height
+        z = np.maximum(4.0 * H * frac * (1.0 - frac), min(H, cfg.lift_clearance))  # parabola, lifted clear
         done = k >= n
         lx = self.lift_xy[rows, legs]
         self.foot_xy[rows, legs] = lx + (self.td_xy[rows, legs] - lx) * hor[:, None]
