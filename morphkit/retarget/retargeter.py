@@ -20,7 +20,7 @@ from morphkit.graph import Morphology
 from morphkit.motion import ClampReport, Motion, Pairing, foot_contact_flags, foot_names
 from morphkit.retarget.training_data import DataConfig
 
-__all__ = ["RetargetedClip", "Retargeter", "WithContacts", "check_finite", "paired_swings"]
+__all__ = ["RetargetedClip", "Retargeter", "WithContacts", "check_finite", "paired_swings", "swing_hint"]
 
 
 @dataclass(frozen=True)
@@ -72,6 +72,16 @@ def paired_swings(source: Motion, creature: Morphology, pairing: Pairing) -> dic
         return {}
     contact = foot_contact_flags(source)
     return {c: contact[:, human_feet.index(h)] < 0.5 for c, h in alone}
+
+
+def swing_hint(clip: RetargetedClip, pairing: Pairing | None) -> dict[str, np.ndarray] | None:
+    """The ``replan`` export's ``swing_hint`` of ``clip`` (:func:`~morphkit.synth.apply_contacts`): its source's
+    :func:`paired_swings` where the source and the motion share frames (length and rate); None where there is no
+    pairing, no one-to-one paired foot or no common timeline."""
+    src, motion = clip.source, clip.motion
+    if pairing is None or src.frame_count != motion.frame_count or src.fps != motion.fps:
+        return None
+    return paired_swings(src, motion.morphology, pairing) or None
 
 
 @runtime_checkable
@@ -146,9 +156,6 @@ class WithContacts:
         swings of one-to-one paired feet follow the source human's (:func:`paired_swings`)."""
         from morphkit.synth import apply_contacts
 
-        hint = None
-        if (self.mode == "replan" and self.pairing is not None and clip.source.frame_count == clip.motion.frame_count
-                and clip.source.fps == clip.motion.fps):
-            hint = paired_swings(clip.source, clip.motion.morphology, self.pairing) or None
+        hint = swing_hint(clip, self.pairing) if self.mode == "replan" else None
         return dataclasses.replace(clip, motion=apply_contacts(clip.motion, self.mode, stance=clip.stance,
                                                                swing_hint=hint))
