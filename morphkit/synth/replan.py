@@ -17,6 +17,13 @@ Choices that are ours (named here and in the docs):
   ±3 rad/s) sends three or four feet to the edges of their ellipses in one frame, and lifting them all
   makes a flight longer than any in the creature's data; the foot deepest inside its ellipse waits instead
   until another touches down (the synthesis keeps its gaits' own flights);
+* a leg given a ``swing_hint`` (the retarget layer gives one to a creature foot that alone is paired with a
+  human foot — a biped's, not a quadruped's two left feet) lifts on the first frame of each of the hint's
+  airborne runs and touches down on the frame the run ends (at least the shortest swing; later, if
+  ``min_support`` held it, while half a shortest swing of the run remains); within one gait cycle of such a
+  run the gait's phase lifts it no more, only its ellipse's edge does (a creature whose steps are shorter than
+  the human's re-steps in between); elsewhere (a human standing still) and for runs shorter than half the
+  shortest swing (a contact detector's flicker) the gait's phase steps it as without a hint;
 * nothing but the legs moves: an arm or head the retargeter put through the ground stays there
   (the upper body is the retargeter's to answer for).
 
