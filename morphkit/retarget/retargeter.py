@@ -17,10 +17,10 @@ import numpy as np
 
 from morphkit.errors import ConfigError, RunError, SourceLocation
 from morphkit.graph import Morphology
-from morphkit.motion import ClampReport, Motion, Pairing
+from morphkit.motion import ClampReport, Motion, Pairing, foot_contact_flags, foot_names
 from morphkit.retarget.training_data import DataConfig
 
-__all__ = ["RetargetedClip", "Retargeter", "WithContacts", "check_finite"]
+__all__ = ["RetargetedClip", "Retargeter", "WithContacts", "check_finite", "paired_swings", "swing_hint"]
 
 
 @dataclass(frozen=True)
@@ -56,6 +56,32 @@ def check_finite(motion: Motion, *, run: str | os.PathLike[str], clip: str) -> M
         raise RunError(f"clip {clip!r}: non-finite output at frame {frame} of {motion.frame_count} "
                        f"({', '.join(coords[:4])})", location=SourceLocation(os.fspath(run)))
     return motion
+
+
+def paired_swings(source: Motion, creature: Morphology, pairing: Pairing) -> dict[str, np.ndarray]:
+    """``{creature foot: [T] bool}``, True where the human foot it is paired with is off the ground in
+    ``source`` (:func:`~morphkit.motion.foot_contact_flags`: 5 cm, 0.3 m/s), for each creature foot that
+    is the only creature foot paired with its human foot (a biped's; not a quadruped's two left feet, whose
+    steps cannot both follow one human foot). Empty where none is, or the human has no feet."""
+    human_feet = foot_names(source.morphology)
+    creature_feet = set(foot_names(creature))
+    pairs = [(c, h) for c, h in zip(pairing.creature_ees, pairing.human_ees, strict=True)
+             if c in creature_feet and h in human_feet]
+    alone = [(c, h) for c, h in pairs if sum(hh == h for _, hh in pairs) == 1]
+    if not alone:
+        return {}
+    contact = foot_contact_flags(source)
+    return {c: contact[:, human_feet.index(h)] < 0.5 for c, h in alone}
+
+
+def swing_hint(clip: RetargetedClip, pairing: Pairing | None) -> dict[str, np.ndarray] | None:
+    """The ``replan`` export's ``swing_hint`` of ``clip`` (:func:`~morphkit.synth.apply_contacts`): its source's
+    :func:`paired_swings` where the source and the motion share frames (length and rate); None where there is no
+    pairing, no one-to-one paired foot or no common timeline."""
+    src, motion = clip.source, clip.motion
+    if pairing is None or src.frame_count != motion.frame_count or src.fps != motion.fps:
+        return None
+    return paired_swings(src, motion.morphology, pairing) or None
 
 
 @runtime_checkable
@@ -101,7 +127,7 @@ class Retargeter(Protocol):
 class WithContacts:
     """A :class:`Retargeter` whose motions go through a contact-aware export
     (:func:`morphkit.synth.apply_contacts`: ``replan`` re-steps the legs along the retargeted root
-    path); its label gains ``+mode``."""
+    path, a biped's feet lifting as the human's do); its label gains ``+mode``."""
 
     def __init__(self, retargeter: Retargeter, mode: str) -> None:
         from morphkit.synth import CONTACT_MODES
@@ -126,7 +152,10 @@ class WithContacts:
         return WithContacts(self.inner.with_target(target), self.mode)
 
     def export(self, clip: RetargetedClip) -> RetargetedClip:
-        """One raw clip through the export (its states and clamp report are the raw output's)."""
+        """One raw clip through the export (its states and clamp report are the raw output's); ``replan``'s
+        swings of one-to-one paired feet follow the source human's (:func:`paired_swings`)."""
         from morphkit.synth import apply_contacts
 
-        return dataclasses.replace(clip, motion=apply_contacts(clip.motion, self.mode, stance=clip.stance))
+        hint = swing_hint(clip, self.pairing) if self.mode == "replan" else None
+        return dataclasses.replace(clip, motion=apply_contacts(clip.motion, self.mode, stance=clip.stance,
+                                                               swing_hint=hint))

@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
+
+import numpy as np
 
 from morphkit.errors import ConfigError
 from morphkit.motion.motion import Motion
@@ -20,11 +23,14 @@ upper body out of the creature's own shapes and the ground by a short change of 
 (:func:`~morphkit.synth.clearance.clear_upper_body`)."""
 
 
-def apply_contacts(motion: Motion, mode: str, *, stance: Any = None) -> Motion:
+def apply_contacts(motion: Motion, mode: str, *, stance: Any = None,
+                   swing_hint: Mapping[str, np.ndarray] | None = None) -> Motion:
     """The contact-aware export ``mode`` (one of :data:`CONTACT_MODES`) of a retargeted motion.
 
     ``stance``: the retargeter's stance flags [T, F] (feet in :func:`~morphkit.motion.foot_names` order),
-    which ``lock`` holds instead of deciding stance from the feet's height and speed.
+    which ``lock`` holds instead of deciding stance from the feet's height and speed. ``swing_hint``:
+    ``{foot end-effector: [T] bool}``, when each of those feet should be in the air, which ``replan``'s
+    swings follow (:func:`~morphkit.synth.replan.replan_legs`); ``lock`` ignores it.
 
     Raises:
         ConfigError: an unknown mode.
@@ -32,7 +38,7 @@ def apply_contacts(motion: Motion, mode: str, *, stance: Any = None) -> Motion:
     if mode == "none":
         return motion
     if mode == "replan":
-        return clear_upper_body(replan_legs(motion))
+        return clear_upper_body(replan_legs(motion, swing_hint=swing_hint))
     if mode == "lock":
         return clear_upper_body(lock_feet(motion, stance=stance))
     raise ConfigError(f"unknown contact mode {mode!r}; expected one of: {', '.join(CONTACT_MODES)}")

@@ -1056,7 +1056,8 @@ class LeggedController:
         self.emergencies = 0
 
     def step(self, t: int, path_xy: np.ndarray, path_yaw: np.ndarray, v: np.ndarray, w: np.ndarray,
-             choice: np.ndarray) -> None:
+             choice: np.ndarray, *, lift: np.ndarray | None = None, swing_frames: np.ndarray | None = None,
+             hold: np.ndarray | None = None) -> None:
         """Advance one frame.
 
         Args:
@@ -1066,6 +1067,12 @@ class LeggedController:
             v: Commanded heading-frame velocity at frame ``t`` [R, 2].
             w: Commanded yaw rate at frame ``t`` [R].
             choice: Segment random number [R] (gait alternatives).
+            lift: [R, NL] bool: stance feet to lift now whatever the gait's phase (``min_support`` still
+                applies); None: none.
+            swing_frames: [R, NL] frames from such a lift to its touchdown (at least the shortest swing);
+                needed with ``lift``.
+            hold: [R, NL] bool: legs whose lifts the gait's phase does not decide this frame (they lift
+                by ``lift`` or at their ellipse's edge only); None: none.
         """
         rig, cfg = self.rig, self.cfg
         p = rig.nominal_xy
@@ -1099,7 +1106,13 @@ class LeggedController:
         in_stance_phase = psi < duty[:, None]
         self.armed |= self.stance & in_stance_phase
         emergency = self.stance & (rho > cfg.emergency_limit - frame_step)
-        lift = self.stance & ((self.armed & ~in_stance_phase & (moving[:, None] | (rho > 0.12))) | emergency)
+        by_phase = self.armed & ~in_stance_phase & (moving[:, None] | (rho > 0.12))
+        if hold is not None:
+            by_phase &= ~hold
+        asked = lift
+        lift = self.stance & (by_phase | emergency)
+        if asked is not None:
+            lift |= self.stance & asked
         if self.min_support > 0:
             lift = self._keep_support(lift, rho)
         self.emergencies += int((emergency & lift).sum())
@@ -1107,6 +1120,9 @@ class LeggedController:
             rows = np.nonzero(lift)[0]
             n = np.maximum(self.n_swing_min, np.round((1.0 - duty) / f * self.fps)).astype(np.int64)
             self.nsw[lift] = n[rows]
+            if asked is not None and swing_frames is not None:
+                mine = lift & asked
+                self.nsw[mine] = np.maximum(self.n_swing_min, swing_frames[mine])
             self.k[lift] = 0
             self.stance[lift] = False
             self.armed[lift] = False

@@ -17,6 +17,13 @@ Choices that are ours (named here and in the docs):
   ±3 rad/s) sends three or four feet to the edges of their ellipses in one frame, and lifting them all
   makes a flight longer than any in the creature's data; the foot deepest inside its ellipse waits instead
   until another touches down (the synthesis keeps its gaits' own flights);
+* a leg given a ``swing_hint`` (the retarget layer gives one to a creature foot that alone is paired with a
+  human foot — a biped's, not a quadruped's two left feet) lifts on the first frame of each of the hint's
+  airborne runs and touches down on the frame the run ends (at least the shortest swing; later, if
+  ``min_support`` held it, while half a shortest swing of the run remains); within one gait cycle of such a
+  run the gait's phase lifts it no more, only its ellipse's edge does (a creature whose steps are shorter than
+  the human's re-steps in between); elsewhere (a human standing still) and for runs shorter than half the
+  shortest swing (a contact detector's flicker) the gait's phase steps it as without a hint;
 * nothing but the legs moves: an arm or head the retargeter put through the ground stays there
   (the upper body is the retargeter's to answer for).
 
@@ -25,8 +32,11 @@ Creatures without legs (wheeled, planar, fixed bases, gliders) come back unchang
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 
+from morphkit.errors import ConfigError
 from morphkit.motion.motion import Motion
 from morphkit.rotations import yaw_from_quat
 from morphkit.synth.core import SynthConfig, prepare
@@ -47,8 +57,46 @@ def _smooth(x: np.ndarray, frames: int) -> np.ndarray:
     return (c[hi] - c[lo]) / (hi - lo).reshape(-1, *([1] * (x.ndim - 1)))
 
 
+class _SwingSchedule:
+    """The swings ``swing_hint`` asks of the hinted legs (see :func:`replan_legs`), as the planner takes them.
+
+    A hint's airborne runs shorter than half the shortest swing are dropped (a contact detector's flicker);
+    a leg follows its hint within one gait cycle (at the creature's cadence) of a kept run, and is stepped
+    by the gait's phase elsewhere (a human standing still, or a clip that starts before its first step).
+    """
+
+    def __init__(self, hints: dict[int, np.ndarray], T: int, NL: int, n_swing_min: int, cycle: int) -> None:
+        self.min_run = max(2, -(-n_swing_min // 2))
+        self.run = np.full((T, NL), -1, dtype=np.int64)  # index of the kept airborne run each frame is in
+        self.end = np.zeros((T, NL), dtype=np.int64)  # the frame that run touches down (exclusive end)
+        self.follow = np.zeros((T, NL), dtype=bool)
+        self.hinted = np.zeros(NL, dtype=bool)
+        self.used = np.full(NL, -1, dtype=np.int64)
+        for leg, air in hints.items():
+            self.hinted[leg] = True
+            edges = np.diff(np.concatenate([[0], air.astype(np.int8), [0]]))
+            starts, ends = np.nonzero(edges > 0)[0], np.nonzero(edges < 0)[0]
+            keep = ends - starts >= self.min_run
+            for i, (a, b) in enumerate(zip(starts[keep], ends[keep], strict=True)):
+                self.run[a:b, leg] = i
+                self.end[a:b, leg] = b
+                self.follow[max(a - cycle, 0):b + cycle, leg] = True
+
+    def lift(self, t: int) -> tuple[np.ndarray, np.ndarray]:
+        """Legs [1, NL] to lift at frame ``t`` (the first frame of a run no swing has used yet, or later while
+        enough of it remains) and their swing frames [1, NL] (touching down as the run ends)."""
+        run, left = self.run[t], self.end[t] - t
+        lift = (run >= 0) & (run != self.used) & (left >= self.min_run)
+        return lift[None], (left + 1)[None]
+
+    def update(self, t: int, stance: np.ndarray) -> None:
+        """Mark the runs of legs airborne at frame ``t`` (``stance`` [NL]) used: one swing per run."""
+        air = ~stance & (self.run[t] >= 0)
+        self.used[air] = self.run[t, air]
+
+
 def replan_legs(motion: Motion, *, config: SynthConfig | None = None, smoothing_seconds: float = 0.1,
-                min_support: int = 1) -> Motion:
+                min_support: int = 1, swing_hint: Mapping[str, np.ndarray] | None = None) -> Motion:
     """``motion`` with its legs re-planned along its own root path (see the module docstring).
 
     Args:
@@ -56,16 +104,24 @@ def replan_legs(motion: Motion, *, config: SynthConfig | None = None, smoothing_
         config: Synthesis configuration (leg parameters, IK iterations; default :class:`SynthConfig`).
         smoothing_seconds: Half-width of the moving average on the velocities fed to the planner [s].
         min_support: Feet kept on the ground whatever the gait and the path ask (``LeggedController``).
+        swing_hint: ``{foot end-effector: [T] bool}``, True where that leg's foot should be in the air: its
+            swings lift off and touch down with the hint's airborne runs instead of the gait's phase, as far
+            as the planner allows (the shortest swing, ``min_support``, lifts at the ellipse's edge, reachable
+            touchdowns). None, or legs it does not name: the gait's phase alone.
 
     Returns:
         A motion of the same creature, frame rate and length: base coordinates and non-leg joints
         bit-identical to ``motion``'s, leg joints re-solved.
+
+    Raises:
+        ConfigError: a hint naming no leg's foot, or not of the motion's length.
     """
     m = motion.morphology
     rig = prepare(m, fps=motion.fps, config=config)
     if rig.locomotion != Locomotion.LEGGED or rig.legs is None or motion.frame_count == 0:
         return motion
     cfg = rig.config
+    hints = _leg_hints(swing_hint, tuple(leg.end_effector for leg in rig.plan.legs), motion.frame_count)
     fps = motion.fps
     T = motion.frame_count
     root = motion.root_pose()
@@ -83,6 +139,10 @@ def replan_legs(motion: Motion, *, config: SynthConfig | None = None, smoothing_
     path_yaw = np.concatenate([yaw, np.repeat(yaw[-1:], pad)])[None]
     solver = rig.solver
     legs = LeggedController(rig.legs, cfg.legs, fps, path_xy[:, 0], path_yaw[:, 0], min_support=min_support)
+    schedule = None
+    if hints:
+        schedule = _SwingSchedule(hints, T, rig.legs.leg_count, legs.n_swing_min,
+                                  max(1, round(fps / rig.legs.cadence_hz)))
     leg_mask = solver.leg_mask
     nb = m.base_coordinate_count
     leg_coords = np.zeros(m.coordinate_count, dtype=bool)
@@ -96,7 +156,13 @@ def replan_legs(motion: Motion, *, config: SynthConfig | None = None, smoothing_
     q_legs = np.array(rig.q_stance, dtype=float)[leg_coords]
     choice = np.zeros(1)
     for t in range(T):
-        legs.step(t, path_xy, path_yaw, v[t : t + 1], w[t : t + 1], choice)
+        if schedule is None:
+            legs.step(t, path_xy, path_yaw, v[t : t + 1], w[t : t + 1], choice)
+        else:
+            lift, frames = schedule.lift(t)
+            legs.step(t, path_xy, path_yaw, v[t : t + 1], w[t : t + 1], choice, lift=lift, swing_frames=frames,
+                      hold=schedule.follow[t : t + 1])
+            schedule.update(t, legs.stance[0])
         q = out[t : t + 1].copy()
         q[0, leg_coords] = q_legs
         solver.constrain(q)
@@ -117,3 +183,19 @@ def replan_legs(motion: Motion, *, config: SynthConfig | None = None, smoothing_
         out[t, leg_coords] = q_legs
     return motion.replace(q=out)
 
+
+def _leg_hints(swing_hint: Mapping[str, np.ndarray] | None, feet: tuple[str, ...], T: int) -> dict[int, np.ndarray]:
+    """``swing_hint`` by leg index, each [T] bool.
+
+    Raises:
+        ConfigError: a name that is no leg's foot, or a hint not of ``T`` frames.
+    """
+    out: dict[int, np.ndarray] = {}
+    for name, air in (swing_hint or {}).items():
+        if name not in feet:
+            raise ConfigError(f"replan_legs: swing_hint names {name!r}, no leg's foot (legs: {', '.join(feet)})")
+        air = np.asarray(air, dtype=bool)
+        if air.shape != (T,):
+            raise ConfigError(f"replan_legs: swing_hint {name!r} has shape {list(air.shape)}, expected [{T}]")
+        out[feet.index(name)] = air
+    return out
