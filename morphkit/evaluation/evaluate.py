@@ -27,7 +27,7 @@ from morphkit.evaluation.table import TableRow, dataset_row, evaluate_clips, poo
 from morphkit.graph import Morphology
 from morphkit.metrics import UnrealisticFrames, unrealistic_frame_ratio
 from morphkit.motion import Motion, Pairing, body_length, ee_distributions, map_end_effectors
-from morphkit.retarget.retargeter import RetargetedClip, Retargeter, swing_hint
+from morphkit.retarget.retargeter import RetargetedClip, Retargeter, contact_export
 from morphkit.retarget.runs import load
 from morphkit.retarget.training_data import (
     DataConfig,
@@ -35,7 +35,6 @@ from morphkit.retarget.training_data import (
     evaluation_clips,
     human_motions,
 )
-from morphkit.synth import apply_contacts
 
 CONTACT_ROWS = ("ACE", "NKN")
 """Methods whose motions are also scored through each contact-aware export (a row each)."""
@@ -200,11 +199,9 @@ def evaluate_methods(
         motions = [r.motion for r in retargeted]
         variants = [(method, motions)]
         if method.name in CONTACT_ROWS:  # lock holds the method's own stance flags where it has them
-            # replan's one-to-one paired feet follow the human's swings, as the shipped export (WithContacts)
+            # the shipped export's (WithContacts): replan's one-to-one paired feet follow the human's swings
             variants += [(dataclasses.replace(method, name=f"{method.name}+{mode}"),
-                          [apply_contacts(r.motion, mode, stance=r.stance,
-                                          swing_hint=swing_hint(r, ref.pairing) if mode == "replan" else None)
-                           for r in retargeted])
+                          [contact_export(r, mode, ref.pairing) for r in retargeted])
                          for mode in contacts if mode != "none"]
         for shown_as, shown in variants:
             row = evaluate_clips(shown_as.name, list(clips), shown, data, ref.pairing, seed=seed)

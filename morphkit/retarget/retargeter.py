@@ -20,7 +20,8 @@ from morphkit.graph import Morphology
 from morphkit.motion import ClampReport, Motion, Pairing, foot_contact_flags, foot_names
 from morphkit.retarget.training_data import DataConfig
 
-__all__ = ["RetargetedClip", "Retargeter", "WithContacts", "check_finite", "paired_swings", "swing_hint"]
+__all__ = ["RetargetedClip", "Retargeter", "WithContacts", "check_finite", "contact_export", "paired_swings",
+           "swing_hint"]
 
 
 @dataclass(frozen=True)
@@ -82,6 +83,25 @@ def swing_hint(clip: RetargetedClip, pairing: Pairing | None) -> dict[str, np.nd
     if pairing is None or src.frame_count != motion.frame_count or src.fps != motion.fps:
         return None
     return paired_swings(src, motion.morphology, pairing) or None
+
+
+def contact_export(clip: RetargetedClip, mode: str, pairing: Pairing | None) -> Motion:
+    """``clip``'s motion through the contact-aware export ``mode`` (:func:`morphkit.synth.apply_contacts`, with the
+    clip's stance flags). ``replan``'s one-to-one paired feet follow the source human's swings
+    (:func:`swing_hint`) where that costs no realism: the clip is re-planned without them too, and the plan with
+    fewer unrealistic frames (:func:`~morphkit.metrics.unrealistic_frame_ratio`) is kept, the human's timing on a
+    tie. A timing the creature's legs cannot keep (a touchdown out of reach, a stance foot held at its ellipse's
+    edge) then falls back to the planner's own steps for that clip."""
+    from morphkit.metrics import unrealistic_frame_ratio
+    from morphkit.synth import apply_contacts
+
+    plain = apply_contacts(clip.motion, mode, stance=clip.stance)
+    hint = swing_hint(clip, pairing) if mode == "replan" else None
+    if hint is None:
+        return plain
+    hinted = apply_contacts(clip.motion, mode, stance=clip.stance, swing_hint=hint)
+    worse = unrealistic_frame_ratio(hinted).unrealistic_count > unrealistic_frame_ratio(plain).unrealistic_count
+    return plain if worse else hinted
 
 
 @runtime_checkable
@@ -152,10 +172,6 @@ class WithContacts:
         return WithContacts(self.inner.with_target(target), self.mode)
 
     def export(self, clip: RetargetedClip) -> RetargetedClip:
-        """One raw clip through the export (its states and clamp report are the raw output's); ``replan``'s
-        swings of one-to-one paired feet follow the source human's (:func:`paired_swings`)."""
-        from morphkit.synth import apply_contacts
-
-        hint = swing_hint(clip, self.pairing) if self.mode == "replan" else None
-        return dataclasses.replace(clip, motion=apply_contacts(clip.motion, self.mode, stance=clip.stance,
-                                                               swing_hint=hint))
+        """One raw clip through the export (:func:`contact_export`; its states and clamp report are the raw
+        output's)."""
+        return dataclasses.replace(clip, motion=contact_export(clip, self.mode, self.pairing))

@@ -83,9 +83,37 @@ def test_with_contacts_hands_replan_the_hints_and_lock_none(human, monkeypatch):
         for mode in ("replan", "lock"):
             seen.clear()
             WithContacts(inner, mode).export(clip)
-            hint = seen[0][1]
+            hint = seen[-1][1]
             if mode == "replan" and feet is not None:
+                assert [m for m, _ in seen] == ["replan", "replan"] and seen[0][1] is None  # with and without
                 assert set(hint) == feet
                 np.testing.assert_array_equal(hint["fl_foot"], _truth(LEFT_UP))
             else:
-                assert hint is None
+                assert len(seen) == 1 and hint is None
+
+
+def test_the_human_timing_is_kept_only_where_it_costs_no_realism(human, monkeypatch):
+    """``contact_export`` keeps the hinted plan unless it has more unrealistic frames than the planner's own: here
+    the hinted plan is made to sink the body 10 cm (its feet under the ground, counted by the UFR), then not."""
+    from morphkit.metrics import unrealistic_frame_ratio
+    from morphkit.retarget.retargeter import contact_export
+
+    creature = spot_like()
+    q = np.repeat(creature.rest_q()[None], T, axis=0)
+    q[:, 2] -= Motion(creature, FPS, q[:1]).end_effector_positions()[0, :4, 2].min()  # the feet on the ground
+    standing = Motion(creature, FPS, q, "out")
+    assert unrealistic_frame_ratio(standing).unrealistic_count == 0
+    sunk_q = standing.q.copy()
+    sunk_q[:, 2] -= 0.1
+    sunk = standing.replace(q=sunk_q)
+    assert unrealistic_frame_ratio(sunk).unrealistic_count == T
+    lifted_q = standing.q.copy()
+    lifted_q[:, 2] += 1e-4  # as realistic as standing, and told apart from it
+    lifted = standing.replace(q=lifted_q)
+    pairing = _pairing(("fl_foot", "fr_foot"), ("left_foot", "right_foot"))
+    clip = RetargetedClip(human, standing)
+    for hinted, expected in ((sunk, standing), (lifted, lifted)):
+        monkeypatch.setattr(morphkit.synth, "apply_contacts",
+                            lambda motion, mode, *, stance=None, swing_hint=None, h=hinted:
+                            h if swing_hint is not None else motion)
+        assert contact_export(clip, "replan", pairing) is expected
