@@ -389,7 +389,7 @@ def test_table_nkn_sees_the_creature_data_ace_sees(tmp_path):
     from morphkit.retarget.nkn.config import NknDataConfig
     from morphkit.retarget.training_data import SYNTHESIS_OPTIONS, DataConfig, synthesis_options
 
-    not_synthesis = {"character_frames", "fps", "synth_seed", "human_frames", "human_mirror"}
+    not_synthesis = {"character_frames", "fps", "synth_seed", "human_frames", "human_mirror", "human_split"}
     fields = {f.name for f in dataclasses.fields(DataConfig)}
     assert fields == not_synthesis | set(SYNTHESIS_OPTIONS)
     assert set(SYNTHESIS_OPTIONS) <= {f.name for f in dataclasses.fields(NknDataConfig)}
