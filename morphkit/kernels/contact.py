@@ -57,6 +57,7 @@ __all__ = [
     "eval_sliding_speed",
     "eval_sliding_speed_adjoint",
     "foot_indices",
+    "rigid_bodies",
     "self_collision_pairs",
 ]
 
@@ -513,8 +514,8 @@ class SelfCollisionPairs:
         return hit
 
 
-def _rigid_bodies(model: KinematicModel) -> np.ndarray:
-    """Body id of every link: links joined by fixed joints share one (they never move apart)."""
+def rigid_bodies(model: KinematicModel) -> np.ndarray:
+    """Body id of every link [L]: links joined by fixed joints share one (they never move apart)."""
     body = np.arange(model.link_count)
     for j in range(model.joint_count):
         if int(model.joint_type[j]) == JointType.FIXED:
@@ -548,7 +549,7 @@ def self_collision_pairs(model: KinematicModel, *, rest_margin: float = 0.0, ski
     """
     from morphkit.kernels.fk import eval_fk  # the FK launcher lives beside; imported here to keep this module light
 
-    body = _rigid_bodies(model)
+    body = rigid_bodies(model)
     parent_body = np.full(model.link_count, -1)
     for j in range(model.joint_count):
         child = j + 1

@@ -70,10 +70,8 @@ class _SwingSchedule:
         self.run = np.full((T, NL), -1, dtype=np.int64)  # index of the kept airborne run each frame is in
         self.end = np.zeros((T, NL), dtype=np.int64)  # the frame that run touches down (exclusive end)
         self.follow = np.zeros((T, NL), dtype=bool)
-        self.hinted = np.zeros(NL, dtype=bool)
         self.used = np.full(NL, -1, dtype=np.int64)
         for leg, air in hints.items():
-            self.hinted[leg] = True
             edges = np.diff(np.concatenate([[0], air.astype(np.int8), [0]]))
             starts, ends = np.nonzero(edges > 0)[0], np.nonzero(edges < 0)[0]
             keep = ends - starts >= self.min_run

@@ -71,25 +71,12 @@ def _groups(motions: Sequence[Motion]) -> dict[int, list[int]]:
     return groups
 
 
-def _rigid_with(m, link: str) -> set[str]:
-    """``link`` and the links fixed to it (through fixed joints, up and down): one rigid body."""
-    fixed = [j for j in m.joints if j.type == JointType.FIXED]
-    group, grown = {link}, True
-    while grown:
-        grown = False
-        for j in fixed:
-            if (j.parent in group) != (j.child in group):
-                group |= {j.parent, j.child}
-                grown = True
-    return group
-
-
 def _ground_allowance(m, model, feet: np.ndarray) -> np.ndarray:
     """Per shape [S]: how far below the ground [m] it may reach without penetrating: a foot's own shapes
     (on the foot's rigid body — its link and the links fixed to it, as a URDF toe fixed to its calf — and below)
     as far below the foot point as at rest, wheels without limit, others 0."""
     from morphkit.kernels import eval_end_effectors, eval_fk
-    from morphkit.kernels.contact import eval_shape_ground_distance
+    from morphkit.kernels.contact import eval_shape_ground_distance, rigid_bodies
 
     allow = np.zeros(model.shape_count)
     if not model.shape_count:
@@ -103,9 +90,10 @@ def _ground_allowance(m, model, feet: np.ndarray) -> np.ndarray:
         low = eval_shape_ground_distance(model, X).numpy()[0]
         pos, _ = eval_end_effectors(model, q, Ts_world_link=X)
         ee_z = pos.numpy()[0, :, 2]
+        body = rigid_bodies(model)
         for e in feet:
             e = int(e)
-            below = _rigid_with(m, model.link_names[int(model.ee_link[e])])
+            below = {model.link_names[i] for i in np.flatnonzero(body == body[int(model.ee_link[e])])}
             for j in m.joints:  # topological order: parents first
                 if j.parent in below:
                     below.add(j.child)
