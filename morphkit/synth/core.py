@@ -164,6 +164,7 @@ class SynthRig:
                 "gaits": list(dict.fromkeys(g.name for b in lr.bands for g in b.gaits)),
                 "max_forward_speed_m_s": round(float(self.max_speed(np.array([1.0, 0.0]))), 3),
                 "max_lateral_speed_m_s": round(float(self.max_speed(np.array([0.0, 1.0]))), 3),
+                "max_yaw_rate_rad_s": round(self.max_yaw_rate(), 3),
             })
             if "stance_note" in lr.stats:
                 out["stance_note"] = lr.stats["stance_note"]
@@ -184,6 +185,13 @@ class SynthRig:
             return float("inf")
         v = np.array([[direction[0], direction[1], 0.0]]) * 1e3
         return float(np.linalg.norm(self.limits.clamp(v)[0, :2]))
+
+    def max_yaw_rate(self) -> float:
+        """Fastest feasible turn on the spot [rad/s] (either way)."""
+        if self.limits.clamp is None:
+            return float("inf")
+        w = self.limits.clamp(np.array([[0.0, 0.0, 1e3], [0.0, 0.0, -1e3]]))[:, 2]
+        return float(np.abs(w).min())
 
 
 _rig_cache: list[tuple[Morphology, float, SynthConfig, SynthRig]] = []

@@ -124,6 +124,29 @@ def test_feasibility_clamp_scales_targets():
     assert track.clamped.any()
 
 
+def test_the_fastest_turn_on_the_spot_is_what_the_legs_can_step(synth_creature):
+    """The crab's short steps far from its centre cap its turns (the range drawn is wider: the clamp scales a
+    faster turn down); the cap is what the speed fraction's formula gives by hand: turning at w moves foot l along
+    its tangent at w|p_l|, i.e. w|p_l|/2r_l strokes per second with r_l the ellipse's half-chord along the
+    tangent."""
+    from morphkit.synth import prepare
+
+    m = synth_creature("crab")
+    cfg = replace(SynthConfig(), commands=replace(CommandConfig(), yaw_rate=(-3.0, 3.0)))
+    rig = prepare(m, config=cfg)
+    lr, lc = rig.legs, cfg.legs
+    p, ax = lr.nominal_xy, lr.semi_axes
+    tangent = np.stack([-p[:, 1], p[:, 0]], axis=1) / np.linalg.norm(p, axis=1, keepdims=True)
+    half_chord = 1.0 / np.hypot(tangent[:, 0] / ax[:, 0], tangent[:, 1] / ax[:, 1])
+    strokes_per_radian = (np.linalg.norm(p, axis=1) / (2.0 * half_chord)).max()
+    top = lc.speed_fraction_limit * lc.max_stroke_usage / (strokes_per_radian * lr.stance_span(lr.duty_min))
+    assert 0.5 < top < 3.0
+    assert rig.max_yaw_rate() == pytest.approx(top, rel=1e-9)
+    assert rig.summary()["max_yaw_rate_rad_s"] == pytest.approx(top, abs=1e-3)
+    np.testing.assert_allclose(rig.limits.clamp(np.array([[0.0, 0.0, -3.0]])), [[0.0, 0.0, -top]], rtol=1e-9)
+    assert rig.limits.yaw == (-3.0, 3.0)
+
+
 def test_integrate_root_follows_a_circle():
     fps, v, w = 60.0, 1.2, 0.5
     T = 600
