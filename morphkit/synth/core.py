@@ -170,7 +170,8 @@ class SynthRig:
                 out["stance_note"] = lr.stats["stance_note"]
             if lr.fixed_axes is not None:  # a direction no leg can step is not commanded at all
                 for key, rng in (("max_forward_speed_m_s", self.limits.forward),
-                                 ("max_lateral_speed_m_s", self.limits.lateral)):
+                                 ("max_lateral_speed_m_s", self.limits.lateral),
+                                 ("max_yaw_rate_rad_s", self.limits.yaw)):
                     out[key] = min(out[key], round(max(abs(rng[0]), abs(rng[1])), 3))
                 out["fixed_axes"] = lr.fixed_axes.tolist()
         if not self.arms.empty:

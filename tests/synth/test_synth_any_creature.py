@@ -16,6 +16,7 @@ from _synth_creatures import read_creature
 
 from morphkit.graph import EndEffectorRole
 from morphkit.rotations import quat_rotate
+from morphkit.synth.legged import LegConfig
 
 FRAMES = 600  # two 10-second rollouts
 CONTACT_HEIGHT = 0.02
@@ -61,6 +62,8 @@ def test_planar_legs_are_found_and_step_only_fore_aft(creatures):
     assert legs.fixed_axes is not None and legs.fixed_axes.tolist() == [[False, True], [False, True]]
     assert res.rig.limits.lateral == (0.0, 0.0) and legs.roll == 0.0
     assert res.rig.summary()["max_lateral_speed_m_s"] == 0.0
+    # a turn drags the stance feet across their legs' planes: kept slow (the clamp alone would allow more)
+    assert res.rig.summary()["max_yaw_rate_rad_s"] == LegConfig().fixed_axis_yaw_rate < res.rig.max_yaw_rate()
     assert len(res.warnings) == 2 and all("sideways" in w for w in res.warnings)
     assert {w.split(":")[0] for w in res.warnings} == {"leg l_sole", "leg r_sole"}
 
