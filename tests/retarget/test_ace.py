@@ -609,6 +609,42 @@ def test_feature_weights_weigh_the_hand_and_tool_blocks_and_the_ground_motion():
     np.testing.assert_array_equal(w, expected)
 
 
+def test_hand_velocity_term_compares_how_hands_move_not_where_they_are():
+    """Against a per-frame loop written out: each hand block's frame-to-frame step, human minus creature, in body
+    lengths/s; a creature hand moving as the human's from another place scores 0, a still one against a moving
+    human hand scores the human's speed; the feet's blocks are not in it."""
+    from morphkit.io.shipped import resolve_morphology
+    from morphkit.motion import ROOT_FEATURE_DIM
+    from morphkit.retarget.ace.train import hand_blocks, hand_velocity_term
+
+    spot = read_morphology(resolve_morphology("spot"))
+    ees = ("head", "fl_foot", "gripper", "hr_foot")
+    blocks = hand_blocks(spot, ees)
+    assert blocks == [slice(ROOT_FEATURE_DIM + 6, ROOT_FEATURE_DIM + 9)]
+    gen = torch.Generator().manual_seed(0)
+    psi_h, psi_r = (torch.randn(3, 7, ROOT_FEATURE_DIM + 12, generator=gen, dtype=torch.float64) for _ in range(2))
+    fps = 30.0
+    naive = 0.0
+    for b in range(3):
+        for t in range(1, 7):
+            g = range(ROOT_FEATURE_DIM + 6, ROOT_FEATURE_DIM + 9)
+            dh = torch.stack([psi_h[b, t, c] - psi_h[b, t - 1, c] for c in g])
+            dr = torch.stack([psi_r[b, t, c] - psi_r[b, t - 1, c] for c in g])
+            naive += fps * float((dh - dr).norm()) / 18
+    assert float(hand_velocity_term(psi_h, psi_r, blocks, fps)) == pytest.approx(naive, rel=1e-12)
+    shifted = psi_h.clone()
+    shifted[..., blocks[0]] += 0.7  # the same motion about another place
+    shifted[..., ROOT_FEATURE_DIM + 3 : ROOT_FEATURE_DIM + 6] = 5.0  # a foot elsewhere: not a hand
+    assert float(hand_velocity_term(psi_h, shifted, blocks, fps)) == pytest.approx(0.0, abs=1e-12)
+    ramp = torch.zeros(1, 5, ROOT_FEATURE_DIM + 12, dtype=torch.float64)
+    # the human's hand rises 0.01 body lengths a frame: 0.3 body lengths/s against a still one
+    ramp[0, :, ROOT_FEATURE_DIM + 8] = torch.arange(5, dtype=torch.float64) * 0.01
+    still = torch.zeros_like(ramp)
+    assert float(hand_velocity_term(ramp, still, blocks, fps)) == pytest.approx(0.3, rel=1e-12)
+    assert float(hand_velocity_term(ramp, still, [], fps)) == 0.0
+    assert float(hand_velocity_term(ramp[:, :1], still[:, :1], blocks, fps)) == 0.0
+
+
 def test_validation_split_holds_out_a_share_of_the_clips_with_their_mirror_images():
     from morphkit.retarget.training_data import validation_split
 

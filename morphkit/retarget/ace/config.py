@@ -86,6 +86,10 @@ class RetargetConfig:
     ground_motion_weight: float = 1.0
     """Factor on Ψ's root motion over the ground (``morphkit.motion.GROUND_MOTION_FEATURES``) in G's feature term;
     ours, 1: Eq. 9 (docs/experiments/ground-motion-weight.md). The logged L_fea stays Eq. 9."""
+    hand_velocity_weight: float = 0.0
+    """Weight of G's hand-velocity term (:func:`~morphkit.retarget.ace.train.hand_velocity_term`): how each hand or
+    tool moves, frame to frame, against its human hand's motion, so a hand the human rests asks for an arm at rest;
+    ours, 0: Eq. 9 alone (docs/experiments/restless-arms.md). The logged L_fea stays Eq. 9."""
     hand_weight: float = 1.0
     """Factor on Ψ's hand and tool end-effector blocks in G's feature term; ours, 1: Eq. 9
     (docs/experiments/hand-weight.md)."""

@@ -266,6 +266,13 @@ def gradient_penalty(disc: torch.nn.Module, real: torch.Tensor) -> tuple[torch.T
     return logits, grad.square().sum(-1).mean()
 
 
+def hand_blocks(creature: Morphology, ees: Sequence[str]) -> list[slice]:
+    """The columns of Ψ [11 + 3k] holding the creature's hand and tool end-effectors among ``ees``, one slice each."""
+    roles = {e.name: e.role for e in creature.end_effectors}
+    return [slice(ROOT_FEATURE_DIM + 3 * i, ROOT_FEATURE_DIM + 3 * i + 3) for i, name in enumerate(ees)
+            if roles[name].on_arm]
+
+
 def feature_weights(creature: Morphology, ees: Sequence[str], rc: RetargetConfig) -> torch.Tensor | None:
     """Per-column factors on Ψ [11 + 3k] in G's feature term: ``rc.ground_motion_weight`` on the root's ground
     motion, ``rc.hand_weight`` on the blocks of the creature's hand and tool end-effectors ``ees``, 1 elsewhere
@@ -274,11 +281,25 @@ def feature_weights(creature: Morphology, ees: Sequence[str], rc: RetargetConfig
         return None
     w = torch.ones(feature_dim(len(ees)))
     w[list(GROUND_MOTION_FEATURES)] = rc.ground_motion_weight
-    roles = {e.name: e.role for e in creature.end_effectors}
-    for i, name in enumerate(ees):
-        if roles[name].on_arm:
-            w[ROOT_FEATURE_DIM + 3 * i : ROOT_FEATURE_DIM + 3 * i + 3] = rc.hand_weight
+    for block in hand_blocks(creature, ees):
+        w[block] = rc.hand_weight
     return w
+
+
+def hand_velocity_term(psi_human: torch.Tensor, psi_creature: torch.Tensor, blocks: Sequence[slice],
+                       fps: float) -> torch.Tensor:
+    """Beyond the paper: ‖(Ψ^h_t − Ψ^h_{t−1}) − (Ψ^r_t − Ψ^r_{t−1})‖ · fps over each hand block [body lengths/s],
+    averaged over the frames of windows ``psi_*`` [B, T, 11 + 3k] and summed over the ``blocks``
+    (:func:`hand_blocks`). Eq. 9 compares where a hand is; this, how it moves — blind to where each side's hand
+    usually is, it asks an arm to rest while the human's hand rests (zero for no blocks or one frame)."""
+    term = psi_human.new_zeros(())
+    if psi_human.shape[-2] < 2:
+        return term
+    for block in blocks:
+        step = psi_human[..., 1:, block] - psi_human[..., :-1, block]
+        step = step - (psi_creature[..., 1:, block] - psi_creature[..., :-1, block])
+        term = term + fps * step.norm(dim=-1).mean()
+    return term
 
 
 def prior_foot_term(fmap: FeatureMap, feet: Sequence[int], prev: torch.Tensor, pred: torch.Tensor,
@@ -367,6 +388,7 @@ def train_retargeter(
         disc = Discriminator(sr, rc).to(dev)
         stats = fmap.creature_stats
         psi_weight = feature_weights(data.creature, fmap.creature_ees, rc)
+        hands = hand_blocks(data.creature, fmap.creature_ees)
         if psi_weight is not None:
             psi_weight = psi_weight.to(dev)
         # Not DDP: its hooks miss the gradient penalty's double backward; gradients are averaged by hand.
@@ -416,6 +438,8 @@ def train_retargeter(
                 psi_r = fmap.psi_of_fixed(fixed)
                 fea = feature_loss(psi_h, psi_r)
                 fea_g = fea if psi_weight is None else feature_loss(psi_h, psi_r, weights=psi_weight)
+                if rc.hand_velocity_weight:
+                    fea_g = fea_g + rc.hand_velocity_weight * hand_velocity_term(psi_h, psi_r, hands, cfg.data.fps)
                 g_adv = rc.w_adv * F.softplus(-disc_logits(d_model, disc, fake_t)).mean() if use_adversarial \
                     else fea.new_zeros(())
                 g_fea = rc.w_fea * fea_g if use_feature_loss else fea.new_zeros(())
