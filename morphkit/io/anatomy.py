@@ -386,9 +386,13 @@ def _rank(name: str) -> int:
 
 
 def _hint_of(m: Morphology, tree: _Tree, e: _End, frames: Sequence[Frame]) -> tuple[str | None, Frame | None]:
-    """The first name hint on the end (its frames, its tip links, then up its own joints) and the hinted frame."""
+    """The first name hint on the end (its frames, its tip links, then up its own joints) and the hinted frame.
+
+    Only a frame on the end's tip (or on the group its fingers branch off) can be its point: a shape-less link
+    fixed higher up the chain (Menagerie's Spot ``arm_link_hr0``, its meshes absent) has moving joints below it."""
     links = _end_links(tree, e)
-    names = {m.links[li].name for li in links}
+    distal = {e.top, *e.tips}
+    names = {m.links[li].name for li in links if tree.group[li] in distal}
     hinted = [f for f in frames if f.link in names and name_hint(f.name) not in (None, "skip")]
     if hinted:
         f = min(hinted, key=lambda f: _rank(f.name))

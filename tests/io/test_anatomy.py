@@ -83,6 +83,31 @@ def test_a_gripper_tool_sits_between_its_fingers():
     assert abs(np.dot(p - mid, between / np.linalg.norm(between))) < 0.01  # centred across the fingers
 
 
+def test_a_shape_less_link_up_the_arm_is_not_its_tool_frame(tmp_path):
+    """Menagerie's Spot arm without its meshes: ``arm_link_hr0`` is fixed to the shoulder and has no shape left, so
+    it reads as a frame, and its name hints a hand — but the elbow and wrist move below it. The hand is the wrist's
+    far end (0.34 + 0.4 + 0.1 m out along x at q = 0), not the shoulder frame."""
+    pytest.importorskip("mujoco")
+    from morphkit.motion import Motion
+
+    xml = tmp_path / "arm.xml"
+    xml.write_text("""<mujoco><worldbody>
+      <body name="base"><geom type="box" size="0.1 0.1 0.05"/>
+        <body name="arm_link_sh1" pos="0 0 0.1"><joint name="sh1" axis="0 1 0" range="-1.5 1.5"/>
+          <geom type="capsule" fromto="0 0 0 0 0 0.05" size="0.03"/>
+          <body name="arm_link_hr0"><inertial pos="0.17 0 0" mass="1e-6" diaginertia="1e-8 1e-8 1e-9"/>
+            <body name="arm_link_el0" pos="0.34 0 0"><joint name="el0" axis="0 1 0" range="0 3"/>
+              <geom type="capsule" fromto="0 0 0 0.4 0 0" size="0.03"/>
+              <body name="arm_link_wr1" pos="0.4 0 0"><joint name="wr1" axis="1 0 0" range="-2 2"/>
+                <geom type="box" size="0.05 0.02 0.02" pos="0.05 0 0"/></body></body></body></body></body>
+      </worldbody></mujoco>""")
+    m = _read(str(xml))
+    (hand,) = m.end_effectors
+    assert hand.link == "arm_link_wr1" and hand.role in (HAND, TOOL)
+    p = Motion(m, 30.0, m.rest_q()[None]).end_effector_positions()[0, 0]
+    np.testing.assert_allclose(p[[0, 2]], [0.84, 0.1], atol=0.025)  # the box's far face, a half-width either way
+
+
 def test_base_type_by_body():
     """A Panda without a world link is bolted down; a quadruped without a world joint floats."""
     panda = _read(pybullet_data_file("franka_panda/panda.urdf"))
