@@ -386,13 +386,9 @@ def _rank(name: str) -> int:
 
 
 def _hint_of(m: Morphology, tree: _Tree, e: _End, frames: Sequence[Frame]) -> tuple[str | None, Frame | None]:
-    """The first name hint on the end (its frames, its tip links, then up its own joints) and the hinted frame.
-
-    Only a frame on the end's tip (or on the group its fingers branch off) can be its point: a shape-less link
-    fixed higher up the chain (Menagerie's Spot ``arm_link_hr0``, its meshes absent) has moving joints below it."""
+    """The first name hint on the end (its frames, its tip links, then up its own joints) and the hinted frame."""
     links = _end_links(tree, e)
-    distal = {e.top, *e.tips}
-    names = {m.links[li].name for li in links if tree.group[li] in distal}
+    names = {m.links[li].name for li in links}
     hinted = [f for f in frames if f.link in names and name_hint(f.name) not in (None, "skip")]
     if hinted:
         f = min(hinted, key=lambda f: _rank(f.name))
@@ -410,9 +406,14 @@ def _hint_of(m: Morphology, tree: _Tree, e: _End, frames: Sequence[Frame]) -> tu
 
 
 def _frames_of(m: Morphology, tree: _Tree, frames: Sequence[Frame]) -> list[Frame]:
-    """The given frames plus shape-less links fixed to a tip's group (a URDF's ``FR_toe``, ``grasptarget``)."""
+    """The given frames plus shape-less links fixed to a tip's group or to the group an end's fingers branch off
+    (a URDF's ``FR_toe``, ``grasptarget``). Not one fixed higher up a chain: it has moving joints below it
+    (Menagerie's Spot ``arm_link_hr0``, fixed to the shoulder, shape-less when its mesh is absent)."""
     out = list(frames)
+    distal = {g for e in tree.ends() for g in (e.top, *e.tips)}
     for g, members in tree.members.items():
+        if g not in distal:
+            continue
         for li in members:
             if li != g and not m.links[li].shapes and not any(f.link == m.links[li].name for f in out):
                 out.append(Frame(m.links[li].name, m.links[li].name, (0.0, 0.0, 0.0)))
