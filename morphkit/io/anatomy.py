@@ -405,12 +405,12 @@ def _hint_of(m: Morphology, tree: _Tree, e: _End, frames: Sequence[Frame]) -> tu
     return None, None
 
 
-def _frames_of(m: Morphology, tree: _Tree, frames: Sequence[Frame]) -> list[Frame]:
+def _frames_of(m: Morphology, tree: _Tree, ends: Sequence[_End], frames: Sequence[Frame]) -> list[Frame]:
     """The given frames plus shape-less links fixed to a tip's group or to the group an end's fingers branch off
     (a URDF's ``FR_toe``, ``grasptarget``). Not one fixed higher up a chain: it has moving joints below it
     (Menagerie's Spot ``arm_link_hr0``, fixed to the shoulder, shape-less when its mesh is absent)."""
     out = list(frames)
-    distal = {g for e in tree.ends() for g in (e.top, *e.tips)}
+    distal = {g for e in ends for g in (e.top, *e.tips)}
     for g, members in tree.members.items():
         if g not in distal:
             continue
@@ -705,14 +705,16 @@ def complete_anatomy(m: Morphology, *, frames: Sequence[Frame] = (), base_declar
         return m  # named by the file, or one rigid body: nothing moves to decide on
     kin = _Kinematics(m)
     poses = kin.poses(kin.rest[None])[0]
-    return _complete(m, kin, _Shapes(m), poses, _frames_of(m, _Tree(m, poses), frames), base_declared, reference)
+    return _complete(m, kin, _Shapes(m), poses, frames, base_declared, reference)
 
 
-def _complete(m: Morphology, kin: _Kinematics, shapes: _Shapes, poses: np.ndarray, frames: list[Frame],
+def _complete(m: Morphology, kin: _Kinematics, shapes: _Shapes, poses: np.ndarray, given: Sequence[Frame],
               base_declared: bool, reference: str) -> Morphology:
     tree = _Tree(m, poses)
+    ends = tree.ends()
+    frames = _frames_of(m, tree, ends, given)
     parts = []
-    for e in tree.ends():
+    for e in ends:
         hint, frame = _hint_of(m, tree, e, frames)
         parts.append(_Part(e, hint, frame, _end_links(tree, e)))
     fixed = m.base in (BaseType.FIXED, BaseType.WHEELED, BaseType.PLANAR)
