@@ -188,13 +188,35 @@ def shape_trimesh(shape: Shape, *, source: str | None = None) -> Any:
     return mesh
 
 
-def _bone_trimeshes(m: Morphology, link: int, radius: float) -> list[Any]:
-    """Stand-in geometry for a link without shapes (BVH skeletons): capsules to its children and end-effectors."""
+def bare_feet(m: Morphology, link: int, shapes: Sequence[Any]) -> list[np.ndarray]:
+    """Points [m, link frame] of the feet on a link, and of its joints to a foot's link, that its shapes (trimeshes,
+    link frame) leave apart from the link's origin: the segment to the point is inside no shape's bounding box at a
+    quarter, half or three quarters of its length (a shin whose mesh is missing, its foot ball left)."""
+    boxes = [np.asarray(s.bounds) for s in shapes]
+
+    def covered(p: np.ndarray) -> bool:
+        return any(bool(np.all(p >= lo - 1e-9) and np.all(p <= hi + 1e-9)) for lo, hi in boxes)
+
+    name = m.links[link].name
+    foot_links = {e.link for e in m.end_effectors if e.role == EndEffectorRole.FOOT}
+    feet = [np.asarray(e.offset, dtype=float) for e in m.end_effectors
+            if e.link == name and e.role == EndEffectorRole.FOOT]
+    feet += [np.asarray(j.origin.xyz, dtype=float) for j in m.joints if j.parent == name and j.child in foot_links]
+    return [p for p in feet if not any(covered(f * p) for f in (0.25, 0.5, 0.75))]
+
+
+def _joint_and_effector_points(m: Morphology, link: int) -> list[np.ndarray]:
+    """Points [m, link frame] of a link's child joints and end-effectors."""
+    name = m.links[link].name
+    return ([np.asarray(j.origin.xyz, dtype=float) for j in m.joints if j.parent == name]
+            + [np.asarray(e.offset, dtype=float) for e in m.end_effectors if e.link == name])
+
+
+def _bone_trimeshes(targets: Sequence[np.ndarray], radius: float) -> list[Any]:
+    """Capsules [link frame] from the link's origin to each of ``targets``."""
     import trimesh
 
-    targets = [np.asarray(j.origin.xyz) for j in m.joints if j.parent == m.links[link].name]
-    targets += [np.asarray(e.offset) for e in m.end_effectors if e.link == m.links[link].name]
-    meshes = [trimesh.creation.icosphere(subdivisions=1, radius=1.3 * radius)]
+    meshes = []
     for t in targets:
         length = float(np.linalg.norm(t))
         if length < 1e-9:
@@ -326,8 +348,13 @@ class CreatureScene:
                 where = f"{link.location}: " if link.location is not None else ""
                 instead = "its other shapes" if meshes else "a stand-in (bones to its joints)"
                 warnings.warn(f"{where}link {link.name!r}: {'; '.join(failed)}; drawn with {instead}", stacklevel=2)
-            if not meshes:
-                meshes = _bone_trimeshes(m, i, 0.025 * length)
+            if not meshes:  # a stand-in (BVH skeletons): a ball at the origin, bones to its joints and points
+                meshes = [trimesh.creation.icosphere(subdivisions=1, radius=0.0325 * length),
+                          *_bone_trimeshes(_joint_and_effector_points(m, i), 0.025 * length)]
+            else:
+                # a description read without its meshes (MuJoCo Menagerie's Spot keeps only the foot ball of a
+                # shin that was a mesh) would show feet apart from their legs: a bone joins them
+                meshes += _bone_trimeshes(bare_feet(m, i, meshes), 0.025 * length)
             merged = trimesh.util.concatenate([mesh.smooth_shaded for mesh in meshes])
             material = pyrender.MetallicRoughnessMaterial(
                 baseColorFactor=[*colors[i], 1.0], metallicFactor=0.0, roughnessFactor=0.65

@@ -517,6 +517,43 @@ def test_missing_mesh_is_drawn_as_a_stand_in_with_one_warning(gl, tmp_path):
     assert silhouette(frame).mean() > 0.01
 
 
+def test_a_foot_ball_apart_from_its_knee_is_joined_by_a_bone(gl, tmp_path):
+    """A shin whose only shape is the foot ball at its far end (MuJoCo Menagerie's Spot read without its meshes)
+    is drawn with a bone from the knee to the foot; a shin whose capsule runs there is left as it is. Seen from
+    the side, the middle of the shin is drawn only with the bone."""
+    from morphkit.io import read_morphology
+    from morphkit.render import RenderStyle, turntable_frames
+    from morphkit.render.scene import bare_feet, shape_trimesh
+
+    def write(name: str, shin: str) -> Morphology:
+        path = tmp_path / f"{name}.yaml"
+        path.write_text(
+            f"name: {name}\nbase: floating\nroot: body\n"
+            "links:\n"
+            "  body: {shapes: [{type: box, size: [0.4, 0.2, 0.1]}]}\n"
+            f"  shin: {{shapes: [{shin}]}}\n"
+            "joints:\n"
+            "  knee: {type: revolute, parent: body, child: shin, origin: {xyz: [0, 0, -0.05]}, axis: [0, 1, 0],"
+            " limit: {lower: -1, upper: 1}}\n"
+            "end_effectors:\n"
+            "  foot: {link: shin, offset: [0, 0, -0.44], role: foot}\n"
+        )
+        return read_morphology(path)
+
+    ball = write("ball", "{type: sphere, radius: 0.04, origin: {xyz: [0, 0, -0.4]}}")
+    capsule = write("capsule", "{type: capsule, radius: 0.03, length: 0.4, origin: {xyz: [0, 0, -0.2]}}")
+    for m, bare in ((ball, [[0.0, 0.0, -0.44]]), (capsule, [])):
+        shin = m.link_index("shin")
+        meshes = [shape_trimesh(s) for s in m.links[shin].shapes]
+        np.testing.assert_allclose(np.reshape(bare_feet(m, shin, meshes), (-1, 3)), np.reshape(bare, (-1, 3)))
+    style = RenderStyle(ground=False, shadows=False, markers=False, azimuth_deg=90.0, elevation_deg=0.0)
+    frame = turntable_frames(ball, frames=1, size=(96, 128), style=style)[0]
+    rows = np.flatnonzero(silhouette(frame).any(axis=1))
+    # body (0.1 m) over knee-to-foot (0.44 m): drawn from the box's top to the ball's bottom without a gap
+    drawn = silhouette(frame)[rows.min():rows.max() + 1].any(axis=1)
+    assert drawn.all() and len(rows) > 40
+
+
 # ---- command line ----------------------------------------------------------------------------
 def test_cli_turntable_motion_and_errors(gl, tmp_path, capsys):
     """`morphkit render` writes a turntable and a motion clip; bad options exit 2 with one line."""
