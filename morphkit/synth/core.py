@@ -149,8 +149,8 @@ class SynthRig:
             "legs": len(self.plan.legs),
             "arms": len(self.plan.arms),
             "size_scale": round(self.scale, 4),
-            "forward_speed_range": [round(v, 4) for v in self.limits.forward],
-            "lateral_speed_range": [round(v, 4) for v in self.limits.lateral],
+            "forward_speed_range": [round(float(v), 4) for v in self.limits.forward],
+            "lateral_speed_range": [round(float(v), 4) for v in self.limits.lateral],
             "yaw_rate_range": [round(v, 4) for v in self.limits.yaw],
         }
         if self.legs is not None:
@@ -255,6 +255,12 @@ def prepare(m: Morphology, *, fps: float = 30.0, config: SynthConfig | None = No
 
     forward = tuple(v * scale * moving for v in cc.forward_speed)
     lateral = tuple(v * scale * moving for v in lat)
+    if legs is not None and forward[1] > 0:
+        # where dynamic similarity bounds the speed below what the legs can step, every range shrinks by one
+        # factor (backwards and sideways too, as size scales them): the bound is a speed scale, not a clip
+        fastest = min(forward[1], legs.stroke_speed(np.array([1.0, 0.0]), config.legs))
+        k = min(1.0, legs.froude_speed(config.legs) / max(fastest, 1e-9))
+        forward, lateral = tuple(k * v for v in forward), tuple(k * v for v in lateral)
     yaw = tuple(v * moving for v in cc.yaw_rate)
     if legs is not None and legs.fixed_axes is not None:
         # a leg that cannot step along a direction: no walking that way, slow turns

@@ -57,13 +57,14 @@ $T_{span} = T_{st} + 2\\Delta t$. At the fastest gait (duty $\\beta_{min}$) and 
 $T_{st} = \\beta_{min} T_{sw,min} / (1 - \\beta_{min})$, so the speed fraction
 $s = \\max_l (|v_l| / 2 r_l) T_{span,min} / u_{max}$ is 1 when the fastest gait uses ``max_stroke_usage``
 of the ellipse. Commands are scaled to $s \\le$ ``speed_fraction_limit``; the cadence and the touchdown
-and emergency limits leave room for the two airborne frames, so a foot never leaves its ellipse.
+and emergency limits leave room for the two airborne frames, so a foot never leaves its ellipse. The body
+speed is then bounded by dynamic similarity, $|v| \\le \\sqrt{F g h}$ (``max_froude``), whatever the stroke allows.
 """
 
 from __future__ import annotations
 
 import itertools
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -133,6 +134,14 @@ class LegConfig:
     """Preferred cycle frequency in units of $\\sqrt{g/h}/2\\pi$ (h: stance height)."""
     speed_fraction_limit: float = 0.95
     """Commands are scaled down to at most this speed fraction."""
+    max_froude: float | None = 1.0
+    """Largest Froude number $v^2 / g h$ of the commanded body speed (h: stance height); faster commands are
+    scaled down (their yaw rate kept), and where this bound is below the fastest the legs can step, every speed
+    range shrinks by their ratio (backwards and sideways too). None: only the legs' stroke bounds the speed.
+    Ours: $\\sqrt{g h}$ is the fastest an inverted-pendulum walk goes (Alexander 1989), and the ACE paper's range
+    (−1.5 … 5 m/s at Spot's size) is about Froude 5 at Spot's stance: legs that stand bent (MuJoCo Menagerie's
+    Spot, keyframe ``home``) reach that far and were synthesised galloping at 5 m/s in 0.58 m steps, while the
+    shipped Spot's stroke stops it at Froude 0.7 (docs/experiments/froude-cap.md)."""
     lift_clearance: float = 0.03
     """A swinging foot rises at least this high [m] (or to the swing height if lower) on its first
     and last airborne frames, above the usual 2 cm contact threshold."""
@@ -242,10 +251,24 @@ class LegRig:
         return self.stroke_rate(v, w).max(axis=1) * self.stance_span(self.duty_min) / max_usage
 
     def clamp(self, cmd: np.ndarray, cfg: LegConfig) -> np.ndarray:
-        """Scale velocity commands [N, 3] (forward, lateral, yaw rate) to a speed fraction <= the limit."""
+        """Scale velocity commands [N, 3] (forward, lateral, yaw rate) to a speed fraction <= the limit and a body
+        speed <= ``max_froude``'s."""
         s = self.speed_fraction(cmd[:, :2], cmd[:, 2], cfg.max_stroke_usage)
         k = np.where(s > cfg.speed_fraction_limit, cfg.speed_fraction_limit / np.maximum(s, 1e-12), 1.0)
-        return cmd * k[:, None]
+        out = cmd * k[:, None]
+        speed = np.linalg.norm(out[:, :2], axis=1)
+        out[:, :2] *= np.minimum(1.0, self.froude_speed(cfg) / np.maximum(speed, 1e-12))[:, None]
+        return out
+
+    def froude_speed(self, cfg: LegConfig) -> float:
+        """The body speed [m/s] at ``cfg.max_froude``, $\\sqrt{F g h}$ (inf without one)."""
+        return np.inf if cfg.max_froude is None else float(np.sqrt(cfg.max_froude * GRAVITY * self.stance_height))
+
+    def stroke_speed(self, direction: np.ndarray, cfg: LegConfig) -> float:
+        """The fastest the legs step along ``direction`` [2] (heading frame) without turning [m/s], whatever
+        ``cfg.max_froude`` says."""
+        v = np.array([[*(1e3 * np.asarray(direction, dtype=float)), 0.0]])
+        return float(np.linalg.norm(self.clamp(v, replace(cfg, max_froude=None))[0, :2]))
 
 
 # ---------------------------------------------------------------------------------------------

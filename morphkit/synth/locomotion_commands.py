@@ -13,7 +13,9 @@ ranges were tuned on); creatures without legs keep the paper's ranges (``scale =
 paper does for Stretch. Legged creatures cannot always step that fast (at 30 fps Spot's legs
 manage about 2.6 m/s): the forward and lateral ranges are shrunk to the creature's top speeds
 (``fit_range_to_creature``), and a feasibility clamp (:mod:`morphkit.synth.legged`) scales
-down any drawn target that still exceeds them, e.g. fast running combined with turning.
+down any drawn target that still exceeds them, e.g. fast running combined with turning. Where dynamic
+similarity bounds a legged creature's speed lower than its legs could step (Froude number
+``LegConfig.max_froude``), every range shrinks by one factor first.
 """
 
 from __future__ import annotations

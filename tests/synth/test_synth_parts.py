@@ -147,6 +147,40 @@ def test_the_fastest_turn_on_the_spot_is_what_the_legs_can_step(synth_creature):
     assert rig.limits.yaw == (-3.0, 3.0)
 
 
+def test_dynamic_similarity_bounds_the_body_speed_not_the_turn(synth_creature):
+    """With ``max_froude`` F the fastest command is sqrt(F g h) (h the stance height) in every direction, the
+    turn rate untouched; without it the legs' stroke alone bounds it (faster here). Where the bound is below the
+    stroke's top, every speed range shrinks by their ratio (backwards and sideways too); where it is above (the
+    default on this quadruped, Froude 0.7 at its stroke's top), the ranges are the stroke's. The synthesised
+    root never moves faster than the bound, measured from its positions."""
+    from morphkit.synth import prepare
+    from morphkit.synth.legged import GRAVITY, LegConfig
+
+    m = synth_creature("spot")
+    F = 0.2
+    cfg = replace(SynthConfig(), legs=replace(LegConfig(), max_froude=F))
+    rig = prepare(m, config=cfg)
+    top = np.sqrt(F * GRAVITY * rig.legs.stance_height)
+    free = prepare(m, config=replace(SynthConfig(), legs=replace(LegConfig(), max_froude=None)))
+    assert free.max_speed(np.array([1.0, 0.0])) > 1.5 * top
+    for d in ([1.0, 0.0], [0.0, 1.0], [-0.6, 0.8]):
+        assert rig.max_speed(np.array(d)) == pytest.approx(top, rel=1e-9)
+    cmd = np.array([[1.3 * top, 0.0, 0.1]])  # within the stroke's reach: only the speed is scaled
+    np.testing.assert_allclose(free.limits.clamp(cmd), cmd, rtol=1e-12)
+    np.testing.assert_allclose(rig.limits.clamp(cmd), [[top, 0.0, 0.1]], rtol=1e-9)
+    assert rig.max_yaw_rate() == pytest.approx(free.max_yaw_rate(), rel=1e-9)
+    k = top / free.limits.forward[1]  # the bound over the stroke's top
+    cc = cfg.commands  # the paper's ranges at this size, then times k (all below what the stroke allows)
+    np.testing.assert_allclose(rig.limits.forward, [cc.forward_speed[0] * rig.scale * k, top], rtol=1e-9)
+    np.testing.assert_allclose(rig.limits.lateral, np.multiply(cc.lateral_speed, rig.scale * k), rtol=1e-9)
+    default = prepare(m)
+    assert default.limits.forward == free.limits.forward and default.limits.lateral == free.limits.lateral
+    motion = synthesize(m, frames=900, seed=1, config=cfg, progress=False)[0]
+    speed = np.linalg.norm(np.diff(motion.root_pose()[:, :2], axis=0), axis=1) * motion.fps
+    assert speed.max() <= top * 1.05
+    assert speed.max() >= 0.5 * top  # it does walk
+
+
 def test_integrate_root_follows_a_circle():
     fps, v, w = 60.0, 1.2, 0.5
     T = 600
