@@ -7,13 +7,17 @@ Encoding is :func:`~morphkit.motion.states.character_state_from_motion` /
 
 Decoding (:func:`decode_character_states`) turns a sequence of character states x^r back into
 joint coordinates and a world root trajectory. Frame 0 takes its ground position and yaw from
-``initial_pose`` (default: the origin, facing +x); every later frame integrates
+``initial_pose`` (default: the origin, facing +x); every later frame integrates the root's velocity
+slots, the ones Ψ reads and ACE's G is trained to match (:func:`velocity_path`):
 
-- yaw from ``previous_root_orientation``: it is ``q_{t-1}`` in frame t's heading frame, so its
-  yaw is ``ψ_{t-1} - ψ_t``;
-- the ground position from ``root_displacement`` (frame t's step, in frame t's heading frame);
+- yaw from ``root_angular_velocity``: the heading-frame rotation of the step, undone from the tilt
+  ``root_orientation``, gives ``q_{t-1}`` in frame t's heading frame, whose yaw is ``ψ_{t-1} - ψ_t``;
+- the ground position from ``root_linear_velocity`` / fps (frame t's step, in frame t's heading frame);
 
-while the root height is ``root_height`` and the tilt ``root_orientation`` (in the heading frame).
+while the root height is ``root_height`` and the tilt ``root_orientation`` (in the heading frame). On
+encoded motion these equal the step slots (``previous_root_orientation``, ``root_displacement``;
+:func:`ground_path`) exactly; a model's output need not agree with itself, and the exported path must
+be the one it was scored on (docs/experiments/velocity-path.md).
 Quaternions are renormalised; 1-DoF joints are clamped into their limits and the clamping is
 reported. Planar and wheeled bases keep (x, y, yaw) (their wheels turn with the path, as in every
 :class:`~morphkit.motion.Motion`); a fixed base has no base coordinates.
@@ -32,6 +36,8 @@ from morphkit.motion.motion import Motion
 from morphkit.motion.states import StateLayout, character_state, character_state_layout, human_state
 from morphkit.rotations import (
     quat_canonical,
+    quat_conjugate,
+    quat_from_rotation_vector,
     quat_from_yaw,
     quat_multiply,
     quat_normalize,
@@ -51,6 +57,7 @@ __all__ = [
     "ground_path",
     "human_state_from_q",
     "stance_flags_of",
+    "velocity_path",
     "world_end_effectors",
 ]
 
@@ -123,7 +130,7 @@ def decode_character_states(
         )
     T = x.shape[0]
     xy0, yaw0 = _initial_xy_yaw(initial_pose)
-    xy, yaw = ground_path(x, layout)
+    xy, yaw = velocity_path(x, layout, fps)
     xy = xy0 + quat_rotate(quat_from_yaw(np.full(T, yaw0)), np.pad(xy, ((0, 0), (0, 1))))[:, :2]
     yaw = yaw0 + yaw
     heading_q = quat_from_yaw(yaw)
@@ -179,6 +186,29 @@ def ground_path(states: Any, layout: StateLayout) -> tuple[Any, Any]:
         return torch.cumsum(step, dim=-2), yaw
     dyaw[..., 0] = 0.0
     yaw = np.cumsum(dyaw, axis=-1)
+    d3 = np.concatenate([disp, np.zeros_like(disp[..., :1])], axis=-1)
+    step = quat_rotate(quat_from_yaw(yaw), d3)[..., :2]
+    step[..., 0, :] = 0.0
+    return np.cumsum(step, axis=-2), yaw
+
+
+def velocity_path(states: np.ndarray, layout: StateLayout, fps: float) -> tuple[np.ndarray, np.ndarray]:
+    """The root's ground path of character states [..., T, D] integrated from their velocity slots (NumPy).
+
+    As :func:`ground_path`, with frame t's step ``root_linear_velocity[:2] / fps`` and its yaw change from
+    ``root_angular_velocity``: ``q_{t-1}`` in frame t's heading frame is the tilt ``root_orientation`` with the
+    step's heading-frame rotation (rotation vector ω / fps) undone, and ``ψ_t - ψ_{t-1}`` is minus its yaw.
+
+    Returns:
+        ``(xy, yaw)``: ground positions [..., T, 2] [m] and headings [..., T] [rad].
+    """
+    x = np.asarray(states, dtype=float)
+    step_h = quat_from_rotation_vector(x[..., layout.slice("root_angular_velocity")] / fps)
+    previous = quat_multiply(quat_conjugate(step_h), quat_normalize(x[..., layout.slice("root_orientation")]))
+    dyaw = -yaw_from_quat(previous)
+    dyaw[..., 0] = 0.0
+    yaw = np.cumsum(dyaw, axis=-1)
+    disp = x[..., layout.slice("root_linear_velocity")][..., :2] / fps
     d3 = np.concatenate([disp, np.zeros_like(disp[..., :1])], axis=-1)
     step = quat_rotate(quat_from_yaw(yaw), d3)[..., :2]
     step[..., 0, :] = 0.0

@@ -60,6 +60,34 @@ def test_round_trip_on_synthesised_clips(synthesized, name):
     np.testing.assert_allclose(character_state_from_motion(back), x, atol=1e-5)
 
 
+def test_the_path_follows_the_velocity_slots_where_the_step_slots_disagree(synthesized):
+    """A model's states need not agree with themselves: the root path is integrated from the velocity slots
+    (what Ψ reads), whatever the step slots say. Constant forward speed v and yaw rate w from the origin: every
+    step is v/fps long and turns w/fps, so the roots lie on the regular polygon's circle, radius
+    (v/fps) / (2 sin(w / 2 fps)), heading w t/fps; the step slots (zero, and a tilt with no turn) are ignored."""
+    motion = synthesized["spot"]
+    lay = character_state_layout(motion.morphology)
+    x = character_state_from_motion(motion)
+    fps, v, w = motion.fps, 0.8, 0.6
+    x[:, lay.slice("root_orientation")] = [0.0, 0.0, 0.0, 1.0]
+    x[:, lay.slice("root_linear_velocity")] = [v, 0.0, 0.0]
+    x[:, lay.slice("root_angular_velocity")] = [0.0, 0.0, w]
+    x[:, lay.slice("root_displacement")] = 0.0
+    x[:, lay.slice("previous_root_orientation")] = [0.0, 0.0, 0.0, 1.0]
+    back, _ = decode_character_states(x, motion.morphology, fps)
+    root = back.root_pose()
+    t = np.arange(len(x))
+    from morphkit.rotations import yaw_from_quat
+
+    np.testing.assert_allclose(np.unwrap(yaw_from_quat(root[:, 3:])), w * t / fps, atol=1e-9)
+    theta = w / fps  # each chord turns by theta; chord t (from root t-1 to t) points along heading t
+    r = (v / fps) / (2.0 * np.sin(theta / 2.0))
+    mid, psi = 0.5 * (root[1, :2] + root[2, :2]), 2.0 * theta
+    centre = mid + r * np.cos(theta / 2.0) * np.array([-np.sin(psi), np.cos(psi)])
+    np.testing.assert_allclose(np.linalg.norm(root[1:, :2] - centre, axis=1), r, rtol=1e-9)
+    np.testing.assert_allclose(np.linalg.norm(np.diff(root[:, :2], axis=0), axis=1)[1:], v / fps, rtol=1e-9)
+
+
 def test_default_initial_pose_is_the_origin_facing_x(synthesized):
     motion = synthesized["spot"]
     back, _ = decode_character_states(character_state_from_motion(motion), motion.morphology, motion.fps)
