@@ -184,6 +184,13 @@ def ground_path(states: Any, layout: StateLayout) -> tuple[Any, Any]:
         step = quat_rotate(quat_from_yaw(yaw), d3)[..., :2]
         step = torch.cat([torch.zeros_like(step[..., :1, :]), step[..., 1:, :]], dim=-2)
         return torch.cumsum(step, dim=-2), yaw
+    return _integrate(dyaw, disp)
+
+
+def _integrate(dyaw: np.ndarray, disp: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Headings from yaw changes [..., T] and ground positions from heading-frame steps [..., T, 2], frame 0's own
+    change and step ignored (NumPy)."""
+    dyaw = dyaw.copy()
     dyaw[..., 0] = 0.0
     yaw = np.cumsum(dyaw, axis=-1)
     d3 = np.concatenate([disp, np.zeros_like(disp[..., :1])], axis=-1)
@@ -205,14 +212,7 @@ def velocity_path(states: np.ndarray, layout: StateLayout, fps: float) -> tuple[
     x = np.asarray(states, dtype=float)
     step_h = quat_from_rotation_vector(x[..., layout.slice("root_angular_velocity")] / fps)
     previous = quat_multiply(quat_conjugate(step_h), quat_normalize(x[..., layout.slice("root_orientation")]))
-    dyaw = -yaw_from_quat(previous)
-    dyaw[..., 0] = 0.0
-    yaw = np.cumsum(dyaw, axis=-1)
-    disp = x[..., layout.slice("root_linear_velocity")][..., :2] / fps
-    d3 = np.concatenate([disp, np.zeros_like(disp[..., :1])], axis=-1)
-    step = quat_rotate(quat_from_yaw(yaw), d3)[..., :2]
-    step[..., 0, :] = 0.0
-    return np.cumsum(step, axis=-2), yaw
+    return _integrate(-yaw_from_quat(previous), x[..., layout.slice("root_linear_velocity")][..., :2] / fps)
 
 
 def world_end_effectors(states: Any, layout: StateLayout, ee_local: Any) -> Any:
