@@ -15,7 +15,7 @@ import hashlib
 import os
 import time
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -258,7 +258,7 @@ def prepare(m: Morphology, *, fps: float = 30.0, config: SynthConfig | None = No
     if legs is not None and forward[1] > 0:
         # where dynamic similarity bounds the speed below what the legs can step, every range shrinks by one
         # factor (backwards and sideways too, as size scales them): the bound is a speed scale, not a clip
-        fastest = min(forward[1], legs.stroke_speed(np.array([1.0, 0.0]), config.legs))
+        fastest = min(forward[1], legs.top_speed((1.0, 0.0), replace(config.legs, max_froude=None)))
         k = min(1.0, legs.froude_speed(config.legs) / max(fastest, 1e-9))
         forward, lateral = tuple(k * v for v in forward), tuple(k * v for v in lateral)
     yaw = tuple(v * moving for v in cc.yaw_rate)
@@ -269,15 +269,12 @@ def prepare(m: Morphology, *, fps: float = 30.0, config: SynthConfig | None = No
         lateral = (0.0, 0.0) if fixed[1] else lateral
         w = config.legs.fixed_axis_yaw_rate
         yaw = (max(yaw[0], -w), min(yaw[1], w))
-    if clamp is not None and cc.fit_range_to_creature:
+    if legs is not None and cc.fit_range_to_creature:
         # shrink a range the legs cannot step (straight, without turning) to what they can, so that
         # speeds stay spread over what the creature does instead of piling up at its top speed
-        def top(d: tuple[float, float]) -> float:
-            v = np.array([[d[0], d[1], 0.0]]) * 1e3
-            return float(np.linalg.norm(clamp(v)[0, :2]))
-
-        forward = (max(forward[0], -top((-1.0, 0.0))), min(forward[1], top((1.0, 0.0))))
-        lateral = (max(lateral[0], -top((0.0, -1.0))), min(lateral[1], top((0.0, 1.0))))
+        top = legs.top_speed
+        forward = (max(forward[0], -top((-1.0, 0.0), config.legs)), min(forward[1], top((1.0, 0.0), config.legs)))
+        lateral = (max(lateral[0], -top((0.0, -1.0), config.legs)), min(lateral[1], top((0.0, 1.0), config.legs)))
     limits = CommandLimits(
         forward=forward,  # type: ignore[arg-type]
         lateral=lateral,  # type: ignore[arg-type]

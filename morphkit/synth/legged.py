@@ -64,7 +64,8 @@ speed is then bounded by dynamic similarity, $|v| \\le \\sqrt{F g h}$ (``max_fro
 from __future__ import annotations
 
 import itertools
-from dataclasses import dataclass, field, replace
+from collections.abc import Sequence
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -264,11 +265,11 @@ class LegRig:
         """The body speed [m/s] at ``cfg.max_froude``, $\\sqrt{F g h}$ (inf without one)."""
         return np.inf if cfg.max_froude is None else float(np.sqrt(cfg.max_froude * GRAVITY * self.stance_height))
 
-    def stroke_speed(self, direction: np.ndarray, cfg: LegConfig) -> float:
-        """The fastest the legs step along ``direction`` [2] (heading frame) without turning [m/s], whatever
-        ``cfg.max_froude`` says."""
+    def top_speed(self, direction: Sequence[float], cfg: LegConfig) -> float:
+        """The fastest command along ``direction`` [2] (heading frame) without turning that :meth:`clamp` lets
+        through [m/s]."""
         v = np.array([[*(1e3 * np.asarray(direction, dtype=float)), 0.0]])
-        return float(np.linalg.norm(self.clamp(v, replace(cfg, max_froude=None))[0, :2]))
+        return float(np.linalg.norm(self.clamp(v, cfg)[0, :2]))
 
 
 # ---------------------------------------------------------------------------------------------
