@@ -20,7 +20,7 @@ import numpy as np
 from morphkit.errors import ConfigError
 from morphkit.evaluation.evaluate import Evaluation, MethodResult, open_method
 from morphkit.evaluation.methods import Method
-from morphkit.evaluation.table import follow_figures
+from morphkit.evaluation.table import follow_figures, moves_over_ground
 from morphkit.metrics import UnrealisticFrames, follow_gain, unrealistic_frame_ratio
 from morphkit.motion import GROUND_MOTION_FEATURES, Motion, Pairing, load_motions, read_skeleton_map, to_canonical
 from morphkit.motion.split import CLIP_TYPES, LONG_CLIP_SECONDS, ClipEntry, clip_type_from_motion, split_clips
@@ -144,14 +144,14 @@ def _clip_figures(result: MethodResult, clips: ProtocolClips, pairing: Pairing,
                   roles: dict[str, str]) -> tuple[list[ClipFigures], list[tuple[np.ndarray, np.ndarray]],
                                                  list[UnrealisticFrames]]:
     figures, yaws, flags = [], [], []
+    moves = moves_over_ground(result.shown)
     for human, motion, entry, kind in zip(clips.motions, result.shown, clips.entries, clips.types, strict=True):
         f = follow_figures([human], [motion], pairing, roles)
-        n = min(human.frame_count, motion.frame_count)
+        n = min(human.frame_count, motion.frame_count) if moves else 0  # a fixed base has no yaw to pool
         yaw = (pairing.human_psi(human)[:n, _YAW], pairing.creature_psi(motion)[:n, _YAW])
         ufr = unrealistic_frame_ratio(motion)
         figures.append(ClipFigures(result.method.name, result.method.seed, human.name, kind, entry.seconds,
-                                   *(f[k] for k in _CORRELATIONS),
-                                   follow_gain(*yaw) if n >= 3 else None, f["drift"], float(ufr.ratio)))
+                                   *(f[k] for k in _CORRELATIONS), f["turn_gain"], f["drift"], float(ufr.ratio)))
         yaws.append(yaw)
         flags.append(ufr)
     return figures, yaws, flags

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from morphkit.graph import EndEffectorRole
+from morphkit.graph import BaseType, EndEffectorRole
 from morphkit.metrics import (
     UFR_SETTINGS,
     FootContactFigures,
@@ -40,7 +40,8 @@ from morphkit.motion import GROUND_MOTION_FEATURES, ROOT_FEATURE_DIM, Motion, Pa
 from morphkit.retarget.tables import write_table_files
 
 __all__ = ["EXTRA_COLUMNS", "PERCENT_FIGURES", "ReferenceData", "TableRow", "dataset_row", "evaluate_clips",
-           "follow_figures", "follow_series", "format_table", "pooled_skating", "reference_data", "write_table"]
+           "follow_figures", "follow_series", "format_table", "moves_over_ground", "pooled_skating", "reference_data",
+           "write_table"]
 
 
 @dataclass(frozen=True)
@@ -202,13 +203,22 @@ def follow_series(psi: np.ndarray, ees: Sequence[str]) -> dict[str, np.ndarray]:
     return out
 
 
+def moves_over_ground(motions: Sequence[Motion]) -> bool:
+    """Whether the creature of ``motions`` can go over the ground (any base but a fixed one): where it cannot (an
+    arm bolted down), the root's forward velocity, yaw rate, turn gain and drift are not its to follow."""
+    return not motions or motions[0].morphology.base != BaseType.FIXED
+
+
 def follow_figures(humans: Sequence[Motion], retargeted: Sequence[Motion], pairing: Pairing,
                    roles: dict[str, str]) -> dict[str, float | None]:
     """``follow``, ``follow_hand``, ``follow_reach``, ``follow_forward``, ``follow_yaw``, ``turn_gain``, ``drift``
     (see :class:`TableRow`): per clip the Pearson correlations of :func:`follow_series` and of the hand/tool
     end-effectors' forward offsets (:func:`~morphkit.metrics.follow_score`; a constant series scores 0 against a
     varying one), averaged over clips with equal weight; the turn gain over the clips' yaw rates pooled; the drift
-    per clip, averaged. Clips are compared over their common length; clips shorter than 3 frames are left out."""
+    per clip, averaged. Clips are compared over their common length; clips shorter than 3 frames are left out.
+    A fixed-base creature (:func:`moves_over_ground`) has no root series: its forward, yaw, turn gain and drift
+    are None and ``follow`` is the mean over its end-effectors."""
+    rooted = not moves_over_ground(retargeted)
     per: dict[str, list[float]] = {}
     reach: list[float] = []
     hands = [i for i, e in enumerate(pairing.creature_ees) if e in roles and EndEffectorRole[roles[e].upper()].on_arm]
@@ -221,6 +231,9 @@ def follow_figures(humans: Sequence[Motion], retargeted: Sequence[Motion], pairi
         psi_h, psi_r = pairing.human_psi(h)[:n], pairing.creature_psi(r)[:n]
         hs = follow_series(psi_h, pairing.creature_ees)
         rs = follow_series(psi_r, pairing.creature_ees)
+        if rooted:
+            for key in ("forward velocity", "yaw rate"):
+                del hs[key], rs[key]
         for key, value in follow_score(hs, rs).correlations.items():
             per.setdefault(key, []).append(value)
         if hands:
@@ -228,6 +241,8 @@ def follow_figures(humans: Sequence[Motion], retargeted: Sequence[Motion], pairi
             names = [str(i) for i in hands]
             reach += follow_score(dict(zip(names, psi_h[:, forward].T, strict=True)),
                                   dict(zip(names, psi_r[:, forward].T, strict=True))).correlations.values()
+        if rooted:
+            continue
         yaw.append((hs["yaw rate"], rs["yaw rate"]))
         ground = [_FORWARD, _SIDEWAYS]  # where the root goes; a turn on the spot is the yaw's, not drift
         drift.append(float(np.linalg.norm(psi_r[:, ground].mean(axis=0) - psi_h[:, ground].mean(axis=0))))
@@ -236,10 +251,10 @@ def follow_figures(humans: Sequence[Motion], retargeted: Sequence[Motion], pairi
                 "turn_gain": None, "drift": None}
     mean = {k: float(np.mean(v)) for k, v in per.items()}
     heights = [mean[f"{pairing.creature_ees[i]} height"] for i in hands]
-    gain = follow_gain(np.concatenate([h for h, _ in yaw]), np.concatenate([c for _, c in yaw]))
+    gain = follow_gain(np.concatenate([h for h, _ in yaw]), np.concatenate([c for _, c in yaw])) if yaw else None
     return {"follow": float(np.mean(list(mean.values()))), "follow_hand": float(np.mean(heights)) if heights else None,
-            "follow_reach": float(np.mean(reach)) if reach else None, "follow_forward": mean["forward velocity"],
-            "follow_yaw": mean["yaw rate"], "turn_gain": gain, "drift": float(np.mean(drift))}
+            "follow_reach": float(np.mean(reach)) if reach else None, "follow_forward": mean.get("forward velocity"),
+            "follow_yaw": mean.get("yaw rate"), "turn_gain": gain, "drift": float(np.mean(drift)) if drift else None}
 
 
 def evaluate_clips(

@@ -8,6 +8,7 @@ import pytest
 from morphkit.evaluation.table import dataset_row, evaluate_clips, follow_figures, follow_series, reference_data
 from morphkit.motion import (
     ROOT_FEATURE_DIM,
+    Motion,
     Pairing,
     features,
     human_state_from_motion,
@@ -142,3 +143,54 @@ def test_reach_follow_is_the_correlation_of_the_hands_forward_offsets(clips):
     assert got["follow_reach"] == pytest.approx(np.mean(expected), abs=1e-9)
     assert abs(got["follow_reach"]) < 0.9
     assert follow_figures(clips, clips, pairing, roles)["follow_reach"] == pytest.approx(1.0)
+
+
+# A post bolted to the ground and an arm on a hinge 0.5 m up: the tool at its tip (0.4 m along the arm).
+BOLTED_ARM = """\
+name: bolted_arm
+base: fixed
+root: post
+links:
+  post:
+    shapes: [{type: box, size: [0.1, 0.1, 0.5], origin: {xyz: [0, 0, 0.25]}}]
+  arm: {}
+joints:
+  hinge:
+    type: revolute
+    parent: post
+    child: arm
+    origin: {xyz: [0, 0, 0.5]}
+    axis: [0, 1, 0]
+    limit: {lower: -1.5, upper: 1.5}
+end_effectors:
+  tool: {link: arm, offset: [0.4, 0, 0], role: tool}
+"""
+
+
+def test_a_bolted_down_arm_follows_with_its_tool_alone(clips, tmp_path):
+    """A fixed base cannot walk or turn: forward, yaw, turn gain and drift are not its figures (None) and
+    ``follow`` is its tool's. Truth: per clip, the Pearson correlation of the human's right-hand height and the
+    tool's height, both read from FK in world frame, averaged over the clips."""
+    from morphkit.evaluation.table import moves_over_ground
+    from morphkit.io import read_morphology
+
+    path = tmp_path / "bolted_arm.yaml"
+    path.write_text(BOLTED_ARM)
+    arm = read_morphology(path)
+    rng = np.random.default_rng(0)
+    motions = []
+    for c in clips:  # the hinge swings at a frequency and phase of its own per clip
+        t = np.arange(c.frame_count) / c.fps
+        q = 0.8 * np.sin(2 * np.pi * rng.uniform(0.2, 1.0) * t + rng.uniform(0, 2 * np.pi))
+        motions.append(Motion(arm, c.fps, q[:, None], name=c.name))
+    hand = [e.name for e in clips[0].morphology.end_effectors].index("right_hand")
+    pairing = Pairing(("tool",), ("right_hand",), 0.9, 1.7).with_centres(motions, clips)
+    got = follow_figures(clips, motions, pairing, {"tool": "tool"})
+    expected = np.mean([np.corrcoef(c.end_effector_positions()[:, hand, 2], m.end_effector_positions()[:, 0, 2])[0, 1]
+                        for c, m in zip(clips, motions, strict=True)])
+    assert not moves_over_ground(motions) and moves_over_ground(clips)
+    assert got["follow_forward"] is None and got["follow_yaw"] is None
+    assert got["turn_gain"] is None and got["drift"] is None
+    assert got["follow_hand"] == pytest.approx(expected, abs=1e-9)
+    assert got["follow"] == pytest.approx(expected, abs=1e-9)
+    assert abs(expected) > 0.01  # a real comparison, not two constants
