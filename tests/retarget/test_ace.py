@@ -645,6 +645,40 @@ def test_hand_velocity_term_compares_how_hands_move_not_where_they_are():
     assert float(hand_velocity_term(ramp[:, :1], still[:, :1], blocks, fps)) == 0.0
 
 
+def test_hand_spread_factors_are_the_ratio_of_the_data_sets_hand_spreads():
+    """Against a loop written out: each hand block's factor is the creature data's RMS distance of the block from its
+    mean over the human data's; a creature hand that is the human's scaled by 3 about another place gets 3; feet and
+    root columns keep 1, as does a human hand that never moves."""
+    from morphkit.io.shipped import resolve_morphology
+    from morphkit.motion import ROOT_FEATURE_DIM
+    from morphkit.retarget.ace.train import hand_blocks, hand_spread_factors
+
+    spot = read_morphology(resolve_morphology("spot"))
+    ees = ("head", "fl_foot", "gripper", "hr_foot")
+    blocks = hand_blocks(spot, ees)
+    rng = np.random.default_rng(0)
+    dim = ROOT_FEATURE_DIM + 12
+    psi_h, psi_r = rng.normal(size=(50, dim)), rng.normal(size=(80, dim)) * 2.5 + 1.0
+    g = list(range(ROOT_FEATURE_DIM + 6, ROOT_FEATURE_DIM + 9))
+
+    def rms(psi: np.ndarray) -> float:
+        mean = [sum(psi[t, c] for t in range(len(psi))) / len(psi) for c in g]
+        return (sum(sum((psi[t, c] - m) ** 2 for c, m in zip(g, mean, strict=True))
+                    for t in range(len(psi))) / len(psi)) ** 0.5
+
+    f = hand_spread_factors(psi_h, psi_r, blocks).numpy()
+    expected = np.ones(dim)
+    expected[g] = rms(psi_r) / rms(psi_h)
+    np.testing.assert_allclose(f, expected, rtol=1e-6)
+    scaled = psi_h.copy()
+    scaled[:, g] = 3.0 * psi_h[:, g] + 0.4
+    np.testing.assert_allclose(hand_spread_factors(psi_h, scaled, blocks).numpy()[g], 3.0, rtol=1e-6)
+    still = psi_h.copy()
+    still[:, g] = 0.2
+    np.testing.assert_array_equal(hand_spread_factors(still, psi_r, blocks).numpy(), np.ones(dim))
+    np.testing.assert_array_equal(hand_spread_factors(psi_h, psi_r, []).numpy(), np.ones(dim))
+
+
 def test_validation_split_holds_out_a_share_of_the_clips_with_their_mirror_images():
     from morphkit.retarget.training_data import validation_split
 

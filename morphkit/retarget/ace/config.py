@@ -92,6 +92,10 @@ class RetargetConfig:
     tool moves, frame to frame, against its human hand's motion, so a hand the human rests asks for an arm at rest;
     ours, 0.3, chosen on the development split (0: Eq. 9 alone; docs/experiments/restless-arms.md). The logged L_fea
     stays Eq. 9."""
+    hand_spread: bool = False
+    """Scale the human's hand blocks of Ψ in G's feature and hand-velocity terms by the ratio of the two data sets'
+    spreads of them (:func:`~morphkit.retarget.ace.train.hand_spread_factors`), so each body's hand moves through its
+    own range; ours, False: Eq. 9's body lengths on both sides. The logged L_fea stays Eq. 9."""
     hand_weight: float = 1.0
     """Factor on Ψ's hand and tool end-effector blocks in G's feature term; ours, 1: Eq. 9
     (docs/experiments/hand-weight.md)."""

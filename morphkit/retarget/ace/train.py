@@ -286,6 +286,26 @@ def feature_weights(creature: Morphology, ees: Sequence[str], rc: RetargetConfig
     return w
 
 
+def hand_spread_factors(psi_human: np.ndarray, psi_creature: np.ndarray, blocks: Sequence[slice]) -> torch.Tensor:
+    """Beyond the paper: per-column factors [11 + 3k] on the human's Ψ in G's terms, each hand ``block`` scaled by the
+    ratio of the two data sets' spreads of it — the RMS distance of the block from its mean over the frames of
+    ``psi_creature`` [M, 11 + 3k] over that of ``psi_human`` [N, 11 + 3k] — and 1 elsewhere (and where the human's
+    block never moves). A human hand moving through its usual range then asks the creature's hand to move through
+    the creature data's own range, not through the human's range measured in the creature's body lengths: per body
+    length a crab's claws spread 2–3× as far as a human's hands."""
+    factors = torch.ones(psi_human.shape[-1], dtype=torch.float32)
+
+    def spread(psi: np.ndarray, block: slice) -> float:
+        part = psi[:, block]
+        return float(np.sqrt(np.square(part - part.mean(axis=0)).sum(axis=1).mean()))
+
+    for block in blocks:
+        h = spread(psi_human, block)
+        if h > 1e-9:  # rounding leaves a still hand's spread at ~1e-17 body lengths, not 0
+            factors[block] = spread(psi_creature, block) / h
+    return factors
+
+
 def hand_velocity_term(psi_human: torch.Tensor, psi_creature: torch.Tensor, blocks: Sequence[slice],
                        fps: float) -> torch.Tensor:
     """Beyond the paper: ‖(Ψ^h_t − Ψ^h_{t−1}) − (Ψ^r_t − Ψ^r_{t−1})‖ · fps over each hand block [body lengths/s],
@@ -389,6 +409,15 @@ def train_retargeter(
         stats = fmap.creature_stats
         psi_weight = feature_weights(data.creature, fmap.creature_ees, rc)
         hands = hand_blocks(data.creature, fmap.creature_ees)
+        human_scale = None
+        if rc.hand_spread:
+            human_scale = hand_spread_factors(
+                fmap.pairing.human_psi_of_states(np.concatenate(human_states), fmap.human_layout),
+                fmap.pairing.creature_psi_of_states(np.concatenate(data.character_states), fmap.creature_layout),
+                hands)
+            log("hand spread (creature / human data): " + ", ".join(
+                f"{fmap.creature_ees[(b.start - ROOT_FEATURE_DIM) // 3]} ×{human_scale[b.start]:.2f}" for b in hands))
+            human_scale = human_scale.to(dev)
         if psi_weight is not None:
             psi_weight = psi_weight.to(dev)
         # Not DDP: its hooks miss the gradient penalty's double backward; gradients are averaged by hand.
@@ -437,9 +466,11 @@ def train_retargeter(
                 psi_h = fmap.human_psi(x_h)
                 psi_r = fmap.psi_of_fixed(fixed)
                 fea = feature_loss(psi_h, psi_r)
-                fea_g = fea if psi_weight is None else feature_loss(psi_h, psi_r, weights=psi_weight)
+                psi_hg = psi_h if human_scale is None else psi_h * human_scale  # what G's terms ask of the creature
+                fea_g = fea if psi_weight is None and human_scale is None else \
+                    feature_loss(psi_hg, psi_r, weights=psi_weight)
                 if rc.hand_velocity_weight:
-                    fea_g = fea_g + rc.hand_velocity_weight * hand_velocity_term(psi_h, psi_r, hands, cfg.data.fps)
+                    fea_g = fea_g + rc.hand_velocity_weight * hand_velocity_term(psi_hg, psi_r, hands, cfg.data.fps)
                 g_adv = rc.w_adv * F.softplus(-disc_logits(d_model, disc, fake_t)).mean() if use_adversarial \
                     else fea.new_zeros(())
                 g_fea = rc.w_fea * fea_g if use_feature_loss else fea.new_zeros(())
