@@ -149,9 +149,15 @@ def test_same_code_trains_shipped_creatures(tmp_path, human_dir, cache, name):
     from morphkit.retarget.ace.retarget import AceRetargeter
 
     creature = read_morphology(resolve_morphology(name))
-    cfg = replace_config(preset("smoke"), [*TINY, "data.character_frames=600"])
-    train_ace(tmp_path / "run", creature, cfg, human_data=human_dir,
-              progress=False, log=lambda s: None)
+    cfg = replace_config(preset("smoke"), [*TINY, "data.character_frames=600", "retarget.hand_spread=true"])
+    lines: list[str] = []
+    train_ace(tmp_path / "run", creature, cfg, human_data=human_dir, progress=False, log=lines.append)
+    # each hand or tool gets its factor, and the ground motion their mean within [1, 2]
+    spread = next(ln for ln in lines if ln.startswith("hand spread"))
+    hands, root = spread.split(": ", 1)[1].split("; ground motion ×")
+    factors = [float(part.rsplit("×", 1)[1]) for part in hands.split(", ")]
+    assert len(factors) == (2 if name == "crab" else 1) and all(f > 0 for f in factors)
+    assert float(root) == pytest.approx(min(max(np.mean(factors), 1.0), 2.0), abs=0.01)
     from morphkit.motion import load_motions
 
     clips = load_motions(human_dir)[:2]
@@ -677,6 +683,24 @@ def test_hand_spread_factors_are_the_ratio_of_the_data_sets_hand_spreads():
     still[:, g] = 0.2
     np.testing.assert_array_equal(hand_spread_factors(still, psi_r, blocks).numpy(), np.ones(dim))
     np.testing.assert_array_equal(hand_spread_factors(psi_h, psi_r, []).numpy(), np.ones(dim))
+
+
+def test_the_ground_motion_grows_with_the_hands_spread_within_its_limits():
+    """The mean of the hand blocks' factors, clipped to [1, limit]: two hands ×1.5 and ×2.5 give 2, one ×0.6 gives
+    1, one ×3 gives the limit; no hands, 1."""
+    from morphkit.motion import ROOT_FEATURE_DIM
+    from morphkit.retarget.ace.train import spread_ground_motion_factor
+
+    f = torch.ones(ROOT_FEATURE_DIM + 9)
+    blocks = [slice(ROOT_FEATURE_DIM + 3, ROOT_FEATURE_DIM + 6), slice(ROOT_FEATURE_DIM + 6, ROOT_FEATURE_DIM + 9)]
+    f[blocks[0]], f[blocks[1]] = 1.5, 2.5
+    assert spread_ground_motion_factor(f, blocks, 3.0) == pytest.approx(2.0)
+    assert spread_ground_motion_factor(f, blocks, 1.8) == pytest.approx(1.8)
+    f[blocks[1]] = 0.6
+    assert spread_ground_motion_factor(f, blocks[1:], 2.0) == 1.0
+    f[blocks[1]] = 3.0
+    assert spread_ground_motion_factor(f, blocks[1:], 2.0) == 2.0
+    assert spread_ground_motion_factor(f, [], 2.0) == 1.0
 
 
 def test_validation_split_holds_out_a_share_of_the_clips_with_their_mirror_images():

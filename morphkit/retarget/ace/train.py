@@ -306,6 +306,16 @@ def hand_spread_factors(psi_human: np.ndarray, psi_creature: np.ndarray, blocks:
     return factors
 
 
+def spread_ground_motion_factor(factors: torch.Tensor, blocks: Sequence[slice], limit: float) -> float:
+    """The factor :attr:`RetargetConfig.hand_spread` puts on Ψ's ground-motion rows: the mean of the hand ``blocks``'
+    :func:`hand_spread_factors` ``factors``, within [1, ``limit``] (1 for no blocks). The scaled hands' residual grows
+    with their factors, and Eq. 9's norm shares one pull among all rows: the root's ground motion grows with them to
+    keep its share."""
+    if not blocks:
+        return 1.0
+    return min(max(float(np.mean([float(factors[b].mean()) for b in blocks])), 1.0), limit)
+
+
 def hand_velocity_term(psi_human: torch.Tensor, psi_creature: torch.Tensor, blocks: Sequence[slice],
                        fps: float) -> torch.Tensor:
     """Beyond the paper: ‖(Ψ^h_t − Ψ^h_{t−1}) − (Ψ^r_t − Ψ^r_{t−1})‖ · fps over each hand block [body lengths/s],
@@ -410,13 +420,17 @@ def train_retargeter(
         psi_weight = feature_weights(data.creature, fmap.creature_ees, rc)
         hands = hand_blocks(data.creature, fmap.creature_ees)
         human_scale = None
-        if rc.hand_spread:
+        if rc.hand_spread and hands:
             human_scale = hand_spread_factors(
                 fmap.pairing.human_psi_of_states(np.concatenate(human_states), fmap.human_layout),
                 fmap.pairing.creature_psi_of_states(np.concatenate(data.character_states), fmap.creature_layout),
                 hands)
+            root = spread_ground_motion_factor(human_scale, hands, rc.hand_spread_root_limit)
+            psi_weight = torch.ones_like(human_scale) if psi_weight is None else psi_weight
+            psi_weight[list(GROUND_MOTION_FEATURES)] *= root
             log("hand spread (creature / human data): " + ", ".join(
-                f"{fmap.creature_ees[(b.start - ROOT_FEATURE_DIM) // 3]} ×{human_scale[b.start]:.2f}" for b in hands))
+                f"{fmap.creature_ees[(b.start - ROOT_FEATURE_DIM) // 3]} ×{human_scale[b.start]:.2f}" for b in hands)
+                + f"; ground motion ×{root:.2f}")
             human_scale = human_scale.to(dev)
         if psi_weight is not None:
             psi_weight = psi_weight.to(dev)
