@@ -701,6 +701,8 @@ def test_the_ground_motion_grows_with_the_hands_spread_within_its_limits():
     f[blocks[1]] = 3.0
     assert spread_ground_motion_factor(f, blocks[1:], 2.0) == 2.0
     assert spread_ground_motion_factor(f, [], 2.0) == 1.0
+    with pytest.raises(ConfigError, match="hand_spread_root_limit"):
+        spread_ground_motion_factor(f, blocks, 0.5)
 
 
 def test_validation_split_holds_out_a_share_of_the_clips_with_their_mirror_images():

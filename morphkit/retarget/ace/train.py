@@ -310,7 +310,13 @@ def spread_ground_motion_factor(factors: torch.Tensor, blocks: Sequence[slice], 
     """The factor :attr:`RetargetConfig.hand_spread` puts on Ψ's ground-motion rows: the mean of the hand ``blocks``'
     :func:`hand_spread_factors` ``factors``, within [1, ``limit``] (1 for no blocks). The scaled hands' residual grows
     with their factors, and Eq. 9's norm shares one pull among all rows: the root's ground motion grows with them to
-    keep its share."""
+    keep its share.
+
+    Raises:
+        ConfigError: ``limit`` below 1.
+    """
+    if limit < 1.0:
+        raise ConfigError(f"retarget.hand_spread_root_limit must be at least 1, got {limit}")
     if not blocks:
         return 1.0
     return min(max(float(np.mean([float(factors[b].mean()) for b in blocks])), 1.0), limit)
