@@ -96,8 +96,9 @@ class RetargetConfig:
     """Scale the human's hand blocks of Ψ in G's feature and hand-velocity terms by the ratio of the two data sets'
     spreads of them (:func:`~morphkit.retarget.ace.train.hand_spread_factors`), so each body's hand moves through its
     own range, and the ground-motion rows by the factors' mean, from 1 up to ``hand_spread_root_limit``, to keep the
-    root's share; ours, False: Eq. 9's body lengths on both sides; ``quick`` sets it
-    (docs/experiments/hand-spread.md). The logged L_fea stays Eq. 9."""
+    root's share; ours, False in every preset: Eq. 9's body lengths on both sides (on, the matched FID fell on the
+    crab and Spot, 2.06 → 1.81 and 0.92 → 0.64, but the main job's hand on mocap it never saw 0.67 → 0.48;
+    docs/experiments/hand-spread.md). The logged L_fea stays Eq. 9."""
     hand_spread_root_limit: float = 2.0
     """Largest factor ``hand_spread`` puts on the ground-motion rows (ours: ×2 was measured with the crab's and Spot's
     hands scaled ×2.1–2.7; docs/experiments/hand-spread.md)."""
@@ -194,14 +195,13 @@ PRESETS: dict[str, AceConfig] = {
     ),
     # The whole main job ≤ 5 min on 2 cores, from a cold cache. G's learning rate doubled for its 240 steps: its
     # feature loss was still falling when D took over. Ground motion ×4 and hand ×2: docs/experiments/hand-weight.md.
-    # Each hand through its own range (its ground motion up to ×2 with it): docs/experiments/hand-spread.md. Turns to
-    # ±3 rad/s: docs/experiments/turn-range.md.
+    # Turns to ±3 rad/s: docs/experiments/turn-range.md.
     "quick": AceConfig(
         data=DataConfig(character_frames=12_000, human_frames=3_000, arm_hang_share=0.3, human_mirror=True,
                         yaw_rate=3.0),
         prior=replace(_QUICK_PRIOR, epochs=8, steps_per_epoch=60, batch_size=64),
         retarget=replace(_QUICK_RET, epochs=8, steps_per_epoch=30, batch_size=32, window=24, generator_average=0.95,
-                         lr_generator=2e-4, ground_motion_weight=4.0, hand_weight=2.0, hand_spread=True),
+                         lr_generator=2e-4, ground_motion_weight=4.0, hand_weight=2.0),
     ),
     # Quality runs: prior + one retargeter ≤ 20 min on 2 cores. Hanging arms, G's average and mirrored clips:
     # docs/experiments/generator-average.md; ground motion ×2: ground-motion-weight.md; 40 epochs, the epoch chosen
