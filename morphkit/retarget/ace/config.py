@@ -96,12 +96,12 @@ class RetargetConfig:
     """Scale the human's hand blocks of Ψ in G's feature and hand-velocity terms by the ratio of the two data sets'
     spreads of them (:func:`~morphkit.retarget.ace.train.hand_spread_factors`), so each body's hand moves through its
     own range, and the ground-motion rows by the factors' mean, from 1 up to ``hand_spread_root_limit``, to keep the
-    root's share; ours, False in every preset: Eq. 9's body lengths on both sides (on, the matched FID fell on the
-    crab and Spot, 2.06 → 1.81 and 0.92 → 0.64, but the main job's hand on mocap it never saw 0.67 → 0.48;
+    root's share; ours, False in every preset: Eq. 9's body lengths on both sides (on, it lowered the matched FID of
+    the bodies whose hands spread wider than a human's, but cost the main job's hand on mocap it never saw;
     docs/experiments/hand-spread.md). The logged L_fea stays Eq. 9."""
     hand_spread_root_limit: float = 2.0
-    """Largest factor ``hand_spread`` puts on the ground-motion rows (ours: ×2 was measured with the crab's and Spot's
-    hands scaled ×2.1–2.7; docs/experiments/hand-spread.md)."""
+    """Largest factor ``hand_spread`` puts on the ground-motion rows (ours: ×2 was measured with hands scaled ×2.1–2.7;
+    docs/experiments/hand-spread.md)."""
     hand_weight: float = 1.0
     """Factor on Ψ's hand and tool end-effector blocks in G's feature term; ours, 1: Eq. 9
     (docs/experiments/hand-weight.md)."""

@@ -292,7 +292,7 @@ def hand_spread_factors(psi_human: np.ndarray, psi_creature: np.ndarray, blocks:
     ``psi_creature`` [M, 11 + 3k] over that of ``psi_human`` [N, 11 + 3k] — and 1 elsewhere (and where the human's
     block never moves). A human hand moving through its usual range then asks the creature's hand to move through
     the creature data's own range, not through the human's range measured in the creature's body lengths: per body
-    length a crab's claws spread 2–3× as far as a human's hands."""
+    length a six-legged creature's claws spread 2–3× as far as a human's hands."""
     factors = torch.ones(psi_human.shape[-1], dtype=torch.float32)
 
     def spread(psi: np.ndarray, block: slice) -> float:
