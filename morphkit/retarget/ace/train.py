@@ -273,14 +273,17 @@ def hand_blocks(creature: Morphology, ees: Sequence[str]) -> list[slice]:
             if roles[name].on_arm]
 
 
-def feature_weights(creature: Morphology, ees: Sequence[str], rc: RetargetConfig) -> torch.Tensor | None:
-    """Per-column factors on Ψ [11 + 3k] in G's feature term: ``rc.ground_motion_weight`` on the root's ground
-    motion, ``rc.hand_weight`` on the blocks of the creature's hand and tool end-effectors ``ees``, 1 elsewhere
-    (``None`` when all are 1: Eq. 9 as written)."""
-    if rc.ground_motion_weight == 1.0 and rc.hand_weight == 1.0:
+def feature_weights(creature: Morphology, ees: Sequence[str], rc: RetargetConfig,
+                    ground_motion_factor: float = 1.0) -> torch.Tensor | None:
+    """Per-column factors on Ψ [11 + 3k] in G's feature term: ``rc.ground_motion_weight`` × ``ground_motion_factor``
+    (:func:`spread_ground_motion_factor` with ``rc.hand_spread``) on the root's ground motion, ``rc.hand_weight`` on
+    the blocks of the creature's hand and tool end-effectors ``ees``, 1 elsewhere (``None`` when all are 1: Eq. 9 as
+    written)."""
+    ground = rc.ground_motion_weight * ground_motion_factor
+    if ground == 1.0 and rc.hand_weight == 1.0:
         return None
     w = torch.ones(feature_dim(len(ees)))
-    w[list(GROUND_MOTION_FEATURES)] = rc.ground_motion_weight
+    w[list(GROUND_MOTION_FEATURES)] = ground
     for block in hand_blocks(creature, ees):
         w[block] = rc.hand_weight
     return w
@@ -423,23 +426,22 @@ def train_retargeter(
         gen.set_latent_range(*latent_range(vae, reals))
         disc = Discriminator(sr, rc).to(dev)
         stats = fmap.creature_stats
-        psi_weight = feature_weights(data.creature, fmap.creature_ees, rc)
         hands = hand_blocks(data.creature, fmap.creature_ees)
-        human_scale = None
+        human_scale, root = None, 1.0
         if rc.hand_spread and hands:
             human_scale = hand_spread_factors(
                 fmap.pairing.human_psi_of_states(np.concatenate(human_states), fmap.human_layout),
                 fmap.pairing.creature_psi_of_states(np.concatenate(data.character_states), fmap.creature_layout),
                 hands)
             root = spread_ground_motion_factor(human_scale, hands, rc.hand_spread_root_limit)
-            psi_weight = torch.ones_like(human_scale) if psi_weight is None else psi_weight
-            psi_weight[list(GROUND_MOTION_FEATURES)] *= root
             log("hand spread (creature / human data): " + ", ".join(
                 f"{fmap.creature_ees[(b.start - ROOT_FEATURE_DIM) // 3]} ×{human_scale[b.start]:.2f}" for b in hands)
                 + f"; ground motion ×{root:.2f}")
             human_scale = human_scale.to(dev)
+        psi_weight = feature_weights(data.creature, fmap.creature_ees, rc, ground_motion_factor=root)
         if psi_weight is not None:
             psi_weight = psi_weight.to(dev)
+        plain = psi_weight is None and human_scale is None  # G's feature term is the logged Eq. 9: no second norm
         # Not DDP: its hooks miss the gradient penalty's double backward; gradients are averaged by hand.
         for module in (gen, disc):
             broadcast_parameters(module, run.context)
@@ -487,8 +489,7 @@ def train_retargeter(
                 psi_r = fmap.psi_of_fixed(fixed)
                 fea = feature_loss(psi_h, psi_r)
                 psi_hg = psi_h if human_scale is None else psi_h * human_scale  # what G's terms ask of the creature
-                fea_g = fea if psi_weight is None and human_scale is None else \
-                    feature_loss(psi_hg, psi_r, weights=psi_weight)
+                fea_g = fea if plain else feature_loss(psi_hg, psi_r, weights=psi_weight)
                 if rc.hand_velocity_weight:
                     fea_g = fea_g + rc.hand_velocity_weight * hand_velocity_term(psi_hg, psi_r, hands, cfg.data.fps)
                 g_adv = rc.w_adv * F.softplus(-disc_logits(d_model, disc, fake_t)).mean() if use_adversarial \
