@@ -6,6 +6,9 @@ method has contact-aware rows, else the method's own) are scored per group of cl
 (:data:`~morphkit.motion.split.CLIP_TYPES`), long (≥ :data:`~morphkit.motion.split.LONG_CLIP_SECONDS`) and
 short — with the follow figures of :func:`~morphkit.evaluation.table.follow_figures` (hand, reach, forward,
 yaw, their mean, the turn gain, the drift) and the strict UFR; and per clip, to see where following breaks.
+Beside each group's turn gain, the gain within the creature's reach (:func:`~morphkit.metrics.reachable_gain` of
+the human's yaw rate at the fastest turn in the creature's data): what copying the human's turns would score on a
+body that turns no faster than its data — the scale the turn gain is read against.
 """
 
 from __future__ import annotations
@@ -21,13 +24,13 @@ from morphkit.errors import ConfigError
 from morphkit.evaluation.evaluate import Evaluation, MethodResult, open_method
 from morphkit.evaluation.methods import Method
 from morphkit.evaluation.table import follow_figures, moves_over_ground
-from morphkit.metrics import UnrealisticFrames, follow_gain, unrealistic_frame_ratio
+from morphkit.metrics import UnrealisticFrames, follow_gain, reachable_gain, unrealistic_frame_ratio
 from morphkit.motion import GROUND_MOTION_FEATURES, Motion, Pairing, load_motions, read_skeleton_map, to_canonical
 from morphkit.motion.split import CLIP_TYPES, LONG_CLIP_SECONDS, ClipEntry, clip_type_from_motion, split_clips
 from morphkit.retarget.tables import write_table_files
 from morphkit.retarget.training_data import CONVENTION_FILE, evaluation_split
 
-__all__ = ["ClipFigures", "GroupRow", "ProtocolClips", "format_groups", "group_rows", "protocol_clips",
+__all__ = ["ClipFigures", "GroupRow", "ProtocolClips", "fastest_turn", "format_groups", "group_rows", "protocol_clips",
            "shipped_results", "split_for", "trained_on", "write_protocol"]
 
 _YAW = GROUND_MOTION_FEATURES[2]
@@ -129,6 +132,11 @@ class GroupRow:
     follow_forward: float | None
     follow_yaw: float | None
     turn_gain: float | None
+    reachable_turn_gain: float | None
+    """:func:`~morphkit.metrics.reachable_gain` of the group's human yaw rates (pooled) at
+    :attr:`fastest_turn`; ``None`` where the turn gain is."""
+    fastest_turn: float | None
+    """The fastest turn in the creature's data set [rad/s] (largest |Ψ yaw rate|; ``None`` for a fixed base)."""
     drift: float | None
     ufr: float
 
@@ -162,10 +170,19 @@ def _mean(values: Sequence[float | None]) -> float | None:
     return float(np.mean(kept)) if kept else None
 
 
+def fastest_turn(character: Sequence[Motion], pairing: Pairing) -> float | None:
+    """The largest |yaw rate| of Ψ over a creature's data set ``character`` [rad/s]; ``None`` where it cannot go
+    over the ground (:func:`~morphkit.evaluation.table.moves_over_ground`) or has no data."""
+    if not character or not moves_over_ground(character):
+        return None
+    return max(float(np.abs(pairing.creature_psi(m)[:, _YAW]).max()) for m in character)
+
+
 def group_rows(evaluation: Evaluation, clips: ProtocolClips) -> tuple[list[GroupRow], list[ClipFigures]]:
     """Every shipped result's (:func:`shipped_results`) figures per group — ``all``, each clip type present,
     ``long`` and ``short`` — and per clip. ``evaluation`` must keep every clip's motions (``keep`` = all)."""
     ref = evaluation.reference
+    fastest = fastest_turn(ref.character, ref.pairing)
     roles = {e.name: e.role.name.lower() for e in ref.creature.end_effectors}
     groups = [("all", lambda c: True)]
     groups += [(t, lambda c, t=t: c.clip_type == t) for t in CLIP_TYPES if t in clips.types]
@@ -184,13 +201,15 @@ def group_rows(evaluation: Evaluation, clips: ProtocolClips) -> tuple[list[Group
                 continue
             scored = [figures[i] for i in chosen if figures[i].follow is not None]
             pooled = [yaws[i] for i in chosen if yaws[i][0].size >= 3]
-            gain = follow_gain(np.concatenate([h for h, _ in pooled]), np.concatenate([c for _, c in pooled])) \
-                if pooled else None
+            human_yaw = np.concatenate([h for h, _ in pooled]) if pooled else None
+            gain = follow_gain(human_yaw, np.concatenate([c for _, c in pooled])) if human_yaw is not None else None
+            reachable = reachable_gain(human_yaw, fastest) \
+                if gain is not None and fastest is not None and fastest > 0 else None
             ufr = UnrealisticFrames.concatenate([flags[i] for i in chosen]).ratio
             rows.append(GroupRow(result.method.name, result.method.seed, group, len(chosen),
                                  sum(figures[i].seconds for i in chosen),
                                  *(_mean([getattr(f, k) for f in scored]) for k in _CORRELATIONS), gain,
-                                 _mean([f.drift for f in scored]), float(ufr)))
+                                 reachable, fastest, _mean([f.drift for f in scored]), float(ufr)))
     return rows, per_clip
 
 
@@ -202,8 +221,8 @@ def _cell(value: float | None, percent: bool = False) -> str:
 
 def format_groups(rows: Sequence[GroupRow], *, split: str, folder: str, seen: int = 0) -> str:
     """Markdown: a heading per method and seed, a row per group of clips."""
-    head = ("| clips | n | min | follow | hand | reach | forward | yaw | turn gain | drift | UFR |\n"
-            "|---|---|---|---|---|---|---|---|---|---|---|")
+    head = ("| clips | n | min | follow | hand | reach | forward | yaw | turn gain | within reach | drift | UFR |\n"
+            "|---|---|---|---|---|---|---|---|---|---|---|---|")
     lines = [f"## Protocol: the {split} split of {folder}", ""]
     if seen:
         lines += [f"Warning: the runs trained on {seen} of these clips (the folder they were trained on, less its "
@@ -215,7 +234,12 @@ def format_groups(rows: Sequence[GroupRow], *, split: str, folder: str, seen: in
             lines += ([""] if lines[-1] else []) + [f"{r.method} (seed {r.seed})", "", head]
         lines.append(f"| {r.group} | {r.clips} | {r.seconds / 60:.1f} | {_cell(r.follow)} | {_cell(r.follow_hand)} | "
                      f"{_cell(r.follow_reach)} | {_cell(r.follow_forward)} | {_cell(r.follow_yaw)} | "
-                     f"{_cell(r.turn_gain)} | {_cell(r.drift)} | {_cell(r.ufr, percent=True)} |")
+                     f"{_cell(r.turn_gain)} | {_cell(r.reachable_turn_gain)} | {_cell(r.drift)} | "
+                     f"{_cell(r.ufr, percent=True)} |")
+    fastest = next((r.fastest_turn for r in rows if r.fastest_turn is not None), None)
+    if fastest is not None:
+        lines += ["", f"within reach: what copying the human's turns scores on a body that turns no faster than "
+                      f"its data does ({fastest:.2f} rad/s at most) — the scale a turn gain is read against."]
     return "\n".join(lines).rstrip()
 
 

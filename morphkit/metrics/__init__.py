@@ -24,6 +24,8 @@ metric                             what it measures
                                    (:func:`pearson_follow`), per pair and mean; higher is better
 :func:`follow_gain`                how much of a human series the creature's does (least-squares
                                    slope through the origin); 1 is best
+:func:`reachable_gain`             the follow gain of a copy bounded at a rate (the human's yaw
+                                   rate against the creature data's fastest turn): its scale
 :func:`matched_reference`          the creature's Ψ rows resampled so that root speed and yaw rate
                                    (:func:`motion_content`) match the evaluated clips'
                                    (:func:`matched_indices`): a content-matched reference for FID, DIV
@@ -57,6 +59,7 @@ from morphkit.metrics._follow import FollowScore as FollowScore
 from morphkit.metrics._follow import follow_gain as follow_gain
 from morphkit.metrics._follow import follow_score as follow_score
 from morphkit.metrics._follow import pearson_follow as pearson_follow
+from morphkit.metrics._follow import reachable_gain as reachable_gain
 from morphkit.metrics._matched import MatchedSample as MatchedSample
 from morphkit.metrics._matched import matched_indices as matched_indices
 from morphkit.metrics._matched import matched_reference as matched_reference
@@ -93,6 +96,7 @@ __all__ = [
     "motion_content",
     "pearson_follow",
     "physdiff_figures",
+    "reachable_gain",
     "skating_ratio",
     "unrealistic_frame_ratio",
 ]

@@ -14,7 +14,7 @@ import numpy as np
 
 from morphkit.errors import ConfigError
 
-__all__ = ["CONSTANT_SERIES_RTOL", "FollowScore", "follow_gain", "follow_score", "pearson_follow"]
+__all__ = ["CONSTANT_SERIES_RTOL", "FollowScore", "follow_gain", "follow_score", "pearson_follow", "reachable_gain"]
 
 CONSTANT_SERIES_RTOL = 1e-9
 """A series is constant when its standard deviation is at most this times its largest magnitude."""
@@ -92,6 +92,30 @@ def follow_gain(a: np.ndarray, b: np.ndarray) -> float | None:
     power = float(x @ x)
     return None if power == 0.0 else float(x @ y) / power
 
+
+
+def reachable_gain(a: np.ndarray, limit: float) -> float | None:
+    """The :func:`follow_gain` of a series that does ``a`` exactly within ±``limit`` and holds ±``limit`` beyond it.
+
+    $g = \\sum_t a_t \\, \\mathrm{clip}(a_t, -L, L) / \\sum_t a_t^2$: how much of ``a`` a body whose rate is
+    bounded at ``limit`` can do by copying it (e.g. the human's yaw rate against the fastest turn in a creature's
+    data). Not a ceiling on :func:`follow_gain` (a body may turn faster than its data, or slower and longer), but
+    the scale a creature's turn gain is read against: 1 when ``limit`` covers all of ``a``.
+
+    Args:
+        a: Series [T] (e.g. the human's yaw rate, clips concatenated).
+        limit: The bound (> 0), in ``a``'s unit.
+
+    Returns:
+        The gain in (0, 1], or ``None`` when ``a`` is zero throughout.
+
+    Raises:
+        ConfigError: ``a`` not a non-empty finite 1-D series, or ``limit`` not a positive finite number.
+    """
+    x = _series(a, "reachable_gain", "a")
+    if not (np.isfinite(limit) and limit > 0):
+        raise ConfigError(f"reachable_gain: limit must be a positive finite number, got {limit!r}")
+    return follow_gain(x, np.clip(x, -limit, limit))
 
 @dataclass(frozen=True, eq=False)
 class FollowScore:

@@ -97,6 +97,12 @@ def test_the_protocol_scores_the_split_per_clip_type_and_length(tiny, tmp_path, 
         mine, theirs = groups["all"][key], table["ACE+replan"][column]
         assert (mine == theirs == "") or float(mine) == pytest.approx(float(theirs), abs=1e-9), key
     assert groups["all"]["follow_forward"] != ""
+    # the turn gain's scale: the data's fastest turn (commanded within the smoke data's ±1 rad/s, with the
+    # steps' feedforward), and what copying the human's turns up to it would score
+    fastest = float(groups["all"]["fastest_turn"])
+    assert 0.5 < fastest < 1.1 and {r["fastest_turn"] for r in groups.values()} == {groups["all"]["fastest_turn"]}
+    assert 0.0 < float(groups["all"]["reachable_turn_gain"]) <= 1.0
+    assert f"({fastest:.2f} rad/s at most)" in (tmp_path / "all" / "protocol.md").read_text()
     assert "## Protocol: the all split" in (tmp_path / "all" / "table.md").read_text()
 
 

@@ -25,6 +25,7 @@ from morphkit.metrics import (
     longest_flight,
     pearson_follow,
     physdiff_figures,
+    reachable_gain,
     skating_ratio,
     unrealistic_frame_ratio,
 )
@@ -379,6 +380,22 @@ def test_follow_gain_sees_amplitude_where_the_correlation_does_not():
     assert follow_gain(np.zeros(5), np.ones(5)) is None
     with pytest.raises(ConfigError, match="different lengths"):
         follow_gain(a, a[:-1])
+
+
+def test_reachable_gain_is_the_gain_of_a_copy_held_at_the_limit():
+    # analytic: rates 2, -2 and 0.5 against a limit of 1 -> (2 + 2 + 0.25) / (4 + 4 + 0.25)
+    assert reachable_gain(np.array([2.0, -2.0, 0.5]), 1.0) == pytest.approx(4.25 / 8.25)
+    rng = np.random.default_rng(3)
+    a = 2.0 * rng.normal(size=400)
+    capped = [min(max(v, -1.5), 1.5) for v in a]  # a follower that turns as a does, never faster than 1.5
+    naive = sum(x * y for x, y in zip(a, capped, strict=True)) / sum(x * x for x in a)
+    assert reachable_gain(a, 1.5) == pytest.approx(naive, rel=1e-12)
+    assert reachable_gain(a, 1.5) == pytest.approx(follow_gain(a, np.clip(a, -1.5, 1.5)), rel=1e-12)
+    assert reachable_gain(a, float(np.abs(a).max())) == pytest.approx(1.0)  # nothing beyond reach
+    assert reachable_gain(np.zeros(4), 1.0) is None
+    for bad in (0.0, -1.0, float("inf"), float("nan")):
+        with pytest.raises(ConfigError, match="limit must be a positive finite number"):
+            reachable_gain(a, bad)
 
 
 def test_follow_score_per_pair_and_mean():
