@@ -93,7 +93,6 @@ def follow_gain(a: np.ndarray, b: np.ndarray) -> float | None:
     return None if power == 0.0 else float(x @ y) / power
 
 
-
 def reachable_gain(a: np.ndarray, limit: float) -> float | None:
     """The :func:`follow_gain` of a series that does ``a`` exactly within ±``limit`` and holds ±``limit`` beyond it.
 
@@ -116,6 +115,7 @@ def reachable_gain(a: np.ndarray, limit: float) -> float | None:
     if not (np.isfinite(limit) and limit > 0):
         raise ConfigError(f"reachable_gain: limit must be a positive finite number, got {limit!r}")
     return follow_gain(x, np.clip(x, -limit, limit))
+
 
 @dataclass(frozen=True, eq=False)
 class FollowScore:
