@@ -6,9 +6,10 @@ method has contact-aware rows, else the method's own) are scored per group of cl
 (:data:`~morphkit.motion.split.CLIP_TYPES`), long (≥ :data:`~morphkit.motion.split.LONG_CLIP_SECONDS`) and
 short — with the follow figures of :func:`~morphkit.evaluation.table.follow_figures` (hand, reach, forward,
 yaw, their mean, the turn gain, the drift) and the strict UFR; and per clip, to see where following breaks.
-Beside each group's turn gain, the gain within the creature's reach (:func:`~morphkit.metrics.reachable_gain` of
-the human's yaw rate at the fastest turn in the creature's data): what copying the human's turns would score on a
-body that turns no faster than its data — the scale the turn gain is read against.
+Beside each group's and each clip's turn gain, the gain within the creature's reach
+(:func:`~morphkit.metrics.reachable_gain` of the human's yaw rate at the fastest turn in the creature's data): what
+copying the human's turns would score on a body that turns no faster than its data — the scale the turn gain is
+read against.
 """
 
 from __future__ import annotations
@@ -112,6 +113,9 @@ class ClipFigures:
     follow_forward: float | None
     follow_yaw: float | None
     turn_gain: float | None
+    reachable_turn_gain: float | None
+    """:func:`~morphkit.metrics.reachable_gain` of the clip's human yaw rate at the fastest turn in the creature's
+    data (:attr:`GroupRow.fastest_turn`); ``None`` where the turn gain is."""
     drift: float | None
     ufr: float
 
@@ -148,9 +152,16 @@ def shipped_results(evaluation: Evaluation) -> list[MethodResult]:
             if not r.method.name.endswith("+lock") and f"{r.method.name}+replan" not in names]
 
 
-def _clip_figures(result: MethodResult, clips: ProtocolClips, pairing: Pairing,
-                  roles: dict[str, str]) -> tuple[list[ClipFigures], list[tuple[np.ndarray, np.ndarray]],
-                                                 list[UnrealisticFrames]]:
+def _reachable(human_yaw: np.ndarray | None, gain: float | None, fastest: float | None) -> float | None:
+    """The turn gain within reach of a body that turns at most ``fastest``, where there is a turn gain."""
+    if human_yaw is None or gain is None or fastest is None or fastest <= 0:
+        return None
+    return reachable_gain(human_yaw, fastest)
+
+
+def _clip_figures(result: MethodResult, clips: ProtocolClips, pairing: Pairing, roles: dict[str, str],
+                  fastest: float | None) -> tuple[list[ClipFigures], list[tuple[np.ndarray, np.ndarray]],
+                                                  list[UnrealisticFrames]]:
     figures, yaws, flags = [], [], []
     moves = moves_over_ground(result.shown)
     for human, motion, entry, kind in zip(clips.motions, result.shown, clips.entries, clips.types, strict=True):
@@ -159,7 +170,8 @@ def _clip_figures(result: MethodResult, clips: ProtocolClips, pairing: Pairing,
         yaw = (pairing.human_psi(human)[:n, _YAW], pairing.creature_psi(motion)[:n, _YAW])
         ufr = unrealistic_frame_ratio(motion)
         figures.append(ClipFigures(result.method.name, result.method.seed, human.name, kind, entry.seconds,
-                                   *(f[k] for k in _CORRELATIONS), f["turn_gain"], f["drift"], float(ufr.ratio)))
+                                   *(f[k] for k in _CORRELATIONS), f["turn_gain"],
+                                   _reachable(yaw[0], f["turn_gain"], fastest), f["drift"], float(ufr.ratio)))
         yaws.append(yaw)
         flags.append(ufr)
     return figures, yaws, flags
@@ -193,7 +205,7 @@ def group_rows(evaluation: Evaluation, clips: ProtocolClips) -> tuple[list[Group
     for result in shipped_results(evaluation):
         if len(result.shown) != len(clips.motions):
             raise ValueError("group_rows needs every clip's retargeted motion (evaluate with keep = all clips)")
-        figures, yaws, flags = _clip_figures(result, clips, ref.pairing, roles)
+        figures, yaws, flags = _clip_figures(result, clips, ref.pairing, roles, fastest)
         per_clip += figures
         for group, member in groups:
             chosen = [i for i, f in enumerate(figures) if member(f)]
@@ -203,13 +215,12 @@ def group_rows(evaluation: Evaluation, clips: ProtocolClips) -> tuple[list[Group
             pooled = [yaws[i] for i in chosen if yaws[i][0].size >= 3]
             human_yaw = np.concatenate([h for h, _ in pooled]) if pooled else None
             gain = follow_gain(human_yaw, np.concatenate([c for _, c in pooled])) if human_yaw is not None else None
-            reachable = reachable_gain(human_yaw, fastest) \
-                if gain is not None and fastest is not None and fastest > 0 else None
             ufr = UnrealisticFrames.concatenate([flags[i] for i in chosen]).ratio
             rows.append(GroupRow(result.method.name, result.method.seed, group, len(chosen),
                                  sum(figures[i].seconds for i in chosen),
                                  *(_mean([getattr(f, k) for f in scored]) for k in _CORRELATIONS), gain,
-                                 reachable, fastest, _mean([f.drift for f in scored]), float(ufr)))
+                                 _reachable(human_yaw, gain, fastest), fastest, _mean([f.drift for f in scored]),
+                                 float(ufr)))
     return rows, per_clip
 
 
@@ -250,11 +261,12 @@ def write_protocol(rows: Sequence[GroupRow], per_clip: Sequence[ClipFigures], fo
     root = Path(folder)
     markdown = format_groups(rows, split=split, folder=source, seen=seen)
     write_table_files(root / "protocol", markdown, [asdict(r) for r in rows])
-    head = ["| method | seed | clip | type | s | follow | hand | reach | forward | yaw | turn gain | drift | UFR |",
-            "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    head = ["| method | seed | clip | type | s | follow | hand | reach | forward | yaw | turn gain | within reach "
+            "| drift | UFR |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     clip_md = "\n".join(head + [
         f"| {c.method} | {c.seed} | {c.clip} | {c.clip_type} | {c.seconds:.1f} | {_cell(c.follow)} | "
         f"{_cell(c.follow_hand)} | {_cell(c.follow_reach)} | {_cell(c.follow_forward)} | {_cell(c.follow_yaw)} | "
-        f"{_cell(c.turn_gain)} | {_cell(c.drift)} | {_cell(c.ufr, percent=True)} |" for c in per_clip])
+        f"{_cell(c.turn_gain)} | {_cell(c.reachable_turn_gain)} | {_cell(c.drift)} | {_cell(c.ufr, percent=True)} |"
+        for c in per_clip])
     write_table_files(root / "protocol_clips", clip_md, [asdict(c) for c in per_clip])
     return markdown

@@ -17,7 +17,7 @@ from morphkit.errors import ConfigError
 from morphkit.evaluation.protocol import ProtocolClips, trained_on
 from morphkit.io import read_morphology
 from morphkit.io.shipped import resolve_morphology
-from morphkit.motion import write_motion
+from morphkit.motion import GROUND_MOTION_FEATURES, Pairing, read_motion, write_motion
 from morphkit.motion.split import CLIP_TYPES, ClipEntry, folder_split
 from morphkit.retarget.ace.config import preset
 from morphkit.retarget.ace.train import train_ace
@@ -103,6 +103,13 @@ def test_the_protocol_scores_the_split_per_clip_type_and_length(tiny, tmp_path, 
     assert 0.5 < fastest < 1.1 and {r["fastest_turn"] for r in groups.values()} == {groups["all"]["fastest_turn"]}
     assert 0.0 < float(groups["all"]["reachable_turn_gain"]) <= 1.0
     assert f"({fastest:.2f} rad/s at most)" in (tmp_path / "all" / "protocol.md").read_text()
+    # per clip, the same scale from the clip's own human yaw rate, against a written-out sum
+    for name, row in per_clip.items():
+        human_motion = read_motion(human / f"{name}.npz")
+        yaw = Pairing((), (), 1.0, 1.0).human_psi(human_motion)[:, GROUND_MOTION_FEATURES[2]]
+        num = sum(float(y) * min(max(float(y), -fastest), fastest) for y in yaw)
+        assert float(row["reachable_turn_gain"]) == pytest.approx(num / float(yaw @ yaw), abs=1e-6), name
+    assert "| within reach |" in (tmp_path / "all" / "protocol_clips.md").read_text()
     assert "## Protocol: the all split" in (tmp_path / "all" / "table.md").read_text()
 
 
