@@ -40,8 +40,10 @@ the compiled model, so morphkit sees exactly the kinematics MuJoCo simulates:
   that order) is the rest pose; ``<contact><exclude>`` pairs, and a multi-joint body with its parent
   body (MuJoCo's parent–child filter), are never checked for self-collision.
   Mesh files that are missing (a Playground robot without its Menagerie checkout) are left out with
-  one warning; primitive geoms carry the kinematics and contacts.
-- ``equality joint`` with a linear polynomial and a second joint becomes a mimic; other equality
+  one warning; primitive geoms carry the kinematics and contacts. Missing textures are drawn flat (one
+  warning); a body left without mass gets MuJoCo's ``boundmass`` (kinematics do not use it).
+- ``equality joint`` with a linear polynomial and a second joint becomes a mimic — of the joint that
+  drives the chain where joints are tied one to the next (a telescope's stages); other equality
   constraints (tendons, welds, connects) do not act on kinematics and are skipped with a warning.
 
 A file MuJoCo refuses becomes one :class:`~morphkit.errors.DescriptionError` naming the file and line
@@ -206,22 +208,30 @@ def _compile(path: Path) -> Any:
 
     # Includes and asset files inside the model's folder or package (morphkit.io.asset_paths), before MuJoCo
     # reads them; meshes outside are left out as missing ones are.
-    if check_mjcf_files(path) and (model := _compile_without_missing_meshes(path)) is not None:
+    if check_mjcf_files(path) and (model := _compile_without_missing_assets(path)) is not None:
         return model
     try:
         return mujoco.MjModel.from_xml_path(str(path))
     except ValueError as exc:
-        model = _compile_without_missing_meshes(path) if "Error opening file" in str(exc) else None
+        model = _compile_without_missing_assets(path) if "Error opening file" in str(exc) else None
         if model is None:
             raise _compiler_error(exc, path) from None
         return model
 
 
-def _compile_without_missing_meshes(path: Path) -> Any:
-    """The model with the geoms of missing mesh files left out (one warning), or None where none is missing.
+MASSLESS_BOUND = (1e-4, 1e-8)
+"""Mass [kg] and inertia [kg m²] MuJoCo's compiler gives a body left without either once its missing meshes are
+left out (``<compiler boundmass boundinertia>``): MuJoCo refuses a moving body without mass, and the kinematics
+read here do not use masses."""
 
-    Files are often shipped without their visual meshes (MuJoCo Playground's robots point into a
-    Menagerie checkout); their collision geoms are primitives, which is all kinematics needs.
+
+def _compile_without_missing_assets(path: Path) -> Any:
+    """The model without what its missing asset files would give (one warning each kind), or None where none is
+    missing: the geoms of missing meshes left out, missing textures drawn flat.
+
+    Files are often shipped without their visual meshes and textures (MuJoCo Playground's robots point into a
+    Menagerie checkout, a copied model folder lacks its ``assets``); their collision geoms are primitives, which is
+    all kinematics needs. Bodies whose mass came from those meshes get :data:`MASSLESS_BOUND`.
     """
     import mujoco
 
@@ -229,25 +239,41 @@ def _compile_without_missing_meshes(path: Path) -> Any:
         spec = mujoco.MjSpec.from_file(str(path))
     except ValueError:
         return None
-    folder = path.resolve().parent / (spec.meshdir or "")
-    roots = asset_roots(path.resolve().parent)
+    base = path.resolve().parent
+    folder = base / (spec.meshdir or "")
+    roots = asset_roots(base)
     readable = [m for m in spec.meshes if m.file and (folder / m.file).is_file()
                 and (outside_allowed() or is_inside(folder / m.file, roots))]  # outside ones left out too
     missing = [m for m in spec.meshes if m.file and m not in readable]
-    if not missing:
+    texture_folder = base / (spec.texturedir or "")
+    textures = []  # (texture, its first missing file)
+    for t in spec.textures:
+        absent = [f for f in ([t.file] if t.file else list(t.cubefiles)) if f and not (texture_folder / f).is_file()]
+        if absent:
+            textures.append((t, absent[0]))
+    if not missing and not textures:
         return None
-    names = {m.name for m in missing}
-    geoms = [g for g in spec.worldbody.find_all(mujoco.mjtObj.mjOBJ_GEOM)
-             if g.type == mujoco.mjtGeom.mjGEOM_MESH and g.meshname in names]
-    for g in geoms:
-        spec.delete(g)
-    for m in missing:
-        spec.delete(m)
-    warnings.warn(
-        f"{path}: {len(missing)} mesh file(s) not found (first: {missing[0].file}); reading without their "
-        f"{len(geoms)} geom(s) — primitive shapes stay, so kinematics and contacts hold; renders lose those meshes",
-        stacklevel=4,
-    )
+    if missing:
+        names = {m.name for m in missing}
+        geoms = [g for g in spec.worldbody.find_all(mujoco.mjtObj.mjOBJ_GEOM)
+                 if g.type == mujoco.mjtGeom.mjGEOM_MESH and g.meshname in names]
+        for g in geoms:
+            spec.delete(g)
+        for m in missing:
+            spec.delete(m)
+        spec.compiler.boundmass = max(spec.compiler.boundmass, MASSLESS_BOUND[0])
+        spec.compiler.boundinertia = max(spec.compiler.boundinertia, MASSLESS_BOUND[1])
+        warnings.warn(
+            f"{path}: {len(missing)} mesh file(s) not found (first: {missing[0].file}); reading without their "
+            f"{len(geoms)} geom(s) — primitive shapes stay, so kinematics and contacts hold; renders lose those "
+            "meshes", stacklevel=4)
+    for t, _ in textures:  # a material keeps its texture, drawn in one colour
+        t.file, t.cubefiles = "", [""] * 6
+        t.builtin = mujoco.mjtBuiltin.mjBUILTIN_FLAT
+        t.width, t.height = t.width or 8, t.height or 8
+    if textures:
+        warnings.warn(f"{path}: {len(textures)} texture file(s) not found (first: {textures[0][1]}); drawn flat",
+                      stacklevel=4)
     try:
         return spec.compile()
     except ValueError as exc:
@@ -492,7 +518,7 @@ class _Builder:
     def _mimics(self, bodies: set[int]) -> dict[int, Mimic]:
         """Mimic of each joint tied to another by a linear ``equality joint`` (by MuJoCo joint index)."""
         m = self.model
-        out: dict[int, Mimic] = {}
+        tied: dict[int, tuple[int, float, float]] = {}
         for e in range(m.neq):
             eq_name = _name(m, self.mj.mjtObj.mjOBJ_EQUALITY, e, f"equality {e}")
             if int(m.eq_type[e]) != _EQ_JOINT:
@@ -512,7 +538,17 @@ class _Builder:
                 continue
             # qpos1 = c0 + c1 qpos2, and morphkit's q = qpos - ref on both sides.
             ref1, ref2 = float(m.qpos0[m.jnt_qposadr[j1]]), float(m.qpos0[m.jnt_qposadr[j2]])
-            out[j1] = Mimic(self._joint_name(j2), float(coef[1]), float(coef[0] + coef[1] * ref2 - ref1))
+            tied[j1] = (j2, float(coef[1]), float(coef[0] + coef[1] * ref2 - ref1))
+        out: dict[int, Mimic] = {}
+        for j1, (j2, a, b) in tied.items():
+            # a chain (Menagerie's Stretch ties its telescope's four stages one to the next) is followed to the joint
+            # that drives it: q1 = a q2 + b with q2 = a2 q3 + b2 gives q1 = a a2 q3 + a b2 + b
+            seen = {j1}
+            while j2 in tied and j2 not in seen:
+                seen.add(j2)
+                j3, a2, b2 = tied[j2]
+                j2, a, b = j3, a * a2, a * b2 + b
+            out[j1] = Mimic(self._joint_name(j2), a, b)
         return out
 
     def _joint_name(self, j: int) -> str:

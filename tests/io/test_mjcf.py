@@ -249,6 +249,82 @@ def test_missing_mesh_files_are_left_out_with_one_warning(tmp_path: Path) -> Non
     assert [s.type.name for s in m.link("b").shapes] == ["MESH"]
 
 
+_TELESCOPE = """<mujoco model="telescope">
+  <worldbody>
+    <body name="mast">
+      <geom type="box" size="0.05 0.05 0.5"/>
+      <body name="s0" pos="0.1 0 0.4"><joint name="l0" type="slide" axis="1 0 0" range="0 0.2" ref="0.01"/>
+        <geom type="box" size="0.1 0.02 0.02"/>
+        <body name="s1" pos="0.05 0 0"><joint name="l1" type="slide" axis="1 0 0" range="0 0.2"/>
+          <geom type="box" size="0.1 0.02 0.02"/>
+          <body name="s2" pos="0.05 0 0"><joint name="l2" type="slide" axis="1 0 0" range="0 0.2" ref="0.02"/>
+            <geom type="box" size="0.1 0.02 0.02"/>
+            <body name="tip" pos="0.1 0 0"><joint name="wrist" type="hinge" axis="0 0 1" range="-1 1"/>
+              <geom type="sphere" size="0.03"/>
+            </body>
+          </body>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+  <equality>
+    <joint joint1="l0" joint2="l1" polycoef="0.01 0.5 0 0 0"/>
+    <joint joint1="l1" joint2="l2" polycoef="-0.02 2 0 0 0"/>
+  </equality>
+</mujoco>
+"""
+
+
+def test_a_chain_of_joint_equalities_is_driven_by_its_last_joint(tmp_path: Path) -> None:
+    """Menagerie's Stretch ties its telescope's stages one to the next (l0 to l1, l1 to l2): each stage is a mimic
+    of the joint that drives the chain, its coefficients composed, and FK matches MuJoCo with the chain applied."""
+    path = tmp_path / "telescope.xml"
+    path.write_text(_TELESCOPE)
+    m = read_mjcf(path)
+    # qpos_l1 = -0.02 + 2 qpos_l2 and qpos_l0 = 0.01 + 0.5 qpos_l1, with q = qpos - ref on each side
+    ref = {"l0": 0.01, "l1": 0.0, "l2": 0.02}
+    l1, l0 = m.joint("l1").mimic, m.joint("l0").mimic
+    assert (l1.joint, l0.joint) == ("l2", "l2")
+    assert l1.multiplier == pytest.approx(2.0) and l1.offset == pytest.approx(-0.02 + 2 * ref["l2"] - ref["l1"])
+    assert l0.multiplier == pytest.approx(1.0)
+    assert l0.offset == pytest.approx(0.01 + 0.5 * (-0.02 + 2 * ref["l2"]) - ref["l0"])
+    model = mujoco.MjModel.from_xml_path(str(path))
+    qpos = _random_qpos(model, np.random.default_rng(2), 20)
+    adr = {n: model.jnt_qposadr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, n)] for n in ref}
+    qpos[:, adr["l1"]] = -0.02 + 2 * qpos[:, adr["l2"]]
+    qpos[:, adr["l0"]] = 0.01 + 0.5 * qpos[:, adr["l1"]]
+    expected, cols = _mujoco_positions(model, m, qpos)
+    got = _morphkit_positions(m, _morphkit_q(model, m, qpos))[:, cols]
+    assert len(cols) == model.nbody - 1 and float(np.abs(got - expected).max()) < 1e-9  # all but the world
+
+
+def test_missing_textures_and_massless_bodies_read(tmp_path: Path) -> None:
+    """A model folder copied without its ``assets`` (Menagerie's Stretch): a missing texture is drawn flat (one
+    warning), a moving body whose only geom was a missing mesh still reads (MuJoCo wants it to have mass); the
+    kinematics are those of the same model without the missing files."""
+    body = ('<body name="arm" pos="0 0 0.3"><joint name="j" axis="0 1 0"/>{geom}\n'
+            '  <body name="hand" pos="0.3 0 0"><joint name="k" axis="0 1 0"/><geom type="sphere" size="0.05"/></body>'
+            "</body>")
+    meshed = body.format(geom='<geom type="mesh" mesh="m"/>')
+    massive = body.format(geom='<inertial pos="0 0 0" mass="1" diaginertia="1 1 1"/>')
+    text = ('<mujoco>\n  <asset>\n    <texture name="t" type="2d" file="nope.png"/>\n'
+            '    <material name="skin" texture="t"/>\n    <mesh name="m" file="gone.obj"/>\n  </asset>\n'
+            '  <worldbody>\n    <body name="base"><geom type="box" size="0.1 0.1 0.1" material="skin"/>\n'
+            f"      {meshed}\n    </body>\n  </worldbody>\n</mujoco>\n")
+    (tmp_path / "robot.xml").write_text(text)
+    with pytest.warns(UserWarning) as record:
+        m = read_mjcf(tmp_path / "robot.xml")
+    said = [str(w.message) for w in record if "not found" in str(w.message)]
+    assert len(said) == 2 and "1 texture file(s) not found (first: nope.png); drawn flat" in said[1]
+    assert "1 mesh file(s) not found (first: gone.obj)" in said[0]
+    plain = ('<mujoco>\n  <worldbody>\n    <body name="base"><geom type="box" size="0.1 0.1 0.1"/>\n'
+             f"      {massive}\n"
+             "    </body>\n  </worldbody>\n</mujoco>\n")
+    (tmp_path / "plain.xml").write_text(plain)
+    err, bodies = _fk_error(tmp_path / "plain.xml", m)
+    assert bodies == 3 and err < 1e-9 and m.link("arm").shapes == ()  # base, arm, hand
+
+
 def test_include_loop_and_error_inside_include(tmp_path: Path) -> None:
     """An include loop names the include that closes it; a bad number inside an included file names that file."""
     (tmp_path / "a.xml").write_text('<mujoco>\n  <include file="b.xml"/>\n  <worldbody/>\n</mujoco>\n')
