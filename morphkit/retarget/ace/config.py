@@ -88,13 +88,13 @@ class RetargetConfig:
     """Factor on Ψ's root motion over the ground (``morphkit.motion.GROUND_MOTION_FEATURES``) in G's feature term;
     ours, 1: Eq. 9 (docs/experiments/ground-motion-weight.md). The logged L_fea stays Eq. 9."""
     hand_velocity_weight: float = 0.3
-    """Weight of G's hand-velocity term (:func:`~morphkit.retarget.ace.train.hand_velocity_term`): how each hand or
+    """Weight of G's hand-velocity term (:func:`~morphkit.retarget.ace.losses.hand_velocity_term`): how each hand or
     tool moves, frame to frame, against its human hand's motion, so a hand the human rests asks for an arm at rest;
     ours, 0.3, chosen on the development split (0: Eq. 9 alone; docs/experiments/restless-arms.md). The logged L_fea
     stays Eq. 9."""
     hand_spread: bool = False
     """Scale the human's hand blocks of Ψ in G's feature and hand-velocity terms by the ratio of the two data sets'
-    spreads of them (:func:`~morphkit.retarget.ace.train.hand_spread_factors`), so each body's hand moves through its
+    spreads of them (:func:`~morphkit.retarget.ace.losses.hand_spread_factors`), so each body's hand moves through its
     own range, and the ground-motion rows by the factors' mean, from 1 up to ``hand_spread_root_limit``, to keep the
     root's share; ours, False in every preset: Eq. 9's body lengths on both sides (on, it lowered the matched FID of
     the bodies whose hands spread wider than a human's, but cost the main job's hand on mocap it never saw;

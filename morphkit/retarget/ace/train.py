@@ -1,6 +1,8 @@
 """Training ACE: data preparation, the motion prior (§4) and the adversarial retargeter (§5).
 
-The run folder's files are :class:`~.checkpoint.AceArtifact`'s (written here once, by :func:`prepare`).
+The run folder's files are :class:`~.checkpoint.AceArtifact`'s (written here once, by :func:`prepare`). The
+losses are :mod:`~.losses`' (the loss helpers are re-exported here, where earlier code imports them); this
+module only orchestrates: data, optimisers, steps, checkpoints.
 
 Each stage is a :class:`~morphkit.retarget.run.Run` and resumes exactly: re-running the same
 command continues where it stopped; a finished stage is skipped. A prior can be shared: ablations
@@ -17,15 +19,12 @@ from typing import Any
 
 import numpy as np
 import torch
-from torch.nn import functional as F
 from torch.optim.swa_utils import AveragedModel, get_ema_multi_avg_fn
 
 from morphkit.errors import ConfigError, RunError, SourceLocation
 from morphkit.graph import Morphology
 from morphkit.metrics import feature_loss
 from morphkit.motion import (
-    GROUND_MOTION_FEATURES,
-    ROOT_FEATURE_DIM,
     EndEffectorMapping,
     Motion,
     NormStats,
@@ -34,11 +33,9 @@ from morphkit.motion import (
     character_state_from_motion,
     character_state_layout,
     ee_distributions,
-    feature_dim,
     human_state_from_motion,
     human_state_layout,
     map_end_effectors,
-    world_end_effectors,
 )
 from morphkit.retarget.ace.checkpoint import (
     AVERAGE_STATE,
@@ -49,24 +46,47 @@ from morphkit.retarget.ace.checkpoint import (
     AceArtifact,
 )
 from morphkit.retarget.ace.config import AceConfig, PriorConfig, RetargetConfig
+from morphkit.retarget.ace.losses import (
+    Figures,
+    GeneratorTerms,
+    disc_logits,
+    discriminator_loss,
+    feature_weights,
+    generator_loss,
+    gradient_penalty,
+    hand_blocks,
+    hand_spread_factors,
+    hand_velocity_term,
+    prior_foot_term,
+    prior_loss,
+    spread_ground_motion_factor,
+)
 from morphkit.retarget.ace.model import Discriminator, FeatureMap, Generator, build_vae, foot_indices, rollout
-from morphkit.retarget.ace.networks import MotionVAE, kl_divergence
+from morphkit.retarget.ace.networks import MotionVAE
 from morphkit.retarget.ace.variants import AceVariant
 from morphkit.retarget.distributed import average_gradients, broadcast_parameters, is_main_process, joined_group
-from morphkit.retarget.networks import frozen_parameters
 from morphkit.retarget.run import Run
 from morphkit.retarget.training_data import StateWindows, character_data, human_motions, validation_split
 
 __all__ = [
     "AceData",
+    "BestGenerator",
+    "Validation",
     "disc_logits",
+    "feature_weights",
     "foot_indices",
     "frozen_prior",
+    "generator_average",
     "gradient_penalty",
+    "hand_blocks",
+    "hand_spread_factors",
+    "hand_velocity_term",
     "latent_range",
+    "linear_decay",
     "prepare",
     "prior_foot_term",
     "sampling_probability",
+    "spread_ground_motion_factor",
     "train_ace",
     "train_prior",
     "train_retargeter",
@@ -191,7 +211,6 @@ def train_prior(
     pc = cfg.prior
     windows = StateWindows.build(data.character_states, pc.rollout + 1, data.features.creature_stats)
     feet = foot_indices(data.creature)
-    use_feet = pc.foot_weight > 0 and bool(feet)
     with Run(prior_dir, trainer=PRIOR_TRAINER, config=pc, creature=data.creature.name, seed=cfg.seed, device=device,
              progress=progress) as run:
         vae = build_vae(windows.states.shape[1], pc).to(run.device)
@@ -204,31 +223,13 @@ def train_prior(
             model.train()
             for _ in run.steps(pc.steps_per_epoch):
                 idx = torch.randint(len(windows), (pc.batch_size,), generator=run.generator)
-                w = windows.windows(idx, run.device)
-                x_prev, recon, kl = w[:, 0], 0.0, 0.0
-                prevs, preds = [], []
-                for t in range(1, w.shape[1]):
-                    out = model(x_prev, w[:, t], generator=None)
-                    x_hat = out.x
-                    recon = recon + (x_hat - w[:, t]).square().sum(-1).mean() / w.shape[-1]
-                    kl = kl + kl_divergence(out.mu, out.logvar)
-                    prevs.append(x_prev)
-                    preds.append(x_hat)
-                    own = torch.rand(w.shape[0], 1, generator=run.generator).to(run.device) < p_own
-                    x_prev = torch.where(own, x_hat.detach(), w[:, t])
-                steps = w.shape[1] - 1
-                foot = w.new_zeros(())
-                if use_feet:
-                    foot = steps * prior_foot_term(data.features, feet, torch.stack(prevs, 1), torch.stack(preds, 1),
-                                                   w[:, :-1], w[:, 1:], planted_boost=pc.foot_planted_boost,
-                                                   planted_step=pc.planted_step)
-                loss = (recon + pc.kl_beta * kl + pc.foot_weight * foot) / steps
+                loss, figures = prior_loss(model, windows.windows(idx, run.device), p_own, run.generator,
+                                           data.features, feet, pc)
                 opt.zero_grad(set_to_none=True)
                 loss.backward()
                 opt.step()
                 sched.step()
-                run.log(prior_loss=loss.detach(), prior_recon=recon.detach() / steps, prior_kl=kl.detach() / steps,
-                        prior_foot=foot.detach() / steps, p_own=p_own, lr=sched.get_last_lr()[0])
+                run.log(**figures, p_own=p_own, lr=sched.get_last_lr()[0])
     vae.eval()
     return vae
 
@@ -258,132 +259,6 @@ def latent_range(vae: MotionVAE, transitions: StateWindows, *, batch: int = 8192
     return mu.mean(0), mu.std(0).clamp_min(1e-6)
 
 
-def gradient_penalty(disc: torch.nn.Module, real: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-    """D's logits on real transitions [N, 2 Sr] and E‖∇_x D(x)‖² over them (Eq. 5, before the w_gp/2 weight)."""
-    real = real.detach().requires_grad_(True)
-    logits = disc(real)
-    (grad,) = torch.autograd.grad(logits.sum(), real, create_graph=True)
-    return logits, grad.square().sum(-1).mean()
-
-
-def hand_blocks(creature: Morphology, ees: Sequence[str]) -> list[slice]:
-    """The columns of Ψ [11 + 3k] holding the creature's hand and tool end-effectors among ``ees``, one slice each."""
-    roles = {e.name: e.role for e in creature.end_effectors}
-    return [slice(ROOT_FEATURE_DIM + 3 * i, ROOT_FEATURE_DIM + 3 * i + 3) for i, name in enumerate(ees)
-            if roles[name].on_arm]
-
-
-def feature_weights(creature: Morphology, ees: Sequence[str], rc: RetargetConfig,
-                    ground_motion_factor: float = 1.0) -> torch.Tensor | None:
-    """Per-column factors on Ψ [11 + 3k] in G's feature term: ``rc.ground_motion_weight`` × ``ground_motion_factor``
-    (:func:`spread_ground_motion_factor` with ``rc.hand_spread``) on the root's ground motion, ``rc.hand_weight`` on
-    the blocks of the creature's hand and tool end-effectors ``ees``, 1 elsewhere (``None`` when all are 1: Eq. 9 as
-    written)."""
-    ground = rc.ground_motion_weight * ground_motion_factor
-    if ground == 1.0 and rc.hand_weight == 1.0:
-        return None
-    w = torch.ones(feature_dim(len(ees)))
-    w[list(GROUND_MOTION_FEATURES)] = ground
-    for block in hand_blocks(creature, ees):
-        w[block] = rc.hand_weight
-    return w
-
-
-def hand_spread_factors(psi_human: np.ndarray, psi_creature: np.ndarray, blocks: Sequence[slice]) -> torch.Tensor:
-    """Beyond the paper: per-column factors [11 + 3k] on the human's Ψ in G's terms, each hand ``block`` scaled by the
-    ratio of the two data sets' spreads of it — the RMS distance of the block from its mean over the frames of
-    ``psi_creature`` [M, 11 + 3k] over that of ``psi_human`` [N, 11 + 3k] — and 1 elsewhere (and where the human's
-    block never moves). A human hand moving through its usual range then asks the creature's hand to move through
-    the creature data's own range, not through the human's range measured in the creature's body lengths: per body
-    length a six-legged creature's claws spread 2–3× as far as a human's hands."""
-    factors = torch.ones(psi_human.shape[-1], dtype=torch.float32)
-
-    def spread(psi: np.ndarray, block: slice) -> float:
-        part = psi[:, block]
-        return float(np.sqrt(np.square(part - part.mean(axis=0)).sum(axis=1).mean()))
-
-    for block in blocks:
-        h = spread(psi_human, block)
-        if h > 1e-9:  # rounding leaves a still hand's spread at ~1e-17 body lengths, not 0
-            factors[block] = spread(psi_creature, block) / h
-    return factors
-
-
-def spread_ground_motion_factor(factors: torch.Tensor, blocks: Sequence[slice], limit: float) -> float:
-    """The factor :attr:`RetargetConfig.hand_spread` puts on Ψ's ground-motion rows: the mean of the hand ``blocks``'
-    :func:`hand_spread_factors` ``factors``, within [1, ``limit``] (1 for no blocks). The scaled hands' residual grows
-    with their factors, and Eq. 9's norm shares one pull among all rows: the root's ground motion grows with them to
-    keep its share.
-
-    Raises:
-        ConfigError: ``limit`` below 1.
-    """
-    if limit < 1.0:
-        raise ConfigError(f"retarget.hand_spread_root_limit must be at least 1, got {limit}")
-    if not blocks:
-        return 1.0
-    return min(max(float(np.mean([float(factors[b].mean()) for b in blocks])), 1.0), limit)
-
-
-def hand_velocity_term(psi_human: torch.Tensor, psi_creature: torch.Tensor, blocks: Sequence[slice],
-                       fps: float) -> torch.Tensor:
-    """Beyond the paper: ‖(Ψ^h_t − Ψ^h_{t−1}) − (Ψ^r_t − Ψ^r_{t−1})‖ · fps over each hand block [body lengths/s],
-    averaged over the frames of windows ``psi_*`` [B, T, 11 + 3k] and summed over the ``blocks``
-    (:func:`hand_blocks`). Eq. 9 compares where a hand is; this, how it moves — blind to where each side's hand
-    usually is, it asks an arm to rest while the human's hand rests (zero for no blocks or one frame)."""
-    term = psi_human.new_zeros(())
-    if psi_human.shape[-2] < 2:
-        return term
-    for block in blocks:
-        step = psi_human[..., 1:, block] - psi_human[..., :-1, block]
-        step = step - (psi_creature[..., 1:, block] - psi_creature[..., :-1, block])
-        term = term + fps * step.norm(dim=-1).mean()
-    return term
-
-
-def prior_foot_term(fmap: FeatureMap, feet: Sequence[int], prev: torch.Tensor, pred: torch.Tensor,
-                    prev_data: torch.Tensor, data: torch.Tensor, *, planted_boost: float = 0.0,
-                    planted_step: float = 0.002, contact_height: float = 0.02) -> torch.Tensor:
-    """Beyond the paper: the prior's foot term (``PriorConfig.foot_weight``), in squared body lengths.
-
-    For each transition ``prev`` → ``pred`` (normalised states [..., Sr]; ``pred`` = π's output) the
-    feet's step in the transition's ground frame — FK of the predicted joints placed on the
-    integrated root path (:func:`~morphkit.motion.world_end_effectors`), as exported — is compared
-    with the data's step ``prev_data`` → ``data``, and the predicted feet's height with the data's.
-    A planted foot's data step is zero, so this is what keeps π's planted feet planted; feet the
-    data has planted (step below ``planted_step``, below ``contact_height``) weigh ``1 + planted_boost``.
-    """
-    lay, stats = fmap.creature_layout, fmap.creature_stats
-    x = stats.denormalize(torch.stack([prev, pred], dim=-2))
-    p_hat = world_end_effectors(x, lay, fmap.fk_end_effectors(x))[..., feet, :]
-    d = stats.denormalize(torch.stack([prev_data, data], dim=-2))
-    p = world_end_effectors(d, lay, d[..., lay.slice("ee_positions")].unflatten(-1, (-1, 3)))[..., feet, :]
-    step = p[..., 1, :, :] - p[..., 0, :, :]
-    step_error = (p_hat[..., 1, :, :] - p_hat[..., 0, :, :]) - step
-    planted = (step.norm(dim=-1) < planted_step) & (p[..., 1, :, 2] < contact_height)
-    weight = 1.0 + planted_boost * planted.to(step.dtype)
-    height_error = p_hat[..., 1, :, 2] - p[..., 1, :, 2]
-    return ((weight * step_error.square().sum(-1)).mean() + height_error.square().mean()) / fmap.creature_length**2
-
-
-def _contact_terms(data: AceData, fixed_states: torch.Tensor, fps: float) -> torch.Tensor:
-    """Beyond the paper: foot sliding [m/s] and ground penetration [m] of the generated motion, through FK.
-
-    Feet are placed on the window's integrated root path (:func:`~morphkit.motion.world_end_effectors`),
-    so a planted foot must stay put while the body moves.
-    """
-    import morphkit.torch as mt
-
-    feet = foot_indices(data.creature)
-    if not feet:
-        return fixed_states.new_zeros(())
-    fmap = data.features
-    ee = world_end_effectors(fixed_states, fmap.creature_layout, fmap.fk_end_effectors(fixed_states))
-    slide = mt.sliding_speed(ee, fps, feet=feet).mean()
-    pen = mt.penetration_depth(ee.flatten(0, 1), feet=feet).mean()
-    return slide + 10.0 * pen
-
-
 def train_retargeter(
     retarget_dir: str | os.PathLike[str],
     data: AceData,
@@ -404,7 +279,6 @@ def train_retargeter(
     """
     variant = AceVariant.parse(variant)
     rc: RetargetConfig = variant.configure(cfg.retarget)
-    use_feature_loss, use_adversarial = rc.feature_loss, rc.adversarial
     fmap = data.features
     human_states, held_out = data.human_states, None
     if rc.validation_share != 0:  # a negative share is refused by the split
@@ -426,22 +300,9 @@ def train_retargeter(
         gen.set_latent_range(*latent_range(vae, reals))
         disc = Discriminator(sr, rc).to(dev)
         stats = fmap.creature_stats
-        hands = hand_blocks(data.creature, fmap.creature_ees)
-        human_scale, root = None, 1.0
-        if rc.hand_spread and hands:
-            human_scale = hand_spread_factors(
-                fmap.pairing.human_psi_of_states(np.concatenate(human_states), fmap.human_layout),
-                fmap.pairing.creature_psi_of_states(np.concatenate(data.character_states), fmap.creature_layout),
-                hands)
-            root = spread_ground_motion_factor(human_scale, hands, rc.hand_spread_root_limit)
-            log("hand spread (creature / human data): " + ", ".join(
-                f"{fmap.creature_ees[(b.start - ROOT_FEATURE_DIM) // 3]} ×{human_scale[b.start]:.2f}" for b in hands)
-                + f"; ground motion ×{root:.2f}")
-            human_scale = human_scale.to(dev)
-        psi_weight = feature_weights(data.creature, fmap.creature_ees, rc, ground_motion_factor=root)
-        if psi_weight is not None:
-            psi_weight = psi_weight.to(dev)
-        plain = psi_weight is None and human_scale is None  # G's feature term is the logged Eq. 9: no second norm
+        terms = GeneratorTerms.build(rc, fmap, data.creature, human_states, data.character_states, cfg.data.fps, dev)
+        if terms.note is not None:
+            log(terms.note)
         # Not DDP: its hooks miss the gradient penalty's double backward; gradients are averaged by hand.
         for module in (gen, disc):
             broadcast_parameters(module, run.context)
@@ -470,43 +331,25 @@ def train_retargeter(
                 else:
                     shown = fake
                 fake_t = torch.cat([prev, shown], dim=-1).flatten(0, 1)  # [B·T, 2 Sr]
-                row: dict[str, Any] = {}
-                if use_adversarial:
+                row: Figures = {}
+                if rc.adversarial:
                     for _ in range(rc.discriminator_steps):
                         pair = reals.windows(torch.randint(len(reals), (fake_t.shape[0],), generator=run.generator),
                                              dev)
-                        real = pair.flatten(1)
-                        d_real, gp = gradient_penalty(d_model, real)
-                        d_fake = d_model(fake_t.detach())
-                        loss_d = F.softplus(-d_real).mean() + F.softplus(d_fake).mean() + 0.5 * rc.w_gp * gp
+                        loss_d, row = discriminator_loss(d_model, pair.flatten(1), fake_t, rc.w_gp)
                         opt_d.zero_grad(set_to_none=True)
                         loss_d.backward()
                         average_gradients(disc, run.context)
                         opt_d.step()
-                    row |= {"loss_d": loss_d.detach(), "d_gp": gp.detach(),
-                            "d_real_acc": (d_real > 0).float().mean(), "d_fake_acc": (d_fake < 0).float().mean()}
-                psi_h = fmap.human_psi(x_h)
-                psi_r = fmap.psi_of_fixed(fixed)
-                fea = feature_loss(psi_h, psi_r)
-                psi_hg = psi_h if human_scale is None else psi_h * human_scale  # what G's terms ask of the creature
-                fea_g = fea if plain else feature_loss(psi_hg, psi_r, weights=psi_weight)
-                if rc.hand_velocity_weight:
-                    fea_g = fea_g + rc.hand_velocity_weight * hand_velocity_term(psi_hg, psi_r, hands, cfg.data.fps)
-                g_adv = rc.w_adv * F.softplus(-disc_logits(d_model, disc, fake_t)).mean() if use_adversarial \
-                    else fea.new_zeros(())
-                g_fea = rc.w_fea * fea_g if use_feature_loss else fea.new_zeros(())
-                g_contact = fea.new_zeros(())
-                if rc.w_contact > 0:
-                    g_contact = rc.w_contact * _contact_terms(data, fixed, cfg.data.fps)
-                loss_g = g_adv + g_fea + g_contact
+                loss_g, figures = generator_loss(terms, x_h, fixed, fake_t,
+                                                 lambda t: disc_logits(d_model, disc, t))
                 opt_g.zero_grad(set_to_none=True)
                 loss_g.backward()
                 average_gradients(gen, run.context)
                 opt_g.step()
                 if average is not None:
                     average.update_parameters(gen)
-                run.log(**row, loss_g=loss_g.detach(), loss_g_adv=g_adv.detach(), loss_g_fea=g_fea.detach(),
-                        loss_g_contact=g_contact.detach(), feature_loss=fea.detach(), ee_fk_gap=gap.mean())
+                run.log(**row, **figures, ee_fk_gap=gap.mean())
             if validation is not None and best is not None:
                 retargeting = gen if average is None else average.module
                 score = validation.feature_loss(retargeting, prior)
@@ -586,12 +429,6 @@ def generator_average(gen: torch.nn.Module, decay: float) -> AveragedModel | Non
     if decay >= 1.0:
         raise ConfigError(f"retarget.generator_average must lie in [0, 1), got {decay}")
     return AveragedModel(gen, multi_avg_fn=get_ema_multi_avg_fn(decay))
-
-
-def disc_logits(d_model: torch.nn.Module, disc: torch.nn.Module, transitions: torch.Tensor) -> torch.Tensor:
-    """D's logits for the generator step, with D's parameters out of the graph (only G learns here)."""
-    with frozen_parameters(disc):
-        return d_model(transitions)
 
 
 def train_ace(
