@@ -29,6 +29,8 @@ and are re-exported here under their usual names.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from morphkit.rotations import (
@@ -52,6 +54,7 @@ __all__ = [
     "TRANSFORM_LAYOUT",
     "UP_AXIS",
     "VELOCITY_DIFFERENCE",
+    "backward_difference",
     "matrix_from_quat",
     "quat_conjugate",
     "quat_from_axis_angle",
@@ -73,3 +76,22 @@ HEADING_FRAME = "origin at the root, z up, x along the root's facing direction p
 """The one heading frame (see the module docstring)."""
 VELOCITY_DIFFERENCE = "backward"
 """``v_t = (p_t - p_{t-1}) fps``, frame 0 copying frame 1 (see the module docstring)."""
+
+
+def backward_difference(x: Any, axis: int = 0, *, causal: bool = False) -> Any:
+    """:data:`VELOCITY_DIFFERENCE` along ``axis``: ``x[t] - x[t-1]``, same shape as ``x`` (NumPy or torch).
+
+    Frame 0 copies frame 1 (zeros for a single frame); multiply by ``fps`` for a velocity. ``causal=True``
+    gives frame 0 a zero difference instead, for rules that may not look ahead (frame t from frames 0..t).
+    """
+    axis = axis % x.ndim
+    head = (slice(None),) * axis
+    if x.shape[axis] < 2:
+        return x * 0.0
+    d = x[(*head, slice(1, None))] - x[(*head, slice(None, -1))]
+    first = d[(*head, slice(0, 1))] * (0.0 if causal else 1.0)
+    if type(x).__module__.split(".", 1)[0] == "torch":
+        import torch
+
+        return torch.cat([first, d], dim=axis)
+    return np.concatenate([first, d], axis=axis)

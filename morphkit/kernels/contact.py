@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 import warp as wp
 
+from morphkit.contact_rules import UFR
 from morphkit.errors import GraphError
 from morphkit.graph.types import EndEffectorRole, JointType, ShapeType
 from morphkit.kernels._collision_kernels import self_collision_kernel, shape_ground_kernel
@@ -122,11 +123,12 @@ def contact_flags_kernel(
     fps: Any,
     out: wp.array3d[wp.bool],
 ):
-    """``out[n, t, f]``: foot ``feet[f]`` is below the height threshold and slower than the speed threshold."""
+    """``out[n, t, f]``: foot ``feet[f]`` is below the height threshold and horizontally slower than the speed
+    threshold."""
     n, t, f = wp.tid()
     e = feet[f]
     v = _frame_velocity(points, n, t, e, fps)
-    out[n, t, f] = points[n, t, e][2] - ground < height_threshold and wp.length(v) < speed_threshold
+    out[n, t, f] = points[n, t, e][2] - ground < height_threshold and wp.length(wp.vector(v[0], v[1])) < speed_threshold
 
 
 # Concrete instances, so ahead-of-time compilation builds both precisions.
@@ -300,7 +302,7 @@ def _check_fps(fps: float) -> None:
         raise GraphError(f"fps must be a positive number, got {fps!r}")
 
 
-def eval_sliding_speed(points: Any, fps: float, *, feet: Any = None, height_threshold: float = 0.02,
+def eval_sliding_speed(points: Any, fps: float, *, feet: Any = None, height_threshold: float = UFR.height,
                        ground_height: float = 0.0, out: wp.array | None = None, device: Any = None) -> wp.array:
     """Horizontal foot speed while in contact, per frame.
 
@@ -336,7 +338,7 @@ def eval_sliding_speed(points: Any, fps: float, *, feet: Any = None, height_thre
 
 
 def eval_sliding_speed_adjoint(points: Any, adj_out: wp.array, fps: float, *, feet: Any = None,
-                               height_threshold: float = 0.02, ground_height: float = 0.0,
+                               height_threshold: float = UFR.height, ground_height: float = 0.0,
                                adj_points: wp.array | None = None, device: Any = None) -> wp.array:
     """Accumulate the vector–Jacobian product of :func:`eval_sliding_speed` into ``adj_points`` ([..., T, E] vec3).
 
@@ -363,12 +365,13 @@ def eval_sliding_speed_adjoint(points: Any, adj_out: wp.array, fps: float, *, fe
     return adj_points
 
 
-def eval_contact_flags(points: Any, fps: float, *, feet: Any = None, height_threshold: float = 0.02,
-                       speed_threshold: float = 0.2, ground_height: float = 0.0, out: wp.array | None = None,
+def eval_contact_flags(points: Any, fps: float, *, feet: Any = None, height_threshold: float = UFR.height,
+                       speed_threshold: float = UFR.speed, ground_height: float = 0.0, out: wp.array | None = None,
                        device: Any = None) -> wp.array:
     """Foot contact flags of a motion: below ``height_threshold`` [m] and slower than ``speed_threshold`` [m/s].
 
-    The speed is the full 3-D finite-difference speed (central, one-sided at the ends).
+    The one contact rule (:mod:`morphkit.contact_rules`; defaults its ``ufr`` preset): the speed is the
+    horizontal backward-difference speed of :func:`eval_sliding_speed` (frame 0 copies frame 1).
     Same array arguments as :func:`eval_sliding_speed`; returns ``wp.bool`` flags, shape [..., T, F].
     """
     _check_fps(fps)

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from morphkit.contact_rules import GMD_SKATING, PHYSDIFF, UFR
 from morphkit.errors import ConfigError
 from morphkit.metrics._unrealistic import UnrealisticFrameThresholds, contact_over_difference, feet_of
 
@@ -39,7 +40,8 @@ __all__ = [
 
 UFR_STRICT = UnrealisticFrameThresholds()
 """UFR's default thresholds: contact below 2 cm, sliding above 0.2 m/s, penetration beyond 5 mm."""
-UFR_MEDIUM = UnrealisticFrameThresholds(contact_height=0.05, sliding_speed=0.5, penetration_depth=0.01)
+UFR_MEDIUM = UnrealisticFrameThresholds(contact_height=GMD_SKATING.height, sliding_speed=GMD_SKATING.speed,
+                                        penetration_depth=0.01)
 """Contact below 5 cm, sliding above 0.5 m/s (GMD's skating thresholds), penetration beyond 1 cm."""
 UFR_LOOSE = UnrealisticFrameThresholds(contact_height=0.05, sliding_speed=1.0, penetration_depth=0.02)
 """Contact below 5 cm, sliding above 1 m/s, penetration beyond 2 cm."""
@@ -211,8 +213,8 @@ def _centred_moving_average(x: np.ndarray, size: int) -> np.ndarray:
 
 def skating_ratio(
     motion: Motion,
-    height: float = 0.05,
-    speed: float = 0.5,
+    height: float = GMD_SKATING.height,
+    speed: float = GMD_SKATING.speed,
     *,
     window: int = 5,
     ground_height: float = 0.0,
@@ -288,7 +290,7 @@ def physdiff_figures(
     motion: Motion,
     *,
     ground_height: float = 0.0,
-    contact_height: float = 0.05,
+    contact_height: float = PHYSDIFF.height,
     feet: Sequence[str] | None = None,
 ) -> PhysDiffFigures:
     """PhysDiff's Penetrate, Float and Skate (Yuan et al. 2023), on the creature's feet.
@@ -361,7 +363,7 @@ def _runs(flags: np.ndarray) -> list[tuple[int, int]]:
 
 def longest_flight(
     motion: Motion,
-    contact_height: float = 0.02,
+    contact_height: float = UFR.height,
     *,
     ground_height: float = 0.0,
     feet: Sequence[str] | None = None,
@@ -392,7 +394,7 @@ def longest_flight(
 def floating_frames(
     motion: Motion,
     longest_flight_frames: int,
-    contact_height: float = 0.02,
+    contact_height: float = UFR.height,
     *,
     ground_height: float = 0.0,
     feet: Sequence[str] | None = None,

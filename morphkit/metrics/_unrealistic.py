@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from morphkit.contact_rules import UFR
 from morphkit.conventions import VELOCITY_DIFFERENCE
 from morphkit.errors import ConfigError
 
@@ -41,10 +42,10 @@ class UnrealisticFrameThresholds:
     penetration (at 10 cm/s, up to 4 % would slide) and up to 0.85 % for knees brushing.
     """
 
-    contact_height: float = 0.02
+    contact_height: float = UFR.height
     """A foot lower than this above the ground is in contact [m] (2 cm: the default of the contact
     kernels and of ``morphkit synth --report``)."""
-    sliding_speed: float = 0.2
+    sliding_speed: float = UFR.speed
     """A foot in contact moving horizontally faster than this slides [m/s] (20 cm/s: 1 cm per frame
     is 30 cm/s at 30 fps and counts from 21 fps up; stance feet of CMU walking stay below it; the
     speed below which the contact kernels call a foot planted)."""

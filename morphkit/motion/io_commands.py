@@ -1,7 +1,7 @@
 """Robot commands from a motion (ACE §7.6): what a legged or wheeled robot's vendor API takes.
 
 Per frame, one CSV row: time [s]; the base velocity command in the body's heading frame
-(``vx``, ``vy`` [m/s], ``yaw_rate`` [rad/s]; backward differences, the conventions' rule); the body
+(``vx``, ``vy`` [m/s], ``yaw_rate`` [rad/s]; :func:`~morphkit.motion.heading.heading_velocity`); the body
 ``height`` [m] and ``pitch`` / ``roll`` [rad] (the root's tilt in its heading frame); then the
 angle of every 1-DoF joint on a chain to a ``hand`` or ``tool`` end-effector ("arm joints", named
 by their joint names) [rad or m].
@@ -17,8 +17,9 @@ import numpy as np
 
 from morphkit._atomic import atomic_write_text
 from morphkit.graph import JointType, Morphology
+from morphkit.motion.heading import heading_velocity
 from morphkit.motion.motion import Motion
-from morphkit.rotations import quat_conjugate, quat_from_yaw, quat_multiply, quat_rotate, rpy_from_quat, yaw_from_quat
+from morphkit.rotations import quat_conjugate, quat_from_yaw, quat_multiply, rpy_from_quat
 
 __all__ = ["arm_joints", "robot_commands", "write_robot_commands"]
 
@@ -35,17 +36,9 @@ def robot_commands(motion: Motion) -> tuple[list[str], np.ndarray]:
     """``(columns, rows)``: the commands of every frame, rows [T, 7 + arm joints]."""
     m = motion.morphology
     pose = motion.root_pose()
-    yaw = np.unwrap(yaw_from_quat(pose[:, 3:]))
-    heading = quat_from_yaw(yaw)
-    d = np.zeros_like(pose[:, :3])
-    if motion.frame_count > 1:
-        d[1:] = np.diff(pose[:, :3], axis=0)
-        d[0] = d[1]
-    v = quat_rotate(quat_conjugate(heading), d) * motion.fps
-    w = np.zeros(len(yaw))
-    if motion.frame_count > 1:
-        w[1:] = np.diff(yaw) * motion.fps
-        w[0] = w[1]
+    vel = heading_velocity(pose, motion.fps)
+    v, w = vel.linear, vel.yaw_rate
+    heading = quat_from_yaw(vel.yaw)
     tilt = rpy_from_quat(quat_multiply(quat_conjugate(heading), pose[:, 3:]))
     arms = arm_joints(m)
     cols = [m.joint_q_start[m.joint_index(j)] for j in arms]

@@ -53,7 +53,7 @@ the step, so a sequence of states can be integrated back into a world trajectory
 **Stance flags** (beyond the paper, ``contacts=True`` in the layouts): both states may end with
 ``foot_contacts`` [F], one flag per end-effector of role ``foot`` (1 in stance, 0 in swing), in the
 morphology's end-effector order. A creature's synthesised data take them from the synthesis' plan;
-any other motion from :func:`foot_contact_flags` (height and speed).
+any other motion from :func:`foot_contact_flags` (the contact rule's ``stance flags`` preset).
 
 **Derived slots.** Given the previous state, the root velocities and the end-effector velocities
 follow from a state's own root step, height and orientations and its end-effector positions, which
@@ -71,6 +71,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from morphkit._atomic import atomic_path
+from morphkit.contact_rules import STANCE_FLAGS, ContactRule, contact_flags
+from morphkit.conventions import backward_difference
 from morphkit.errors import MotionFormatError, SourceLocation
 from morphkit.graph import JointType, Morphology
 from morphkit.rotations import (
@@ -223,20 +225,6 @@ def to_heading_frame(heading: Any, points: Any, *, direction: bool = False) -> A
     return quat_rotate_inverse(heading[..., 3:].reshape(*shape, 4), v)
 
 
-def _backward_diff(x: Any, axis: int) -> Any:
-    """``x[t] - x[t-1]`` along time ``axis`` (negative) with frame 0 copying frame 1 (zeros for one frame)."""
-    tail = (slice(None),) * (-axis - 1)
-    if x.shape[axis] < 2:
-        return x * 0.0
-    d = x[(..., slice(1, None), *tail)] - x[(..., slice(None, -1), *tail)]
-    first = d[(..., slice(0, 1), *tail)]
-    if _is_torch(x):
-        import torch
-
-        return torch.cat([first, d], dim=axis)
-    return np.concatenate([first, d], axis=axis)
-
-
 def _rotation_steps(q: Any) -> Any:
     """World rotation ``q_t q_{t-1}⁻¹`` per frame [..., T, 4] (frame 0 copies frame 1; identity for one frame)."""
     if q.shape[-2] < 2:
@@ -259,7 +247,7 @@ def _root_terms(root_pose: Any, fps: float) -> dict[str, Any]:
     inv_h = quat_conjugate(heading[..., 3:])
     q = root_pose[..., 3:]
     step = _rotation_steps(q)
-    disp = quat_rotate(inv_h, _backward_diff(root_pose[..., :3], -2))
+    disp = quat_rotate(inv_h, backward_difference(root_pose[..., :3], -2))
     prev_q = quat_multiply(quat_conjugate(step), q)
     return {
         "heading": heading,
@@ -306,7 +294,7 @@ def human_state(root_pose: Any, link_positions: Any, ee_positions: Any, fps: flo
     h = r["heading"]
     joints = _flat_tail(to_heading_frame(h, link_positions[..., 1:, :]))
     ee = _flat_tail(to_heading_frame(h, ee_positions))
-    ee_vel = _flat_tail(to_heading_frame(h, _backward_diff(ee_positions, -3) * fps, direction=True))
+    ee_vel = _flat_tail(to_heading_frame(h, backward_difference(ee_positions, -3) * fps, direction=True))
     return _cat(
         [
             r["root_height"],
@@ -367,7 +355,7 @@ def character_state(
     r = _root_terms(root_pose, fps)
     h = r["heading"]
     ee = _flat_tail(to_heading_frame(h, ee_positions))
-    ee_vel = _flat_tail(to_heading_frame(h, _backward_diff(ee_positions, -3) * fps, direction=True))
+    ee_vel = _flat_tail(to_heading_frame(h, backward_difference(ee_positions, -3) * fps, direction=True))
     return _cat(
         [
             r["root_height"],
@@ -397,19 +385,11 @@ def _contact_block(contacts: Any, root_pose: Any) -> list[Any]:
     return [c]
 
 
-STANCE_HEIGHT = 0.05
-"""[m]: a foot within this of its ground height can be in stance (ours: GMD's contact height)."""
-STANCE_SPEED = 0.3
-"""[m/s]: a foot slower than this horizontally can be in stance (ours: 1 cm per frame at 30 fps, a tenth of
-a walk's swing speed)."""
+def foot_contact_flags(motion: Motion, *, rule: ContactRule = STANCE_FLAGS) -> np.ndarray:
+    """Stance flags [T, F] (1.0 / 0.0) of a motion's feet (:func:`foot_names`) by the contact ``rule``.
 
-
-def foot_contact_flags(motion: Motion, *, height: float = STANCE_HEIGHT, speed: float = STANCE_SPEED) -> np.ndarray:
-    """Stance flags [T, F] (1.0 / 0.0) of a motion's feet (:func:`foot_names`) from their height and speed.
-
-    A foot is in stance where it is within ``height`` of its ground height — its clip's 5th-percentile
-    height, clamped to ``[0, height]`` (a human's toe joint rests a few centimetres up) — and moves
-    slower than ``speed`` horizontally (backward difference; frame 0 copies frame 1's).
+    The ground of each foot is its clip's 5th-percentile height, clamped to ``[0, rule.height]`` (a human's
+    toe joint rests a few centimetres up); :data:`~morphkit.contact_rules.STANCE_FLAGS` by default.
     """
     m = motion.morphology
     names = foot_names(m)
@@ -417,9 +397,8 @@ def foot_contact_flags(motion: Motion, *, height: float = STANCE_HEIGHT, speed: 
         return np.zeros((motion.frame_count, len(names)))
     index = {e.name: i for i, e in enumerate(m.end_effectors)}
     feet = motion.end_effector_positions()[:, [index[n] for n in names]]
-    ground = np.clip(np.percentile(feet[..., 2], 5, axis=0), 0.0, height)
-    step = np.linalg.norm(_backward_diff(feet[..., :2], -3), axis=-1) * motion.fps
-    return ((feet[..., 2] - ground < height) & (step < speed)).astype(float)
+    ground = np.clip(np.percentile(feet[..., 2], 5, axis=0), 0.0, rule.height)
+    return contact_flags(feet, motion.fps, rule, ground).astype(float)
 
 
 def _flags(motion: Motion, contacts: Any) -> Any:

@@ -1,9 +1,9 @@
 """Contact-aware export by locking: feet in stance held at their touchdown point, the legs solved by IK.
 
 Where :mod:`~morphkit.synth.replan` replaces a motion's steps by the planner's, ``lock`` keeps the
-retargeter's own steps and only removes their slide: a foot is *in stance* while it is within
-``height`` of its ground height and moves slower than ``speed`` (both decided from the frames up to
-the current one); a stance foot's IK target is the point where it touched down, on the ground; a
+retargeter's own steps and only removes their slide: a foot is *in stance* by the contact rule's
+``lock`` preset (:data:`~morphkit.contact_rules.LOCK`, decided from the frames up to the current
+one); a stance foot's IK target is the point where it touched down, on the ground; a
 lifted foot follows its own path again, the gap to it closed over ``blend_seconds``; a stance foot
 whose own position has gone farther than ``max_offset`` of the leg's reach from its locked point (the
 retargeter dragged it along) steps there, lifted, over ``step_seconds``. The legs are
@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from morphkit.contact_rules import LOCK, ContactRule, contact_flags
 from morphkit.graph import BaseType
 from morphkit.motion.motion import Motion
 from morphkit.synth.core import SynthConfig, prepare
@@ -36,22 +37,19 @@ from morphkit.synth.wheeled import Locomotion
 __all__ = ["lock_feet", "stance_flags"]
 
 
-def stance_flags(feet: np.ndarray, ground: np.ndarray, fps: float, *, height: float = 0.05,
-                 speed: float = 1.0) -> np.ndarray:
-    """Which feet are in stance, causally: within ``height`` [m] of ``ground`` and slower than ``speed`` [m/s].
+def stance_flags(feet: np.ndarray, ground: np.ndarray, fps: float, *, rule: ContactRule = LOCK) -> np.ndarray:
+    """Which feet are in stance by the contact ``rule`` (:data:`~morphkit.contact_rules.LOCK`: causal).
 
     Args:
         feet: Foot positions [T, F, 3] in the world [m].
         ground: Each foot's ground height [F] [m].
         fps: Frame rate [1/s]; a foot's speed at frame t is its horizontal step from frame t − 1.
+        rule: The contact rule's preset.
 
     Returns:
         Flags [T, F] (bool).
     """
-    step = np.zeros(feet.shape[:2])
-    if len(feet) > 1:
-        step[1:] = np.linalg.norm(np.diff(feet[..., :2], axis=0), axis=-1) * fps
-    return (feet[..., 2] - ground[None] < height) & (step < speed)
+    return contact_flags(feet, fps, rule, np.asarray(ground)[None])
 
 
 def lock_targets(feet: np.ndarray, stance: np.ndarray, ground: np.ndarray, blend: int, *,
@@ -101,15 +99,15 @@ def lock_targets(feet: np.ndarray, stance: np.ndarray, ground: np.ndarray, blend
     return out
 
 
-def lock_feet(motion: Motion, *, height: float = 0.05, speed: float = 1.0, blend_seconds: float = 0.1,
+def lock_feet(motion: Motion, *, rule: ContactRule = LOCK, blend_seconds: float = 0.1,
               max_offset: float = 0.3, step_seconds: float = 0.2, config: SynthConfig | None = None,
               stance: np.ndarray | None = None) -> Motion:
     """``motion`` with its stance feet locked at their touchdown points (see the module docstring).
 
     Args:
         motion: A motion of a legged creature (floating base); others come back unchanged.
-        height: A foot higher than this above its ground height [m] is in swing.
-        speed: A foot faster than this horizontally [m/s] is in swing.
+        rule: When a foot is in stance (:data:`~morphkit.contact_rules.LOCK`: 5 cm above its ground height,
+            1 m/s, causal).
         blend_seconds: Time over which a touching-down foot comes to the ground and a lifting foot
             returns to its own path [s].
         max_offset: Fraction of a leg's reach its foot's own position may get from its locked point
@@ -145,11 +143,11 @@ def lock_feet(motion: Motion, *, height: float = 0.05, speed: float = 1.0, blend
             ji = joint_index[name]
             mask[qd[ji]:qd[ji + 1]] = True
     stance_pose = Motion(m, motion.fps, np.asarray(rig.q_stance, dtype=float)[None])
-    ground = np.clip(stance_pose.end_effector_positions()[0, cols, 2], 0.0, height)
+    ground = np.clip(stance_pose.end_effector_positions()[0, cols, 2], 0.0, rule.height)
 
     feet = motion.end_effector_positions()[:, cols]
     if stance is None:
-        stance = stance_flags(feet, ground, motion.fps, height=height, speed=speed)
+        stance = stance_flags(feet, ground, motion.fps, rule=rule)
     else:
         from morphkit.motion import foot_names
 

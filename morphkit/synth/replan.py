@@ -8,8 +8,9 @@ and what the arms do; the planner decides *where the feet go*, so a stance foot 
 
 Choices that are ours (named here and in the docs):
 
-* the root's heading-frame velocity and yaw rate the planner is fed are the path's central
-  differences (one-sided at the ends), smoothed over ``smoothing_seconds``; the path beyond the last
+* the root's heading-frame velocity and yaw rate the planner is fed are the path's
+  (:func:`~morphkit.motion.heading.heading_velocity`: backward differences, the conventions' rule),
+  smoothed over ``smoothing_seconds``; the path beyond the last
   frame holds still (the planner looks ahead to place touchdowns);
 * a leg IK warm-starts from the previous frame's solution (the first frame: the creature's stance
   pose), never from the retargeter's leg angles, which are what is being replaced;
@@ -37,8 +38,8 @@ from collections.abc import Mapping
 import numpy as np
 
 from morphkit.errors import ConfigError
+from morphkit.motion.heading import heading_velocity
 from morphkit.motion.motion import Motion
-from morphkit.rotations import yaw_from_quat
 from morphkit.synth.core import SynthConfig, prepare
 from morphkit.synth.legged import LeggedController
 from morphkit.synth.wheeled import Locomotion
@@ -124,12 +125,9 @@ def replan_legs(motion: Motion, *, config: SynthConfig | None = None, smoothing_
     T = motion.frame_count
     root = motion.root_pose()
     xy = root[:, :2]
-    yaw = np.unwrap(np.asarray(yaw_from_quat(root[:, 3:]), dtype=float))
-    # velocities the planner needs: world → heading frame, smoothed
-    d_xy = np.gradient(xy, axis=0) * fps if T > 1 else np.zeros_like(xy)
-    w = np.gradient(yaw) * fps if T > 1 else np.zeros(T)
-    c, s = np.cos(yaw), np.sin(yaw)
-    v = np.stack([c * d_xy[:, 0] + s * d_xy[:, 1], -s * d_xy[:, 0] + c * d_xy[:, 1]], axis=-1)
+    # velocities the planner needs: in the heading frame, smoothed
+    vel = heading_velocity(root, fps)
+    yaw, v, w = vel.yaw, vel.linear[:, :2], vel.yaw_rate
     k = round(smoothing_seconds * fps)
     v, w = _smooth(v, k), _smooth(w, k)
     pad = int(np.ceil(cfg.look_ahead_seconds * fps))

@@ -43,6 +43,7 @@ from typing import Any
 
 import numpy as np
 
+from morphkit.contact_rules import UFR
 from morphkit.graph import JointType, Morphology
 from morphkit.model import compile_model
 from morphkit.motion.motion import Motion
@@ -249,6 +250,7 @@ class _KinematicTally:
 def _tracking(result: Any, motions: list[Motion], speed_floor: float | None, frames: int) -> dict[str, Any]:
     """How well the root follows its settled commands: mean relative velocity and yaw-rate errors, and the
     fraction of frames measured."""
+    from morphkit.motion.heading import heading_velocity
     from morphkit.motion.motion import base_pose_from_q
     from morphkit.synth.locomotion_commands import CMD_VX, CMD_VY, CMD_WZ
 
@@ -259,14 +261,8 @@ def _tracking(result: Any, motions: list[Motion], speed_floor: float | None, fra
     for i, mo in enumerate(motions):
         if mo.frame_count < 3:
             continue
-        pose = base_pose_from_q(m, mo.q)
-        fwd = np.stack([1 - 2 * (pose[:, 4] ** 2 + pose[:, 5] ** 2),
-                        2 * (pose[:, 3] * pose[:, 4] + pose[:, 5] * pose[:, 6])], axis=1)
-        yaw = np.unwrap(np.arctan2(fwd[:, 1], fwd[:, 0]))
-        vw = np.gradient(pose[:, :2], axis=0) * fps
-        c, s = np.cos(yaw), np.sin(yaw)
-        v = np.stack([c * vw[:, 0] + s * vw[:, 1], -s * vw[:, 0] + c * vw[:, 1]], axis=1)
-        w = np.gradient(yaw) * fps
+        vel = heading_velocity(base_pose_from_q(m, mo.q), fps)
+        v, w = vel.linear[:, :2], vel.yaw_rate
         tgt = result.target[i]
         ok = result.settled[i].copy()
         ok[0] = ok[-1] = False
@@ -335,13 +331,13 @@ def _steps(result: Any, tally: _KinematicTally, warnings: list[str]) -> dict[str
     return out
 
 
-def quality_report(result: Any, *, height_threshold: float = 0.02, collision_tolerance: float = 0.001,
+def quality_report(result: Any, *, height_threshold: float = UFR.height, collision_tolerance: float = 0.001,
                    rest_margin: float = 0.005, speed_floor: float | None = None) -> dict[str, Any]:
     """Measure a :class:`~morphkit.synth.SynthResult` (or any sequence of motions of one creature).
 
     Args:
         result: The motions (with commands and timing when a ``SynthResult``).
-        height_threshold: A foot lower than this is in contact [m].
+        height_threshold: A foot lower than this is in contact [m] (the contact rule's ``ufr`` preset).
         collision_tolerance: Overlap [m] beyond which a shape pair collides.
         rest_margin: Shape pairs closer than this at rest [m] are not checked.
         speed_floor: Smallest commanded speed the relative tracking error divides by [m/s]

@@ -19,6 +19,7 @@ import torch
 import warp as wp
 from torch.autograd.function import once_differentiable
 
+from morphkit.contact_rules import UFR
 from morphkit.errors import GraphError
 from morphkit.kernels import contact as _ck
 from morphkit.kernels.contact import SelfCollisionPairs
@@ -165,7 +166,7 @@ class SlidingSpeedFunction(torch.autograd.Function):
         return grad_P, None, None, None, None
 
 
-def sliding_speed(P: torch.Tensor, fps: float, *, feet: Any = None, height_threshold: float = 0.02,
+def sliding_speed(P: torch.Tensor, fps: float, *, feet: Any = None, height_threshold: float = UFR.height,
                   ground_height: float = 0.0) -> torch.Tensor:
     """Horizontal foot speed while in contact [m/s], shape [..., T, F]; differentiable w.r.t. ``P``.
 
@@ -188,10 +189,11 @@ def sliding_speed(P: torch.Tensor, fps: float, *, feet: Any = None, height_thres
     return out.reshape(*lead, T, out.shape[-1])
 
 
-def contact_flags(P: torch.Tensor, fps: float, *, feet: Any = None, height_threshold: float = 0.02,
-                  speed_threshold: float = 0.2, ground_height: float = 0.0) -> torch.Tensor:
+def contact_flags(P: torch.Tensor, fps: float, *, feet: Any = None, height_threshold: float = UFR.height,
+                  speed_threshold: float = UFR.speed, ground_height: float = 0.0) -> torch.Tensor:
     """Foot contact flags of motions [..., T, F] (bool, no gradient): below ``height_threshold`` [m]
-    and slower than ``speed_threshold`` [m/s] (3-D central-difference speed)."""
+    and horizontally slower than ``speed_threshold`` [m/s] (the one contact rule, :mod:`morphkit.contact_rules`:
+    backward differences, frame 0 copying frame 1)."""
     _check_points(P, "P", 3)
     lead = P.shape[:-3]
     T, E = P.shape[-3], P.shape[-2]

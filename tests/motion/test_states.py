@@ -202,8 +202,10 @@ def test_foot_contact_flags_from_height_and_speed() -> None:
     (above the stance height) it has none; flags follow the morphology's foot end-effectors."""
     from morphkit_testing import shipped_morphology
 
+    from morphkit.contact_rules import STANCE_FLAGS
     from morphkit.motion import foot_contact_flags, foot_names
-    from morphkit.motion.states import STANCE_HEIGHT, STANCE_SPEED
+
+    STANCE_HEIGHT, STANCE_SPEED = STANCE_FLAGS.height, STANCE_FLAGS.speed
 
     m = shipped_morphology("human")
     assert len(foot_names(m)) == 2

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from morphkit_testing import spot_like, wheeled
 
+from morphkit.contact_rules import LOCK
 from morphkit.io import read_morphology
 from morphkit.metrics import foot_contact_figures, skating_ratio
 from morphkit.motion import Motion
@@ -80,7 +81,7 @@ def test_stance_flags_follow_height_and_speed_thresholds():
     feet = np.zeros((6, 3, 3))
     feet[:, 1, 2] = 0.08  # hovering 8 cm up: swing
     feet[:, 2, 0] = 0.04 * t  # 1.2 m/s along the ground: swing from frame 1 on
-    flags = stance_flags(feet, np.zeros(3), fps, height=0.05, speed=0.5)
+    flags = stance_flags(feet, np.zeros(3), fps, rule=replace(LOCK, height=0.05, speed=0.5))
     assert flags[:, 0].all() and not flags[:, 1].any()
     assert flags[0, 2] and not flags[1:, 2].any()
 
