@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import os
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -21,7 +22,49 @@ from morphkit.errors import RunError, SourceLocation
 from morphkit.retarget.retargeter import Retargeter, WithContacts
 from morphkit.retarget.run import CHECKPOINT_FILE, RUN_FILE, Run, RunProgress
 
-__all__ = ["TrainedRetargeter", "load", "trained_retargeters"]
+__all__ = ["METHODS", "Method", "TrainedRetargeter", "load", "method_of", "trained_retargeters"]
+
+
+@dataclass(frozen=True)
+class TrainedRetargeter:
+    """A retargeter a run folder holds, found without loading its networks."""
+
+    label: str
+    """Its Table-1 name (``ACE``, ``ACEwoFea``, ``ACEwoAdv``, ``ACE+contact``, ``NKN``)."""
+    run: Path
+    """The run folder (``load(run, stage=stage)`` opens it)."""
+    stage: Path
+    """The folder of its trained networks: an ACE retargeter stage inside ``run``; ``run`` itself for NKN."""
+    creature: str | None
+    """The creature it retargets onto (``None``: NKN between human skeletons)."""
+    progress: RunProgress
+    """How far its training got (:attr:`~morphkit.retarget.run.RunProgress.finished`, the seed)."""
+
+
+@dataclass(frozen=True)
+class Method:
+    """A method's run folders as this module sees them: how to recognise, open and list them.
+
+    Each entry's functions import the method's package only when called, so listing the methods loads none.
+    """
+
+    name: str
+    """Its trainer name (``morphkit train NAME``)."""
+    folder: str
+    """Its run folder in messages (``an ACE run folder``)."""
+    marker: Callable[[], str]
+    """The file that marks its run folders."""
+    is_run: Callable[[Path], bool]
+    """Whether a folder is one of its runs."""
+    open: Callable[[Path, str | os.PathLike[str] | None, str | torch.device], tuple[Retargeter, Path]]
+    """Its :class:`Retargeter` of ``(run, stage, device)`` and the folder whose progress says whether it has
+    finished."""
+    trained: Callable[[Path], list[TrainedRetargeter]]
+    """The retargeters of a run folder that hold a checkpoint."""
+    stage_run: Callable[[Path], Path | None] = lambda _: None
+    """The run a stage folder given directly belongs to (``None``: none of its stages)."""
+    trained_stage: Callable[[Path], list[TrainedRetargeter]] = lambda _: []
+    """The retargeter of a folder inside one of its runs (refused where it is none of the run's stages)."""
 
 
 def load(run: str | os.PathLike[str], *, stage: str | os.PathLike[str] | None = None,
@@ -44,34 +87,19 @@ def load(run: str | os.PathLike[str], *, stage: str | os.PathLike[str] | None = 
     Raises:
         RunError: a folder no method recognises (naming what it holds), or a damaged run.
     """
-    from morphkit.retarget.ace.checkpoint import META_FILE as ace_marker
-    from morphkit.retarget.ace.checkpoint import AceArtifact
-    from morphkit.retarget.nkn.checkpoint import META_FILE as nkn_marker
-    from morphkit.retarget.nkn.checkpoint import NknArtifact
-
     path = Path(run)
     if not path.exists():
         raise RunError("no such run folder", location=SourceLocation(str(path)))
-    if AceArtifact.is_run(path.parent) and not AceArtifact.is_run(path) and stage is None:
-        path, stage = path.parent, path  # a stage folder given directly
-    retargeter: Retargeter
-    if AceArtifact.is_run(path):
-        from morphkit.retarget.ace.retarget import AceRetargeter
-
-        retargeter = AceRetargeter(path, retarget_dir=stage, device=device)
-        folder = retargeter.stage
-    elif NknArtifact.is_run(path):
-        if stage is not None:
-            raise RunError("an NKN run has one retargeter: --stage applies to ACE runs only",
-                           location=SourceLocation(str(path)))
-        from morphkit.retarget.nkn.retarget import NknRetargeter
-
-        retargeter, folder = NknRetargeter(path, device=device), path
-    else:
+    owner = next((o for o in (m.stage_run(path) for m in METHODS.values()) if o is not None), None)
+    if owner is not None and stage is None:
+        path, stage = owner, path  # a stage folder given directly
+    method = method_of(path)
+    if method is None:
         held = sorted(p.name for p in path.iterdir())[:8] if path.is_dir() else []
-        raise RunError(f"not an ACE run folder (no {ace_marker}) nor an NKN run folder (no {nkn_marker})"
+        raise RunError("not " + " nor ".join(f"{m.folder} (no {m.marker()})" for m in METHODS.values())
                        + (f"; it holds: {', '.join(held)}" if held else "; it is empty or not a folder"),
                        location=SourceLocation(str(path)))
+    retargeter, folder = method.open(path, stage, device)
     if target is not None:
         retargeter = retargeter.with_target(target)
     progress = Run.progress(folder)
@@ -81,20 +109,10 @@ def load(run: str | os.PathLike[str], *, stage: str | os.PathLike[str] | None = 
     return retargeter if contacts == "none" else WithContacts(retargeter, contacts)
 
 
-@dataclass(frozen=True)
-class TrainedRetargeter:
-    """A retargeter a run folder holds, found without loading its networks."""
-
-    label: str
-    """Its Table-1 name (``ACE``, ``ACEwoFea``, ``ACEwoAdv``, ``ACE+contact``, ``NKN``)."""
-    run: Path
-    """The run folder (``load(run, stage=stage)`` opens it)."""
-    stage: Path
-    """The folder of its trained networks: an ACE retargeter stage inside ``run``; ``run`` itself for NKN."""
-    creature: str | None
-    """The creature it retargets onto (``None``: NKN between human skeletons)."""
-    progress: RunProgress
-    """How far its training got (:attr:`~morphkit.retarget.run.RunProgress.finished`, the seed)."""
+def method_of(path: str | os.PathLike[str]) -> Method | None:
+    """The method whose run folder ``path`` is (``None``: no method's)."""
+    folder = Path(path)
+    return next((m for m in METHODS.values() if m.is_run(folder)), None)
 
 
 def trained_retargeters(path: str | os.PathLike[str]) -> list[TrainedRetargeter]:
@@ -105,34 +123,65 @@ def trained_retargeters(path: str | os.PathLike[str]) -> list[TrainedRetargeter]
         RunError: a missing path, a folder that is no run nor holds one, a folder inside an ACE run that is none
             of its stages, an NKN run without a checkpoint, or a damaged checkpoint.
     """
-    from morphkit.retarget.ace.checkpoint import AceArtifact
-    from morphkit.retarget.ace.variants import AceVariant
-    from morphkit.retarget.nkn.checkpoint import LABEL as NKN_LABEL
-    from morphkit.retarget.nkn.checkpoint import NknArtifact
-
     folder = Path(path)
     if not folder.exists():
         raise RunError("no such run folder", location=SourceLocation(str(folder)))
-    if AceArtifact.is_run(folder):
-        return _ace_stages(folder, list(AceVariant))
-    if NknArtifact.is_run(folder):
-        if not (folder / CHECKPOINT_FILE).is_file():
-            raise RunError("NKN run without a checkpoint (not trained yet)", location=SourceLocation(str(folder)))
-        creature = (NknArtifact.header(folder) or {}).get("creature")
-        return [TrainedRetargeter(NKN_LABEL, folder, folder, None if creature is None else str(creature),
-                                  Run.progress(folder))]
-    if (folder / RUN_FILE).is_file() and AceArtifact.is_run(folder.parent):
-        variant = next((v for v in AceVariant if v.folder == folder.name), None)
-        if variant is None:
-            raise RunError(f"not a retargeter stage of an ACE run (stages: {', '.join(v.folder for v in AceVariant)})",
-                           location=SourceLocation(str(folder)))
-        return _ace_stages(folder.parent, [variant])
-    children = sorted(p for p in folder.iterdir() if AceArtifact.is_run(p) or NknArtifact.is_run(p)) \
-        if folder.is_dir() else []
+    method = method_of(folder)
+    if method is not None:
+        return method.trained(folder)
+    if (folder / RUN_FILE).is_file():
+        owner = next((m for m in METHODS.values() if m.stage_run(folder) is not None), None)
+        if owner is not None:
+            return owner.trained_stage(folder)
+    children = sorted(p for p in folder.iterdir() if method_of(p) is not None) if folder.is_dir() else []
     if not children:
         raise RunError("not an ACE or NKN run folder, nor a folder of run folders",
                        location=SourceLocation(str(folder)))
     return [r for child in children for r in trained_retargeters(child)]
+
+
+# ---- ACE ------------------------------------------------------------------------------------------
+
+
+def _ace_marker() -> str:
+    from morphkit.retarget.ace.checkpoint import META_FILE
+
+    return META_FILE
+
+
+def _ace_run(path: Path) -> bool:
+    from morphkit.retarget.ace.checkpoint import AceArtifact
+
+    return AceArtifact.is_run(path)
+
+
+def _ace_open(path: Path, stage: str | os.PathLike[str] | None,
+              device: str | torch.device) -> tuple[Retargeter, Path]:
+    from morphkit.retarget.ace.retarget import AceRetargeter
+
+    retargeter = AceRetargeter(path, retarget_dir=stage, device=device)
+    return retargeter, retargeter.stage
+
+
+def _ace_stage_run(path: Path) -> Path | None:
+    return path.parent if _ace_run(path.parent) and not _ace_run(path) else None
+
+
+def _ace_trained(run: Path) -> list[TrainedRetargeter]:
+    from morphkit.retarget.ace.variants import AceVariant
+
+    return _ace_stages(run, list(AceVariant))
+
+
+def _ace_stage(folder: Path) -> list[TrainedRetargeter]:
+    """The retargeter of stage ``folder`` of an ACE run (refused when it is none of the run's stages)."""
+    from morphkit.retarget.ace.variants import AceVariant
+
+    variant = next((v for v in AceVariant if v.folder == folder.name), None)
+    if variant is None:
+        raise RunError(f"not a retargeter stage of an ACE run (stages: {', '.join(v.folder for v in AceVariant)})",
+                       location=SourceLocation(str(folder)))
+    return _ace_stages(folder.parent, [variant])
 
 
 def _ace_stages(run: Path, variants: list[Any]) -> list[TrainedRetargeter]:
@@ -144,3 +193,47 @@ def _ace_stages(run: Path, variants: list[Any]) -> list[TrainedRetargeter]:
     stages = [(v, run / v.folder) for v in variants]
     return [TrainedRetargeter(v.label, run, stage, creature, Run.progress(stage)) for v, stage in stages
             if (stage / CHECKPOINT_FILE).is_file()]
+
+
+# ---- NKN ------------------------------------------------------------------------------------------
+
+
+def _nkn_marker() -> str:
+    from morphkit.retarget.nkn.checkpoint import META_FILE
+
+    return META_FILE
+
+
+def _nkn_run(path: Path) -> bool:
+    from morphkit.retarget.nkn.checkpoint import NknArtifact
+
+    return NknArtifact.is_run(path)
+
+
+def _nkn_open(path: Path, stage: str | os.PathLike[str] | None,
+              device: str | torch.device) -> tuple[Retargeter, Path]:
+    from morphkit.retarget.nkn.retarget import NknRetargeter
+
+    if stage is not None:
+        raise RunError("an NKN run has one retargeter: --stage applies to ACE runs only",
+                       location=SourceLocation(str(path)))
+    return NknRetargeter(path, device=device), path
+
+
+def _nkn_trained(folder: Path) -> list[TrainedRetargeter]:
+    from morphkit.retarget.nkn.checkpoint import LABEL, NknArtifact
+
+    if not (folder / CHECKPOINT_FILE).is_file():
+        raise RunError("NKN run without a checkpoint (not trained yet)", location=SourceLocation(str(folder)))
+    creature = (NknArtifact.header(folder) or {}).get("creature")
+    return [TrainedRetargeter(LABEL, folder, folder, None if creature is None else str(creature),
+                              Run.progress(folder))]
+
+
+METHODS: dict[str, Method] = {
+    "ace": Method("ace", "an ACE run folder", _ace_marker, _ace_run, _ace_open, _ace_trained, _ace_stage_run,
+                  _ace_stage),
+    "nkn": Method("nkn", "an NKN run folder", _nkn_marker, _nkn_run, _nkn_open, _nkn_trained),
+}
+"""Every method the trainer layer knows, by trainer name; :func:`load` and :func:`trained_retargeters` ask each
+in turn (a new method adds its entry here and nowhere else in this module)."""

@@ -1,0 +1,48 @@
+"""The method registry of ``morphkit.retarget.runs``: run folders are recognised by asking each method in turn."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from morphkit.errors import RunError
+from morphkit.retarget import runs
+from morphkit.retarget.run import RunProgress
+
+
+def test_every_method_is_registered_under_its_trainer_name_with_its_marker():
+    from morphkit.retarget.ace.checkpoint import META_FILE as ACE_META
+    from morphkit.retarget.nkn.checkpoint import META_FILE as NKN_META
+
+    assert {name: m.name for name, m in runs.METHODS.items()} == {"ace": "ace", "nkn": "nkn"}
+    assert (runs.METHODS["ace"].marker(), runs.METHODS["nkn"].marker()) == (ACE_META, NKN_META)
+
+
+def test_method_of_names_the_method_whose_marker_a_folder_holds(tmp_path: Path):
+    for name, method in runs.METHODS.items():
+        folder = tmp_path / name
+        folder.mkdir()
+        (folder / method.marker()).write_text("{}\n")
+        assert runs.method_of(folder) is method
+    assert runs.method_of(tmp_path) is None
+
+
+def test_a_registered_method_is_found_and_listed_without_changing_load(tmp_path: Path,
+                                                                       monkeypatch: pytest.MonkeyPatch):
+    run = tmp_path / "runs" / "toy_seed0"
+    run.mkdir(parents=True)
+    (run / "toy.yaml").write_text("trainer: toy\n")
+    found = runs.TrainedRetargeter("Toy", run, run, None, RunProgress(2, 2, 0))
+    toy = runs.Method("toy", "a toy run folder", lambda: "toy.yaml", lambda p: (p / "toy.yaml").is_file(),
+                      lambda p, stage, device: pytest.fail("not opened here"), lambda p: [found])
+    monkeypatch.setitem(runs.METHODS, "toy", toy)
+
+    assert runs.method_of(run) is toy
+    assert runs.trained_retargeters(run) == [found]
+    assert runs.trained_retargeters(run.parent) == [found]  # a folder of runs asks every method
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    with pytest.raises(RunError, match=r"not an ACE run folder \(no .*\) nor an NKN run folder \(no .*\) nor a toy "
+                                       r"run folder \(no toy\.yaml\)"):
+        runs.load(empty)
