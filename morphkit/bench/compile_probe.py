@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from morphkit.bench.fk import random_q
+from morphkit.cache import CACHE_ENV
 from morphkit.errors import ConfigError
 
 __all__ = ["compile_probe", "probe_main"]
@@ -32,7 +33,7 @@ def compile_probe(path: Path, *, device: str = "cpu", timeout: float = 300.0) ->
     """
     out: dict[str, float] = {}
     with tempfile.TemporaryDirectory(prefix="morphkit-bench-") as tmp:
-        env = dict(os.environ, WARP_CACHE_PATH=str(Path(tmp) / "warp"), MORPHKIT_CACHE_DIR=str(Path(tmp) / "mk"))
+        env = dict(os.environ, WARP_CACHE_PATH=str(Path(tmp) / "warp"), **{CACHE_ENV: str(Path(tmp) / "mk")})
         for label in ("cold", "warm_cache"):
             proc = subprocess.run(
                 [sys.executable, "-m", "morphkit.bench.compile_probe", str(path), device],

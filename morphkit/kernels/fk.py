@@ -28,6 +28,7 @@ import warp as wp
 
 from morphkit._atomic import atomic_write_text
 from morphkit._version import __version__
+from morphkit.cache import cache_dir
 from morphkit.errors import GraphError
 from morphkit.kernels._fk_codegen import generate_source
 from morphkit.kernels.dtypes import quat_type, transform_type, vec3_type
@@ -51,9 +52,7 @@ __all__ = [
 
 def kernel_cache_dir() -> Path:
     """Where generated kernel sources go: ``$MORPHKIT_CACHE_DIR/<version>/kernels`` (default ``~/.cache/morphkit``)."""
-    root = os.environ.get("MORPHKIT_CACHE_DIR")
-    base = Path(root) if root else Path.home() / ".cache" / "morphkit"
-    return base / __version__ / "kernels"
+    return cache_dir(__version__, "kernels")
 
 
 def generate_fk_source(model: KinematicModel, dtype: Any = None) -> str:

@@ -26,6 +26,7 @@ import numpy as np
 import torch
 
 from morphkit._version import __version__
+from morphkit.cache import cache_dir
 from morphkit.errors import ConfigError, MorphkitError, MotionFormatError, SourceLocation
 from morphkit.graph import Morphology
 from morphkit.motion.io_npz import read_npz_motion_with_extra, write_npz_motion
@@ -58,8 +59,7 @@ _KINDS = ("human", "character")
 
 def default_cache_dir() -> Path:
     """``$MORPHKIT_CACHE_DIR/motions`` (default ``~/.cache/morphkit/motions``)."""
-    root = os.environ.get("MORPHKIT_CACHE_DIR")
-    return (Path(root) if root else Path.home() / ".cache" / "morphkit") / "motions"
+    return cache_dir("motions")
 
 
 def _folder_motion_files(folder: Path) -> list[Path]:

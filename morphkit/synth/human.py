@@ -35,6 +35,7 @@ import numpy as np
 
 from morphkit._atomic import atomic_path
 from morphkit._version import __version__
+from morphkit.cache import cache_dir as cache_folder
 from morphkit.errors import ConfigError
 from morphkit.graph import Morphology
 from morphkit.motion.motion import Motion
@@ -146,8 +147,7 @@ def _resolve_cache(cache_dir: str | os.PathLike[str] | bool | None) -> Path | No
     if cache_dir is None or cache_dir is False:
         return None
     if cache_dir is True:
-        root = os.environ.get("MORPHKIT_CACHE_DIR")
-        return (Path(root) if root else Path.home() / ".cache" / "morphkit") / "synth"
+        return cache_folder("synth")
     return Path(cache_dir)
 
 
