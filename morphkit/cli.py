@@ -39,9 +39,14 @@ COMMANDS = [
 
 
 class _Parser(argparse.ArgumentParser):
-    # argparse exits with 2 on usage errors already; keep its message on one line, no traceback.
+    # argparse exits with 2 on usage errors already; keep its message on one line, no traceback. A bad value of
+    # a named argument ("argument --fps: expected a number from 1 to 1000 fps, got 'inf'") is that one line
+    # alone, as every other bad input; a missing or unknown argument comes with the usage.
     def error(self, message: str) -> None:  # type: ignore[override]
-        self.print_usage(sys.stderr)
+        if message.startswith("argument "):
+            message = message.removeprefix("argument ")
+        else:
+            self.print_usage(sys.stderr)
         sys.stderr.write(f"error: {message}\n")
         raise SystemExit(2)
 
@@ -80,7 +85,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     outside = "--allow-outside" in argv
     argv = [a for a in argv if a != "--allow-outside"]
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # a bad flag (2, its line already written) or --help/--version (0): the exit code
+        return exc.code if isinstance(exc.code, int) else 0 if exc.code is None else 2
     with allow_outside(outside):
         return run_command(args.run, args)
 

@@ -169,7 +169,7 @@ def test_convert_unknown_output_format_names_the_output(tmp_path):
 def test_train_body_length_is_validated_before_training(bad, capsys):
     assert main(["train", "ace", "crab", "--body-length", bad, "--out", "/nonexistent/run"]) == 2
     err = capsys.readouterr().err
-    assert err.startswith("error: --body-length must be a finite length > 0") and "Traceback" not in err
+    assert err == f"error: --body-length: expected a number above 0 and at most 1000 m, got {bad!r}\n"
 
 
 def test_warnings_are_one_line_naming_file_and_line(tmp_path, capsys):

@@ -14,6 +14,7 @@ def run_nkn(args: argparse.Namespace) -> int:
 
     from morphkit.commands.train import hold_for_command
     from morphkit.errors import ConfigError
+    from morphkit.output_names import safe_stem
     from morphkit.retarget.config import replace_config
     from morphkit.retarget.nkn import preset, train_nkn
 
@@ -30,9 +31,10 @@ def run_nkn(args: argparse.Namespace) -> int:
     cfg = preset(args.preset)
     if args.set:
         cfg = replace_config(cfg, args.set)
-    data = Path(args.human_data).name if args.human_data else "default"
-    suffix = f"_{creature.name}" if creature else ""
-    out = Path(args.out) if args.out else Path("runs") / f"nkn_{data}{suffix}_{args.preset}"
+    # names from the data's folder and the creature never steer the path (morphkit.output_names)
+    data = safe_stem(Path(args.human_data).name, default="data") if args.human_data else "default"
+    suffix = f"_{safe_stem(creature.name)}" if creature else ""
+    out = Path(args.out) if args.out else Path("runs") / safe_stem(f"nkn_{data}{suffix}_{args.preset}")
     with hold_for_command(out):
         train_nkn(out, cfg, human_data=args.human_data, creature=creature, device=args.device,
                   progress=not args.no_progress)

@@ -16,6 +16,7 @@ import sys
 from pathlib import Path
 
 from morphkit.bench.fk import BATCHES, IMPLS, MODES, QUICK_BATCHES, BenchConfig
+from morphkit.commands import _args
 from morphkit.errors import ConfigError
 
 __all__ = ["add_parser", "config_from_args", "run"]
@@ -29,15 +30,17 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     fk.add_argument("--json", action="store_true", help="print the records as a JSON list (the report goes to stderr)")
     fk.add_argument("--quick", action="store_true", help="small batches, short timings, no compile probe (< 30 s)")
     fk.add_argument(
-        "--batches", type=int, nargs="+", metavar="B", help=f"batch sizes (default {' '.join(map(str, BATCHES))})"
+        "--batches", type=_args.int_in(1, 2**20), nargs="+", metavar="B",
+        help=f"batch sizes, 1 to 2**20 (default {' '.join(map(str, BATCHES))})"
     )
     fk.add_argument(
         "--creatures", nargs="+", metavar="NAME", help="spot, human, or description paths (default spot human)"
     )
     fk.add_argument("--impls", nargs="+", metavar="IMPL", choices=IMPLS, help="implementations (default all)")
     fk.add_argument("--modes", nargs="+", choices=MODES, help="fwd, fwd_bwd (default both)")
-    fk.add_argument("--loop-poses", type=int, default=2000, help="poses per timed call for Python-loop peers")
-    fk.add_argument("--threads", type=int, default=2, help="CPU threads for torch and morphkit")
+    fk.add_argument("--loop-poses", type=_args.int_in(1, 1_000_000), default=2000,
+                    help="poses per timed call for Python-loop peers")
+    fk.add_argument("--threads", type=_args.int_in(1, 1024), default=2, help="CPU threads for torch and morphkit")
     fk.add_argument("--no-compile-probe", action="store_true", help="skip the first-call compile measurement")
     fk.add_argument("--targets", type=Path, metavar="FILE",
                     help="speed targets to check (default: the checkout's benchmarks/fk_targets.yaml, if any)")

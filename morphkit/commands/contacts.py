@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from morphkit.commands import _args
+
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
@@ -19,7 +21,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         ),
     )
     p.add_argument("motion", metavar="IN", help="a creature motion file (.npz, .usda, .usdc, .usd)")
-    p.add_argument("out", metavar="OUT", help="output motion file (.npz, .bvh, .usd[a|c]) or robot commands (.csv)")
+    p.add_argument("out", type=_args.out_path, metavar="OUT",
+                   help="output motion file (.npz, .bvh, .usd[a|c]) or robot commands (.csv)")
     p.add_argument("--mode", default="replan", choices=("replan", "lock", "none"), help="the export (default replan)")
     p.set_defaults(run=run)
 

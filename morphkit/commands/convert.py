@@ -15,6 +15,8 @@ import argparse
 import os
 from pathlib import Path
 
+from morphkit.commands import _args
+
 MOTION_SUFFIXES = (".bvh", ".npz", ".usd", ".usda", ".usdc")
 
 
@@ -25,9 +27,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "to .qpos.npy for MuJoCo) by extension",
     )
     p.add_argument("input", metavar="IN", help="description or motion file, or a shipped creature name")
-    p.add_argument("output", metavar="OUT", help="output file; its extension picks the format")
-    p.add_argument("--fps", type=float, default=None, help="resample a motion to this frame rate")
-    p.add_argument("--source-fps", type=float, default=None, metavar="FPS",
+    p.add_argument("output", type=_args.out_path, metavar="OUT", help="output file; its extension picks the format")
+    p.add_argument("--fps", type=_args.fps, default=None, help="resample a motion to this frame rate (1 to 1000)")
+    p.add_argument("--source-fps", type=_args.source_fps, default=None, metavar="FPS",
                    help="the motion file's true frame rate, replacing its own (a BVH Frame Time that lies)")
     p.add_argument(
         "--description-only", action="store_true", help="convert only the skeleton of a motion file, not its frames"

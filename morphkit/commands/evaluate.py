@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import argparse
 
+from morphkit.commands import _args
+
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
@@ -25,12 +27,15 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                         "whole clips, and report follow per clip type and for long (>= 30 s) vs short clips")
     p.add_argument("--human-data", metavar="DIR",
                    help="human motion folder whose evaluation split is retargeted (default: the runs' own human data)")
-    p.add_argument("--out", metavar="DIR", help="report folder (default: evaluation_<creature>)")
-    p.add_argument("--clips", type=int, metavar="N", help="evaluate on the first N clips only (default: all)")
-    p.add_argument("--videos", type=int, default=3, metavar="N", help="clips with a side-by-side video (default 3)")
+    p.add_argument("--out", type=_args.out_path, metavar="DIR", help="report folder (default: evaluation_<creature>)")
+    p.add_argument("--clips", type=_args.int_in(1), metavar="N",
+                   help="evaluate on the first N clips only (default: all)")
+    p.add_argument("--videos", type=_args.int_in(0, 1000), default=3, metavar="N",
+                   help="clips with a side-by-side video, 0 to 1000 (default 3)")
     p.add_argument("--video-format", choices=["mp4", "gif", "png"],
                    help="video format (default mp4 when ffmpeg is there, else gif; png: a contact sheet)")
-    p.add_argument("--video-seconds", type=float, default=8.0, metavar="S", help="longest video (default 8 s)")
+    p.add_argument("--video-seconds", type=_args.float_in(0.0, 600.0, unit="s", lo_open=True), default=8.0, metavar="S",
+                   help="longest video, at most 600 s (default 8 s)")
     p.add_argument("--device", default="cpu", help="torch device of the retargeters (default cpu)")
     p.set_defaults(run=run)
 

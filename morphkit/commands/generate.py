@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from morphkit.commands import _args
+
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("generate", help="write a random creature of a family (legs, arm, tail, neck) to try things on")
@@ -12,11 +14,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--arm", action="store_true", help="an arm on the front of the body, ending in a hand")
     p.add_argument("--tail", action="store_true", help="a two-segment tail")
     p.add_argument("--neck", action="store_true", help="a neck and a head")
-    p.add_argument("--size", type=float, default=1.0, help="scale of every length (1: a body about 0.6 m long)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the proportions (same seed, same creature)")
+    p.add_argument("--size", type=_args.float_in(0.01, 100.0), default=1.0,
+                   help="scale of every length, 0.01 to 100 (1: a body about 0.6 m long)")
+    p.add_argument("--seed", type=_args.seed, default=0, help="seed of the proportions (same seed, same creature)")
     p.add_argument("--unlabelled", action="store_true",
                    help="leave the end-effectors out: the readers then decide them from the body")
-    p.add_argument("--out", required=True, metavar="FILE", help="description to write (.yaml, .urdf, .usda, .xml)")
+    p.add_argument("--out", type=_args.out_path, required=True, metavar="FILE",
+                   help="description to write (.yaml, .urdf, .usda, .xml)")
     p.set_defaults(run=run)
 
 

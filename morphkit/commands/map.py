@@ -8,6 +8,8 @@ import json
 import math
 import sys
 
+from morphkit.commands import _args
+
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
@@ -36,17 +38,17 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                         "as ACE trains)")
     p.add_argument("--json", action="store_true",
                    help='print {"mapping", "rule", "kl_only", "by_role", "roles", "kl", "data", "body_length"} as JSON')
-    p.add_argument("--max-frames", type=int, default=300, metavar="N",
+    p.add_argument("--max-frames", type=_args.int_in(1, 1_000_000), default=300, metavar="N",
                    help="use at most N evenly spaced frames per clip (default 300)")
     p.add_argument("--human-facing", default="auto",
                    help="BVH axis the human skeletons face: +z, -z, +x, -x or auto (default: auto, +z for humans)")
     p.add_argument("--creature-facing", default="auto",
                    help="BVH axis the creature skeletons face (default: auto, detected from the motion)")
-    p.add_argument("--body-length", "--creature-length", dest="creature_length", type=float, metavar="M",
+    p.add_argument("--body-length", "--creature-length", dest="creature_length", type=_args.body_length, metavar="M",
                    help="the creature's body length [m], which positions are divided by (default: its description's "
                    "body_length, else its standing root height measured on CREATURE_DATA; footless creatures: "
                    "their hand reach; see docs/concepts/body-length.md)")
-    p.add_argument("--human-body-length", "--human-length", dest="human_length", type=float, metavar="M",
+    p.add_argument("--human-body-length", "--human-length", dest="human_length", type=_args.body_length, metavar="M",
                    help="the human's body length [m] (default: its standing root height measured on HUMAN_DATA)")
     p.add_argument("--no-cache", action="store_true", help="do not read or write the motion cache")
     p.set_defaults(run=run)

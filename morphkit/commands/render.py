@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from morphkit.commands import _args
 from morphkit.errors import ConfigError, MotionFormatError, SourceLocation
 
 
@@ -49,14 +50,17 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "the first N, too; with --compare the human clip shows the same time span)",
     )
     p.add_argument(
-        "--fps", type=float, default=None, help="output frame rate (default: 24 for turntables, else the motion's)"
+        "--fps", type=_args.fps, default=None,
+        help="output frame rate, 1 to 1000 (default: 24 for turntables, else the motion's)"
     )
     p.add_argument("--size", default=None, help="image size WxH (default: 640x480; 480x480 per panel with --compare)")
     p.add_argument("--no-shadows", action="store_true", help="skip shadows (faster)")
     p.add_argument("--no-ground", action="store_true", help="no ground plane")
-    p.add_argument("--elevation", type=float, default=20.0, help="camera elevation [deg] (default: 20)")
+    p.add_argument("--elevation", type=_args.float_in(-90.0, 90.0, unit="deg"), default=20.0,
+                   help="camera elevation [deg], -90 to 90 (default: 20)")
     p.add_argument(
-        "--azimuth", type=float, default=45.0, help="camera azimuth [deg]; 0 looks at the front, 90 at the left side"
+        "--azimuth", type=_args.float_in(-360.0, 360.0, unit="deg"), default=45.0,
+        help="camera azimuth [deg]; 0 looks at the front, 90 at the left side"
     )
     camera = p.add_mutually_exclusive_group()
     camera.add_argument("--fixed-camera", action="store_true", help="do not follow the root; frame the whole clip")
@@ -67,9 +71,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--contact-sheet", action="store_true", help="write a PNG grid of 12 evenly spaced frames")
     p.add_argument(
-        "--out", metavar="PATH", default=None, help="output file (.gif, .mp4, .png); a name is made up if omitted"
+        "--out", type=_args.out_path, metavar="PATH", default=None,
+        help="output file (.gif, .mp4, .png); a name is made up if omitted"
     )
     p.set_defaults(run=run)
+
+
+SIZE_RANGE = (16, 4096)
+"""Width and height of a rendered frame [pixels]: 4096 covers 4K video; a 4096² RGB frame is 50 MB."""
 
 
 def _size(text: str | None, default: tuple[int, int]) -> tuple[int, int]:
@@ -80,6 +89,9 @@ def _size(text: str | None, default: tuple[int, int]) -> tuple[int, int]:
         w, h = (int(v) for v in parts)
     except ValueError:
         raise ConfigError(f"--size: expected WIDTHxHEIGHT such as 640x480, got {text!r}") from None
+    lo, hi = SIZE_RANGE
+    if not (lo <= w <= hi and lo <= h <= hi):  # a frame is allocated whole, and videos keep many
+        raise ConfigError(f"--size: expected a width and height from {lo} to {hi} pixels, got {text!r}")
     return w, h
 
 
@@ -172,7 +184,11 @@ def _out(args: argparse.Namespace, name: str, what: str) -> str:
         if args.contact_sheet and Path(args.out).suffix.lower() != ".png":
             raise ConfigError(f"--contact-sheet writes a PNG; got --out {args.out}")
         return args.out
-    return f"{name}-{what}.png" if args.contact_sheet else f"{name}-{what}.gif"
+    from morphkit.output_names import safe_stem
+
+    # the creature's and the clip's names never steer the path (morphkit.output_names)
+    stem = safe_stem(f"{safe_stem(name, 'creature')}-{safe_stem(what, 'motion')}")
+    return f"{stem}.png" if args.contact_sheet else f"{stem}.gif"
 
 
 def run(args: argparse.Namespace) -> int:

@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 from pathlib import Path
+
+from morphkit.commands import _args
 
 FORMATS = (".npz", ".bvh", ".usda", ".usd", ".usdc", ".csv")
 DEFAULT_NKN_TARGET = "short_legs"
@@ -25,7 +28,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--run", required=True, dest="run_dir", metavar="RUN",
                    help="a trained run folder (morphkit train ace|nkn)")
     p.add_argument("--motion", required=True, nargs="+", metavar="CLIP_OR_DIR", help="human motion files or folders")
-    p.add_argument("--out", required=True, metavar="OUT", help="output folder, or a file for one clip")
+    p.add_argument("--out", type=_args.out_path, required=True, metavar="OUT",
+                   help="output folder, or a file for one clip")
     p.add_argument(
         "--stage", metavar="DIR",
         help="ACE runs: retargeter stage folder or variant (default RUN/retarget; e.g. RUN/retarget_wofea, ace-wofea)",
@@ -41,7 +45,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="NKN runs over human skeletons: a training character's name, a bone-length variant "
                         "(short_legs, long_legs, long_arms_short_legs, tall) or a BVH/YAML skeleton (default: the "
                         "first unseen variant, short_legs)")
-    p.add_argument("--fps", "--source-fps", dest="fps", type=float, metavar="FPS",
+    p.add_argument("--fps", "--source-fps", dest="fps", type=_args.source_fps, metavar="FPS",
                    help="the clips' true frame rate, replacing their own (a BVH Frame Time that lies, which is "
                         "refused outside 1e-4 to 1 s)")
     p.add_argument("--device", default="cpu", help="torch device (default cpu)")
@@ -50,6 +54,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from morphkit._atomic import check_writable
+    from morphkit._folder_lock import hold_run_folder
     from morphkit.errors import ConfigError, MotionFormatError, SourceLocation
     from morphkit.motion import load_motions, write_motion_files
     from morphkit.motion.datasets import expand_motion_paths
@@ -84,34 +89,37 @@ def run(args: argparse.Namespace) -> int:
         except MotionFormatError as exc:
             raise MotionFormatError(exc.message, location=exc.location or SourceLocation(str(path))) from None
     results = model.retarget(clips)
-    if not single:
-        out.mkdir(parents=True, exist_ok=True)
-    for r, stem in zip(results, stems, strict=True):
-        for path in write_motion_files(r.motion, stem, suffixes):
-            print(path)
-        if r.clamp.coordinates:
-            print(f"  {r.motion.name}: {r.clamp}")
+    # one writer per output folder (a single file is replaced atomically and needs none)
+    with contextlib.nullcontext() if single else hold_run_folder(out):
+        for r, stem in zip(results, stems, strict=True):
+            for path in write_motion_files(r.motion, stem, suffixes):
+                print(path)
+            if r.clamp.coordinates:
+                print(f"  {r.motion.name}: {r.clamp}")
     return 0
 
 
 def output_stems(paths: list[Path], out: Path) -> list[Path]:
-    """``OUT/<input stem>`` per input, each input's own name; two inputs that would write one file are refused.
+    """``OUT/<input stem>`` per input, each input's own name made safe (:func:`morphkit.output_names.safe_stem`);
+    two inputs that would write one file are refused.
 
     Raises:
         ConfigError: two inputs with one stem (``a/walk.bvh`` and ``b/walk.npz``), naming both, or ``out``
             an existing file.
     """
     from morphkit.errors import ConfigError, SourceLocation
+    from morphkit.output_names import safe_stem
 
     if out.exists() and not out.is_dir():
         raise ConfigError("--out is an existing file, not a folder: name a folder, or a file ending in one of "
                           f"{', '.join(FORMATS)} for one clip", location=SourceLocation(str(out)))
     seen: dict[str, Path] = {}
-    for path in paths:
+    stems = [safe_stem(p.stem, default="clip") for p in paths]
+    for path, stem in zip(paths, stems, strict=True):
         # Case-folded: on a case-insensitive disk Walk.bvh and walk.bvh would write one file.
-        key = path.stem.casefold()
+        key = stem.casefold()
         if key in seen:
-            raise ConfigError(f"two inputs would write the same output {out / path.stem}.*: {seen[key]} and {path}; "
+            raise ConfigError(f"two inputs would write the same output {out / stem}.*: {seen[key]} and {path}; "
                               "rename one or retarget them into separate folders", location=SourceLocation(str(path)))
         seen[key] = path
-    return [out / p.stem for p in paths]
+    return [out / s for s in stems]

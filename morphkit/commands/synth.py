@@ -8,6 +8,8 @@ import json
 import sys
 import time
 
+from morphkit.commands import _args
+
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
@@ -21,13 +23,18 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         ),
     )
     p.add_argument("creature", metavar="CREATURE", help="description file (.yaml/.urdf/.usd*/.bvh) or shipped name")
-    p.add_argument("--frames", type=int, default=200_000, metavar="N", help="total frames (default 200000)")
-    p.add_argument("--fps", type=float, default=30.0, help="frame rate (default 30)")
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0); the same seed gives the same data")
-    p.add_argument("--out", metavar="DIR_OR_FILE",
+    p.add_argument("--frames", type=_args.int_in(1), default=200_000, metavar="N", help="total frames (default 200000)")
+    p.add_argument("--fps", type=_args.fps, default=30.0,
+                   help=f"frame rate, {_args.FPS_RANGE[0]:g} to {_args.FPS_RANGE[1]:g} (default 30)")
+    p.add_argument("--seed", type=_args.seed, default=0,
+                   help="random seed (default 0); the same seed gives the same data")
+    p.add_argument("--out", type=_args.out_path, metavar="DIR_OR_FILE",
                    help="folder for one <name>.npz per rollout, or a .npz file for all rollouts end to end")
-    p.add_argument("--rollout-seconds", type=float, default=None, metavar="S",
-                   help="length of each rollout / output motion (default 20)")
+    p.add_argument("--rollout-seconds", type=_args.float_in(*_args.ROLLOUT_SECONDS_RANGE, unit="s", lo_open=True),
+                   default=None, metavar="S", help="length of each rollout / output motion, at most "
+                   f"{_args.ROLLOUT_SECONDS_RANGE[1]:g} s (default 20)")
+    p.add_argument("--force", action="store_true",
+                   help="replace the data set of another creature in the --out folder (a folder holds one data set)")
     p.add_argument("--report", action="store_true",
                    help="measure the result: foot sliding, penetration, self-collision, limits, tracking, frames/s")
     p.add_argument("--json", action="store_true", help="print the report (or the written paths) as JSON")
@@ -38,6 +45,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
+    from morphkit._folder_lock import hold_run_folder
     from morphkit.errors import ConfigError
     from morphkit.graph import BaseType
     from morphkit.io import read_morphology
@@ -49,6 +57,7 @@ def run(args: argparse.Namespace) -> int:
     from morphkit.synth.output import (
         SynthWriter,
         available_memory_bytes,
+        check_folder,
         check_output,
         estimate_output_bytes,
         format_bytes,
@@ -56,12 +65,7 @@ def run(args: argparse.Namespace) -> int:
     )
     from morphkit.synth.report import REPORT_KEYS, format_report, quality_report
 
-    if args.frames < 1:
-        raise ConfigError(f"--frames must be >= 1, got {args.frames}")
-    if not args.fps > 0:
-        raise ConfigError(f"--fps must be positive, got {args.fps}")
-    if args.rollout_seconds is not None and not args.rollout_seconds > 0:
-        raise ConfigError(f"--rollout-seconds must be positive, got {args.rollout_seconds}")
+    # --frames, --fps, --seed and --rollout-seconds are range-checked by their argparse types (commands._args)
     if args.out is None and not args.report:
         raise ConfigError("nothing to do: give --out DIR_OR_FILE to save the motions and/or --report")
     kind = output_kind(args.out) if args.out is not None else None
@@ -94,16 +98,22 @@ def run(args: argparse.Namespace) -> int:
         for line in lines:
             sys.stderr.write(f"warning: {source}: {line}\n")
 
+    # One writer per folder: held from the folder's first write to its manifest's last (a file output is
+    # replaced atomically and needs none).
+    lock = hold_run_folder(args.out) if kind == "folder" else contextlib.nullcontext()
     # Warp reports kernel loading on stdout: keep stdout for the result (--json must parse).
-    with contextlib.redirect_stdout(sys.stderr):
+    with lock, contextlib.redirect_stdout(sys.stderr):
+        if kind == "folder":  # before any work: it may hold another creature's data set (refused without --force)
+            check_folder(args.out, morphology.name, force=args.force)
         start = time.perf_counter()
         rig = prepare(morphology, fps=args.fps, config=config)  # calibrated once: iter_synthesize reuses it
         told = anatomy_warnings(morphology) + (list(rig.legs.warnings) if rig.legs is not None else [])
         warn(told)
         batches = iter_synthesize(morphology, frames=args.frames, fps=args.fps, seed=args.seed, config=config,
                                   progress=not args.no_progress)
-        writer = (SynthWriter(args.out, creature=morphology.name, frames=args.frames, fps=args.fps, seed=args.seed,
-                              rollout_seconds=config.rollout_seconds) if args.out is not None else None)
+        writer = (SynthWriter(args.out, force=args.force, creature=morphology.name, frames=args.frames, fps=args.fps,
+                              seed=args.seed, rollout_seconds=config.rollout_seconds)
+                  if args.out is not None else None)
         kept: list[SynthResult] = []
         ground = GroundStats()
         frames = 0

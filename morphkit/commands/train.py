@@ -8,6 +8,8 @@ import contextlib
 import os
 from pathlib import Path
 
+from morphkit.commands import _args
+
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
@@ -28,17 +30,18 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="human motion folder or file (BVH, NPZ, USD); default: the embedded default human motion; "
                    "CMU evaluation clips are left out")
     p.add_argument("--preset", default="quick", help="smoke, quick, default or paper (default: quick)")
-    p.add_argument("--out", metavar="RUN", help="run folder (default: runs/ace_<creature>_<preset>)")
+    p.add_argument("--out", type=_args.out_path, metavar="RUN",
+                   help="run folder (default: runs/ace_<creature>_<preset>)")
     p.add_argument("--set", metavar="KEY=VALUE", action="append", default=[],
                    help="override a config field, e.g. --set prior.epochs=10 --set retarget.w_fea=2 (repeatable)")
     p.add_argument("--no-feature-loss", action="store_true", help="ablation ACEwoFea: drop w_fea·L_fea")
     p.add_argument("--no-adversarial", action="store_true", help="ablation ACEwoAdv: drop w_adv·L_adv and D")
-    p.add_argument("--contact-weight", type=float, default=0.0, metavar="W",
+    p.add_argument("--contact-weight", type=_args.float_in(0.0, 1000.0), default=0.0, metavar="W",
                    help="beyond the paper: add W × (foot sliding + penetration) of the FK'd motion (ACE+contact)")
     p.add_argument("--map", metavar="C=H", action="append", default=[],
                    help="override one end-effector pair, e.g. --map gripper=lwrist_end (repeatable)")
     p.add_argument("--map-file", metavar="FILE", help="YAML {creature_ee: human_ee} overriding the KL mapping")
-    p.add_argument("--body-length", type=float, metavar="M",
+    p.add_argument("--body-length", type=_args.body_length, metavar="M",
                    help="the creature's body length [m], which Ψ divides its lengths by (default: its description's "
                    "body_length, else its standing root height measured on its synthesised motion; "
                    "see docs/concepts/body-length.md)")
@@ -63,9 +66,9 @@ def parse_pairs(items: list[str], file: str | None) -> dict[str, str] | None:
 
 
 def hold_for_command(out: Path) -> contextlib.AbstractContextManager[None]:
-    """The run folder's lock (:mod:`morphkit.retarget.folder_lock`) for the whole command; under torchrun rank 0
+    """The run folder's lock (:mod:`morphkit._folder_lock`) for the whole command; under torchrun rank 0
     takes it alone (the other ranks of the job share the folder by design)."""
-    from morphkit.retarget.folder_lock import hold_run_folder
+    from morphkit._folder_lock import hold_run_folder
 
     return hold_run_folder(out) if os.environ.get("RANK", "0") == "0" else contextlib.nullcontext()
 
@@ -77,6 +80,7 @@ def run(args: argparse.Namespace) -> int:
     from morphkit.errors import ConfigError
     from morphkit.io import read_morphology
     from morphkit.io.shipped import resolve_morphology
+    from morphkit.output_names import safe_stem
     from morphkit.retarget.ace.config import preset
     from morphkit.retarget.ace.train import train_ace
     from morphkit.retarget.ace.variants import AceVariant
@@ -102,7 +106,8 @@ def run(args: argparse.Namespace) -> int:
     # --set retarget.w_contact=W asks for ACE+contact as --contact-weight W does
     variant = AceVariant.of_flags(feature_loss=not args.no_feature_loss, adversarial=not args.no_adversarial,
                                   contact_weight=cfg.retarget.w_contact)
-    out = Path(args.out) if args.out else Path("runs") / f"ace_{creature.name}_{args.preset}"
+    # the creature's name never steers the path (morphkit.output_names); it stays in the run's config
+    out = Path(args.out) if args.out else Path("runs") / safe_stem(f"ace_{safe_stem(creature.name)}_{args.preset}")
     with hold_for_command(out):
         stage = train_ace(out, creature, cfg, variant=variant, human_data=args.human_data,
                           mapping_override=parse_pairs(args.map, args.map_file), prior_dir=args.prior,

@@ -31,6 +31,7 @@ from morphkit.evaluation.evaluate import Evaluation
 from morphkit.evaluation.methods import method_order
 from morphkit.evaluation.table import EXTRA_COLUMNS, PERCENT_FIGURES, TableRow
 from morphkit.evaluation.targets import TargetCheck, check_targets, format_targets
+from morphkit.output_names import unique_stems
 from morphkit.retarget.tables import write_table_files
 
 __all__ = [
@@ -261,6 +262,8 @@ def render_videos(evaluation: Evaluation, folder: str | os.PathLike[str], *, cou
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     paths = []
+    # a clip's name (an NPZ's own name field) never steers the path; two names one stem stay two videos
+    stems = unique_stems((clip.name for clip in evaluation.clips[:count]), default="clip")
     for i, clip in enumerate(evaluation.clips[:count]):
         panels = [clip] + [first[n][i] for n in names if i < len(first[n])]
         labels = ["human"] + [n for n in names if i < len(first[n])]
@@ -268,7 +271,7 @@ def render_videos(evaluation: Evaluation, folder: str | os.PathLike[str], *, cou
         panels = [m.slice(0, min(m.frame_count, frames)) for m in panels]
         fps = min(VIDEO_FPS, clip.fps)
         shown = max(1, math.ceil(frames / clip.fps * fps - 1e-9))  # output frames (as the renderer syncs them)
-        path = folder / f"{clip.name}{suffix}"
+        path = folder / f"{stems[i]}{suffix}"
         if not path.is_file():
             indices = np.unique(np.linspace(0, shown - 1, 12).round().astype(int)) if suffix == ".png" else None
             try:

@@ -38,6 +38,7 @@ from pathlib import Path
 from typing import Any
 
 from morphkit._atomic import atomic_write_text
+from morphkit._folder_lock import hold_run_folder
 from morphkit.errors import ConfigError, RunError, SourceLocation
 from morphkit.evaluation.evaluate import evaluate_methods, reference_for
 from morphkit.evaluation.methods import find_methods
@@ -48,6 +49,7 @@ from morphkit.evaluation.report import write_report
 from morphkit.evaluation.stages import DONE_FILE, Stage, lanes_at_once, run_stages, stage_done  # noqa: F401
 from morphkit.graph import Morphology
 from morphkit.motion.split import SPLITS
+from morphkit.output_names import safe_stem
 from morphkit.retarget.ace.checkpoint import PRIOR_STAGE
 from morphkit.retarget.ace.config import AceConfig
 from morphkit.retarget.ace.config import preset as ace_preset
@@ -192,21 +194,24 @@ def evaluate_runs(
         reference, chosen = reference_for(methods, human_data=human_data, limit=clips)
     keep = len(chosen) if protocol is not None else videos  # the protocol scores every clip's motions again
     evaluation = evaluate_methods(methods, chosen, reference, keep=keep, device=device, log=log)
-    folder = Path(out) if out is not None else Path(f"evaluation_{methods[0].creature}")
-    write_report(
-        evaluation,
-        folder,
-        videos=videos,
-        video_suffix=video_suffix,
-        video_seconds=video_seconds,
-        video_size=video_size,
-        log=log,
-    )
-    if protocol is not None:
-        rows, per_clip = group_rows(evaluation, protocol)
-        markdown = write_protocol(rows, per_clip, folder, split=protocol.split, source=protocol.folder, seen=len(seen))
-        table = folder / "table.md"
-        atomic_write_text(table, table.read_text(encoding="utf-8") + "\n" + markdown + "\n")
+    # the creature's name never steers the path (morphkit.output_names)
+    folder = Path(out) if out is not None else Path(safe_stem(f"evaluation_{safe_stem(methods[0].creature)}"))
+    with hold_run_folder(folder):  # one writer per report folder
+        write_report(
+            evaluation,
+            folder,
+            videos=videos,
+            video_suffix=video_suffix,
+            video_seconds=video_seconds,
+            video_size=video_size,
+            log=log,
+        )
+        if protocol is not None:
+            rows, per_clip = group_rows(evaluation, protocol)
+            markdown = write_protocol(rows, per_clip, folder, split=protocol.split, source=protocol.folder,
+                                      seen=len(seen))
+            table = folder / "table.md"
+            atomic_write_text(table, table.read_text(encoding="utf-8") + "\n" + markdown + "\n")
     if evaluation.failed:
         raise RunError(f"report written, but {len(evaluation.failed)} method(s) failed: "
                        + "; ".join(f"{k}: {v}" for k, v in evaluation.failed.items()), location=SourceLocation(

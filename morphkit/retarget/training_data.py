@@ -42,6 +42,7 @@ from morphkit.motion import (
     to_canonical,
 )
 from morphkit.motion.datasets import default_cache_dir
+from morphkit.output_names import safe_stem
 
 __all__ = [
     "CONVENTION_FILE",
@@ -203,7 +204,7 @@ def character_data(
         f"{_morphology_key(morphology)}|{data.character_frames}|{data.fps}|{data.synth_seed}|{__version__}|"
         f"{source_digest()}{_synth_key(data)}".encode()
     ).hexdigest()[:24]
-    path = cache / f"synth_{morphology.name}_{key}.npz"
+    path = cache / f"synth_{safe_stem(morphology.name, default='creature')}_{key}.npz"
     if path.is_file():
         try:
             with np.load(path, allow_pickle=False) as f:

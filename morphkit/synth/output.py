@@ -5,9 +5,19 @@
   NPZ motion into BVH or USD). A path without a suffix, ending in a separator, or naming an existing
   folder is a folder with one ``<name>.npz`` per rollout.
 - **Only this run's files**: a folder gets ``manifest.json`` (:mod:`morphkit.motion.manifest`), written
-  as "not finished" before the first rollout and completed after the last; the files an earlier run
-  listed there and this run does not write are deleted then. Readers of the folder read what the
-  manifest lists, so stale rollouts are never mixed in, even beside files a user put there.
+  as "not finished" before the first rollout, updated as rollouts are written and completed after the
+  last; the files an earlier run listed there and this run does not write are deleted then. Readers of
+  the folder read what the manifest lists, so stale rollouts are never mixed in, even beside files a user
+  put there.
+- **One data set per folder**: a folder holding the finished data set of another creature is refused
+  unless ``force`` (then replaced); the same creature's earlier data set is replaced (a re-run with other
+  ``--frames`` or ``--seed``). What a killed run left (its rollouts, the atomic writer's temporary
+  ``.<stem>.XXXXXXXX.npz`` files) is removed when the next run starts, and a warning names it. The
+  command holds the folder's lock (:mod:`morphkit._folder_lock`) for the whole run, so no second writer
+  runs there meanwhile.
+- **File names**: ``<stem>.npz`` where ``stem`` is the motion's name through
+  :func:`~morphkit.output_names.safe_stem` (a ``name: ../../x`` writes ``x_synth_0_0000.npz`` inside the
+  folder); the name itself stays in the file's ``name`` field and the manifest's ``creature``.
 - **Checked before any work** (:func:`check_output`): the target can be written (a probe file is created
   and removed), and the estimated size (:func:`estimate_output_bytes`: the arrays' exact sizes plus the
   per-file header and embedded description) fits the free disk space.
@@ -19,8 +29,10 @@
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import tempfile
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -30,11 +42,12 @@ from morphkit.errors import ConfigError
 from morphkit.graph import Morphology
 from morphkit.motion.manifest import read_manifest, write_manifest
 from morphkit.motion.motion import Motion
+from morphkit.output_names import safe_stem
 from morphkit.synth.actions import ACTION_NAMES
 from morphkit.synth.locomotion_commands import COMMAND_NAMES
 
-__all__ = ["SynthWriter", "available_memory_bytes", "check_output", "estimate_output_bytes", "format_bytes",
-           "output_kind"]
+__all__ = ["SynthWriter", "available_memory_bytes", "check_folder", "check_output", "estimate_output_bytes",
+           "format_bytes", "output_kind"]
 
 _MOTION_SUFFIXES = (".npz", ".bvh", ".usd", ".usda", ".usdc", ".csv")
 
@@ -141,15 +154,35 @@ def check_output(path: str | os.PathLike[str], estimate: int) -> None:
                           f"{format_bytes(free)} are free on the disk of {base}: ask for fewer --frames")
 
 
+def check_folder(path: str | os.PathLike[str], creature: str, *, force: bool = False) -> None:
+    """Refuse a folder holding the finished data set of another creature than ``creature`` (unless ``force``).
+
+    Raises:
+        ConfigError: naming the folder's creature and how to go on.
+    """
+    if not Path(path).is_dir():
+        return
+    old = read_manifest(path)
+    if old is not None and old.get("complete") and old["files"] and not force and old.get("creature") != creature:
+        raise ConfigError(
+            f"--out {os.fspath(path)}: holds the synth data set of {old.get('creature')!r} ({len(old['files'])} "
+            f"file(s) listed in its manifest.json), not one of {creature!r}; a folder holds one data set: give "
+            "--force to replace it, or another folder")
+
+
 class SynthWriter:
     """Writes synthesised rollouts as they come (see the module docstring).
 
     Args:
         path: A ``.npz`` file or a folder (:func:`output_kind`).
+        force: Replace a folder's finished data set of another creature (else refused).
         info: What the folder's manifest records about the run (creature, frames, fps, seed, ...).
+
+    Raises:
+        ConfigError: the folder holds another creature's finished data set and ``force`` is not given.
     """
 
-    def __init__(self, path: str | os.PathLike[str], **info: Any) -> None:
+    def __init__(self, path: str | os.PathLike[str], *, force: bool = False, **info: Any) -> None:
         self.path = Path(path)
         self.kind = output_kind(path)
         self.info = info
@@ -161,8 +194,34 @@ class SynthWriter:
                 raise ConfigError(f"--out {self.path}: exists and is not a folder (use a .npz name for a single file)")
             self.path.mkdir(parents=True, exist_ok=True)
             old = read_manifest(self.path)
+            if "creature" in info:
+                check_folder(self.path, info["creature"], force=force)
             self._stale = list(old["files"]) if old is not None else []
+            self._remove_leftovers(old)
             write_manifest(self.path, [], complete=False, **info)
+
+    def _remove_leftovers(self, old: dict[str, Any] | None) -> None:
+        """Remove what a killed run left: the rollouts it wrote that its manifest (never completed) does not
+        list, and the atomic writer's temporary files of any run here. Called under the folder's lock, so no
+        writer is alive to own them."""
+        stems = {safe_stem(c) for c in (self.info.get("creature"), old and old.get("creature")) if c}
+        temp = re.compile(r"\.(?P<stem>.+)\.[A-Za-z0-9_]{8}\.(npz|json)")
+        unfinished = old is not None and not old.get("complete")
+        rollout = re.compile(r"(?P<stem>.+)_synth_\d+_\d{4,}\.npz")
+        gone = []
+        for f in sorted(self.path.iterdir()):
+            m = temp.fullmatch(f.name)
+            if m is not None and f.is_file() and (m["stem"] == "manifest" or any(
+                    m["stem"].startswith(f"{s}_synth_") for s in stems)):
+                f.unlink(missing_ok=True)
+                gone.append(f.name)
+            elif unfinished and f.name not in self._stale and f.is_file() and \
+                    (r := rollout.fullmatch(f.name)) is not None and r["stem"] in stems:
+                self._stale.append(f.name)  # an unlisted rollout of the killed run: removed at close
+        if gone:
+            shown = ", ".join(gone[:3]) + (f" and {len(gone) - 3} more" if len(gone) > 3 else "")
+            warnings.warn(f"{self.path}: removed {len(gone)} temporary file(s) a stopped run left: {shown}",
+                          stacklevel=2)
 
     def write(self, part: Any) -> list[Path]:
         """Write the rollouts of ``part`` (a :class:`~morphkit.synth.SynthResult`); returns the files written
@@ -174,10 +233,12 @@ class SynthWriter:
             return []
         out = []
         for i, m in enumerate(part.motions):
-            f = self.path / f"{m.name}.npz"
+            f = self.path / f"{safe_stem(m.name, default='synth')}.npz"  # the name itself stays inside the file
             write_npz_motion(m, f, **part.extras(i))
             out.append(f)
         self.files += out
+        # listed as they come: a run stopped here leaves a manifest naming its files, which the next removes
+        write_manifest(self.path, [f.name for f in self.files], complete=False, **self.info)
         return out
 
     def close(self) -> list[Path]:

@@ -71,7 +71,8 @@ def test_map_body_lengths_are_measured_reported_and_overridable(data: tuple[Path
     for bad in ("0", "-1", "nan", "inf"):
         assert main(["map", str(human), str(spot), "--no-cache", "--body-length", bad]) == 2
         err = capsys.readouterr().err
-        assert err.startswith("error: --body-length must be a finite length > 0") and "Traceback" not in err
+        assert err == ("error: --body-length/--creature-length: expected a number above 0 and at most 1000 m, "
+                       f"got {bad!r}\n")
 
 
 KANGAROO_YAML = """\

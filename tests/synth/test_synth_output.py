@@ -45,11 +45,13 @@ def test_a_rerun_with_fewer_frames_leaves_only_its_own_files(blob, tmp_path, cap
 
     out = tmp_path / "data"
     assert _synth(blob, 90, out) == 0
-    assert sorted(p.name for p in out.iterdir()) == [f"blob_synth_0_000{i}.npz" for i in range(3)] + ["manifest.json"]
+    # .lock: the folder's one-writer lock (morphkit._folder_lock), which stays; only the OS lock on it counts
+    assert sorted(p.name for p in out.iterdir()) == [".lock"] + [f"blob_synth_0_000{i}.npz" for i in range(3)] + [
+        "manifest.json"]
     mine = out / "mine.npz"
     mine.write_bytes((out / "blob_synth_0_0002.npz").read_bytes())  # a file of the user's, beside the run's
     assert _synth(blob, 30, out) == 0
-    assert sorted(p.name for p in out.iterdir()) == ["blob_synth_0_0000.npz", "manifest.json", "mine.npz"]
+    assert sorted(p.name for p in out.iterdir()) == [".lock", "blob_synth_0_0000.npz", "manifest.json", "mine.npz"]
     manifest = json.loads((out / "manifest.json").read_text())
     assert manifest["complete"] and manifest["files"] == ["blob_synth_0_0000.npz"] and manifest["frames"] == 30
     # what reads a synth folder (morphkit map DIR, the trainers' data) reads this run's files only

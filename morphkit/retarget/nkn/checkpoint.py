@@ -4,7 +4,8 @@ An NKN run folder::
 
     nkn.yaml                   mode, creature, human data, frame rate, template, the characters
     template.yaml              the source topology's skeleton
-    skeletons/NAME.yaml        every training character's skeleton (the *seen* characters)
+    skeletons/NAME.yaml        every training character's skeleton (the *seen* characters; NAME through
+                               morphkit.output_names.safe_stem, the name itself in nkn.yaml and the file)
     source_features.npz        normalisation of the source side's features and bone offsets
     source_offsets.npz
     creature.yaml              cross-morphology mode: the creature, and its side's normalisation
@@ -30,6 +31,7 @@ from morphkit.errors import RunError, SourceLocation
 from morphkit.graph import Morphology
 from morphkit.io import read_morphology, write_morphology
 from morphkit.motion import NormStats
+from morphkit.output_names import safe_stem
 from morphkit.retarget.run import required_file
 
 __all__ = ["LABEL", "META_FILE", "TRAINERS", "NknArtifact"]
@@ -46,6 +48,16 @@ _STATS = ("source_features.npz", "source_offsets.npz", "target_features.npz", "t
 
 def _need(path: Path) -> Path:
     return required_file(path, "an NKN run folder")
+
+
+def _skeleton_file(run: Path, name: str) -> Path:
+    """``skeletons/<safe stem>.yaml`` of a character; a run written before names were made safe spelled a plain
+    one-component name as it was, which is still read."""
+    path = run / _SKELETONS / f"{safe_stem(name, default='skeleton')}.yaml"
+    old = run / _SKELETONS / f"{name}.yaml"
+    if not path.is_file() and Path(name).name == name and name not in ("", ".", "..") and old.is_file():
+        return old
+    return path
 
 
 TRAINERS = ("nkn", "nkn-cross")
@@ -98,8 +110,13 @@ class NknArtifact:
         run = Path(run_dir)
         (run / _SKELETONS).mkdir(parents=True, exist_ok=True)
         write_morphology(self.template, run / _TEMPLATE)
+        stems: dict[str, str] = {}
         for name, skeleton in self.skeletons.items():
-            write_morphology(skeleton, run / _SKELETONS / f"{name}.yaml")
+            stem = safe_stem(name, default="skeleton")  # a character's name never steers the path
+            if stems.setdefault(stem.casefold(), name) != name:
+                raise RunError(f"characters {stems[stem.casefold()]!r} and {name!r} would share the file "
+                               f"{_SKELETONS}/{stem}.yaml: rename one", location=SourceLocation(str(run)))
+            write_morphology(skeleton, run / _SKELETONS / f"{stem}.yaml")
         self.source_features.save(run / _STATS[0])
         self.source_offsets.save(run / _STATS[1])
         if self.creature is not None:
@@ -138,7 +155,7 @@ class NknArtifact:
         return NknArtifact(
             mode=mode,
             template=read_morphology(_need(run / _TEMPLATE)),
-            skeletons={n: read_morphology(_need(run / _SKELETONS / f"{n}.yaml")) for n in names},
+            skeletons={n: read_morphology(_need(_skeleton_file(run, n))) for n in names},
             source_features=NormStats.load(_need(run / _STATS[0])),
             source_offsets=NormStats.load(_need(run / _STATS[1])),
             fps=fps,

@@ -35,6 +35,7 @@ import morphkit.torch as mt
 from morphkit.graph import EndEffectorRole, Morphology
 from morphkit.model import compile_model
 from morphkit.motion import Motion
+from morphkit.output_names import safe_stem
 from morphkit.retarget.nkn.features import local_positions
 from morphkit.retarget.nkn.fk import SkeletonFK
 from morphkit.retarget.nkn.retarget import NknRetargeter
@@ -249,7 +250,8 @@ def compare_with_baseline(retargeter: NknRetargeter, clips: Sequence[Motion],
             for i in range(min(plots_per_target, len(clips))):
                 label = "seen" if seen else "unseen"
                 ratio = _leg_ratio(clips[i].morphology, target)
-                path = Path(plot_dir) / f"{clips[i].name}_to_{target.name}.png"
+                stem = safe_stem(f"{safe_stem(clips[i].name, 'clip')}_to_{safe_stem(target.name, 'target')}")
+                path = Path(plot_dir) / f"{stem}.png"
                 plots.append(plot_end_effector_heights(
                     clips[i], {"NKN": nkn[i], "copy rotations": copy[i]}, path,
                     title=f"{clips[i].name} → {target.name} ({label}, leg ratio {ratio:.2f})"))
