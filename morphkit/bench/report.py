@@ -21,10 +21,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 from morphkit.bench.fk import IMPLS, MODES, BenchResult
 from morphkit.errors import ConfigError
+from morphkit.yaml_loader import load_yaml_file
 
 __all__ = [
     "TARGET_KINDS",
@@ -110,10 +110,7 @@ def load_targets(path: str | Path) -> FKTargets:
         ConfigError: naming the file and the entry when it is unreadable or an entry is malformed.
     """
     path = Path(path)
-    try:
-        data = yaml.safe_load(path.read_text())
-    except (OSError, yaml.YAMLError) as exc:
-        raise ConfigError(f"{path}: cannot read the benchmark targets: {exc}") from exc
+    data = load_yaml_file(path, what="the benchmark targets")
     if not isinstance(data, dict) or not isinstance(data.get("batch"), int) or data["batch"] < 1:
         raise ConfigError(f"{path}: expected a mapping with a positive integer 'batch' and a list 'targets'")
     entries = data.get("targets")

@@ -46,7 +46,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 from morphkit._atomic import atomic_write_text
 from morphkit.conventions import quat_from_rpy
@@ -66,6 +65,7 @@ from morphkit.graph import (
 from morphkit.graph.types import parse_enum
 from morphkit.io._source import read_text, relative_mesh_path, resolve_mesh_path, warn_wheeled_without_wheels
 from morphkit.io.anatomy import complete_anatomy
+from morphkit.yaml_loader import LineLoader, YamlList, YamlMapping, load_yaml
 
 __all__ = ["DocumentReader", "dump_yaml", "load_document", "parse_yaml", "read_yaml", "write_yaml"]
 
@@ -87,125 +87,10 @@ _SHAPE_KEYS: dict[ShapeType, tuple[tuple[str, ...], tuple[str, ...]]] = {
 }
 
 
-# ---- a loader that remembers lines and refuses duplicate keys --------------------------------
-class _Map(dict):
-    """A YAML mapping with the 1-based line of the mapping and of each key."""
-
-    line: int = 0
-    key_lines: dict[Any, int]
-
-
-class _Seq(list):
-    """A YAML sequence with the 1-based line of the sequence and of each item."""
-
-    line: int = 0
-    item_lines: list[int]
-
-
-# libyaml's parser is ~8x faster than PyYAML's pure-Python one; both give the same nodes and marks.
-_SafeLoader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
-_MAX_DEPTH = 100
-"""Deepest nesting of mappings and lists accepted (libyaml's recursive composer crashes on very deep input)."""
-
-
-class _Loader(_SafeLoader):  # type: ignore[misc, valid-type]
-    """SafeLoader that records source lines, refuses duplicate keys, and reads ``1e-3`` as a float.
-
-    PyYAML implements YAML 1.1, where ``1e-3`` (no dot) is a string and ``2001-01-01`` a date;
-    creature files want YAML 1.2 numbers and no dates.
-    """
-
-
-_Loader.yaml_implicit_resolvers = {
-    first: [(tag, rx) for tag, rx in resolvers if tag != "tag:yaml.org,2002:timestamp"]
-    for first, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()
-}
-_Loader.add_implicit_resolver(
-    "tag:yaml.org,2002:float",
-    re.compile(r"^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9_]+)[eE][-+]?[0-9]+$"),
-    list("-+0123456789."),
-)
-
-
-def _construct_map(loader: _Loader, node: yaml.MappingNode) -> Iterable[_Map]:
-    data = _Map()
-    data.line = node.start_mark.line + 1
-    data.key_lines = {}
-    yield data
-    seen: dict[Any, int] = {}
-    for key_node, _ in node.value:
-        if key_node.tag == "tag:yaml.org,2002:merge":
-            continue
-        key = loader.construct_object(key_node, deep=True)
-        try:
-            hash(key)
-        except TypeError:
-            raise yaml.constructor.ConstructorError(
-                None, None, f"unhashable mapping key {key!r}", key_node.start_mark
-            ) from None
-        line = key_node.start_mark.line + 1
-        if key in seen:
-            raise yaml.constructor.ConstructorError(
-                None, None, f"duplicate key {key!r} (first written on line {seen[key]})", key_node.start_mark
-            )
-        seen[key] = line
-    loader.flatten_mapping(node)
-    for key_node, value_node in node.value:
-        key = loader.construct_object(key_node, deep=True)
-        data[key] = loader.construct_object(value_node, deep=True)
-        data.key_lines[key] = key_node.start_mark.line + 1
-
-
-def _construct_seq(loader: _Loader, node: yaml.SequenceNode) -> Iterable[_Seq]:
-    data = _Seq()
-    data.line = node.start_mark.line + 1
-    data.item_lines = [n.start_mark.line + 1 for n in node.value]
-    yield data
-    data.extend(loader.construct_object(n, deep=True) for n in node.value)
-
-
-_Loader.add_constructor("tag:yaml.org,2002:map", _construct_map)
-_Loader.add_constructor("tag:yaml.org,2002:seq", _construct_seq)
-
-
-def _check_depth(text: str, source: str | None) -> None:
-    """Refuse absurdly deep nesting before composing (the event stream is parsed iteratively)."""
-    depth = 0
-    for event in yaml.parse(text, Loader=_Loader):
-        if isinstance(event, (yaml.MappingStartEvent, yaml.SequenceStartEvent)):
-            depth += 1
-            if depth > _MAX_DEPTH:
-                line = event.start_mark.line + 1 if event.start_mark is not None else None
-                raise DescriptionError(
-                    f"malformed YAML: nested more than {_MAX_DEPTH} levels deep", location=SourceLocation(source, line)
-                )
-        elif isinstance(event, (yaml.MappingEndEvent, yaml.SequenceEndEvent)):
-            depth -= 1
-
-
 def load_document(text: str, source: str | None) -> Any:
-    """Parse YAML text into _Map/_Seq/scalars, turning every parser failure into a DescriptionError."""
-    try:
-        _check_depth(text, source)
-        return yaml.load(text, Loader=_Loader)  # _Loader is a SafeLoader
-    except yaml.MarkedYAMLError as exc:
-        mark = exc.problem_mark or exc.context_mark
-        line = mark.line + 1 if mark is not None else None
-        problem = exc.problem or exc.context or "malformed YAML"
-        raise DescriptionError(f"malformed YAML: {problem}", location=SourceLocation(source, line)) from exc
-    except yaml.reader.ReaderError as exc:
-        position = getattr(exc, "position", None)
-        line = text.count("\n", 0, position) + 1 if isinstance(position, int) else None
-        character = getattr(exc, "character", None)
-        raise DescriptionError(
-            f"malformed YAML: unacceptable character {character!r}", location=SourceLocation(source, line)
-        ) from exc
-    except yaml.YAMLError as exc:
-        raise DescriptionError(f"malformed YAML: {exc}", location=SourceLocation(source)) from exc
-    except RecursionError as exc:
-        raise DescriptionError("malformed YAML: nested too deeply", location=SourceLocation(source)) from exc
-    except (ValueError, TypeError, OverflowError) as exc:  # scalar constructors (e.g. !!binary, !!float)
-        raise DescriptionError(f"malformed YAML: {exc}", location=SourceLocation(source)) from exc
+    """Parse YAML text into :class:`~morphkit.yaml_loader.YamlMapping` / ``YamlList`` / scalars, turning every
+    parser failure into a DescriptionError (:func:`~morphkit.yaml_loader.load_yaml`)."""
+    return load_yaml(text, source, error=DescriptionError)
 
 
 # ---- the reader ------------------------------------------------------------------------------
@@ -233,23 +118,24 @@ class DocumentReader:
         return DescriptionError(message, location=self.loc(line))
 
     # -- containers
-    def mapping(self, value: Any, what: str, line: int | None, *, allow_none: bool = False) -> _Map:
+    def mapping(self, value: Any, what: str, line: int | None, *, allow_none: bool = False) -> YamlMapping:
         if value is None and allow_none:
-            empty = _Map()
+            empty = YamlMapping()
             empty.line = line or 0
             empty.key_lines = {}
             return empty
-        if not isinstance(value, _Map):
+        if not isinstance(value, YamlMapping):
             raise self.error(f"{what}: expected a mapping, got {_show(value)}", line)
         return value
 
-    def sequence(self, value: Any, what: str, line: int | None) -> _Seq:
-        if not isinstance(value, _Seq):
+    def sequence(self, value: Any, what: str, line: int | None) -> YamlList:
+        if not isinstance(value, YamlList):
             raise self.error(f"{what}: expected a list, got {_show(value)}", line)
         return value
 
     def keys(
-        self, m: _Map, what: str, allowed: Sequence[str], required: Sequence[str] = (), *, line: int | None = None
+        self, m: YamlMapping, what: str, allowed: Sequence[str], required: Sequence[str] = (), *,
+        line: int | None = None,
     ) -> None:
         """Refuse unknown keys (at their line) and missing ones (at ``line``, else the mapping's line)."""
         for key in m:
@@ -261,7 +147,7 @@ class DocumentReader:
             if key not in m:
                 raise self.error(f"{what}: missing required key {key!r}", line or m.line)
 
-    def line_of(self, m: _Map, key: str) -> int:
+    def line_of(self, m: YamlMapping, key: str) -> int:
         return m.key_lines.get(key, m.line)
 
     # -- scalars
@@ -283,8 +169,8 @@ class DocumentReader:
         return out
 
     def vector(self, value: Any, n: int, what: str, line: int | None) -> tuple[float, ...]:
-        if not isinstance(value, _Seq) or len(value) != n:
-            got = f"{len(value)} values" if isinstance(value, _Seq) else _show(value)
+        if not isinstance(value, YamlList) or len(value) != n:
+            got = f"{len(value)} values" if isinstance(value, YamlList) else _show(value)
             raise self.error(f"{what}: expected a list of {n} numbers, got {got}", line)
         return tuple(self.number(v, what, value.item_lines[i]) for i, v in enumerate(value))
 
@@ -409,7 +295,7 @@ class DocumentReader:
             return m
         return complete_anatomy(m, base_declared="base" in top)
 
-    def joint(self, b: MorphologyBuilder, joints: _Map, joint_name: Any, value: Any) -> None:
+    def joint(self, b: MorphologyBuilder, joints: YamlMapping, joint_name: Any, value: Any) -> None:
         line = joints.key_lines[joint_name]
         joint_name = self.name(joint_name, "joint name", line)
         what = f"joint {joint_name!r}"
@@ -471,7 +357,7 @@ def _str(s: str) -> str:
     """A YAML scalar for ``s``: plain where it reads back as the same string, else double-quoted."""
     if _PLAIN.fullmatch(s):
         # Plain only if no implicit resolver (bool, null, int, float) claims it.
-        resolvers = _Loader.yaml_implicit_resolvers
+        resolvers = LineLoader.yaml_implicit_resolvers
         if not any(rx.match(s) for _, rx in (*resolvers.get(s[0], ()), *resolvers.get(None, ()))):
             return s
     return _quote(s)

@@ -56,7 +56,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 from morphkit.errors import ConfigError, MotionFormatError, SourceLocation
 from morphkit.graph import BaseType, EndEffectorRole, JointType, Morphology, ShapeType, Transform
@@ -70,6 +69,7 @@ from morphkit.rotations import (
     quat_normalize,
     quat_rotate,
 )
+from morphkit.yaml_loader import YamlMapping, load_yaml_file, plain_data
 
 __all__ = [
     "CANONICAL_HUMAN",
@@ -165,19 +165,15 @@ class SkeletonMap:
                          for k, v in self.links.items())
 
 
-def _key_lines(text: str) -> dict[str, int]:
-    """1-based line of every key under ``links`` (best effort; empty when the YAML cannot be composed)."""
-    try:
-        node = yaml.compose(text)
-    except yaml.YAMLError:
-        return {}
+def _key_lines(data: Any) -> dict[str, int]:
+    """1-based line of every key of a loaded table and under its ``links``."""
     lines: dict[str, int] = {}
-    if isinstance(node, yaml.MappingNode):
-        for k, v in node.value:
-            lines[str(k.value)] = k.start_mark.line + 1
-            if k.value == "links" and isinstance(v, yaml.MappingNode):
-                for kk, _ in v.value:
-                    lines[f"links.{kk.value}"] = kk.start_mark.line + 1
+    if isinstance(data, YamlMapping):
+        for k, v in data.items():
+            lines[str(k)] = data.key_lines[k]
+            if k == "links" and isinstance(v, YamlMapping):
+                for kk in v:
+                    lines[f"links.{kk}"] = v.key_lines[kk]
     return lines
 
 
@@ -189,17 +185,8 @@ def read_skeleton_map(path: str | os.PathLike[str]) -> SkeletonMap:
         ConfigError: an unreadable file, or a malformed table (file and line, the offending value).
     """
     where = SourceLocation(os.fspath(path))
-    try:
-        text = Path(path).read_text(encoding="utf-8")
-    except OSError as exc:
-        raise ConfigError(f"cannot read convention table: {exc.strerror or exc}", location=where) from exc
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        raise ConfigError(f"not YAML: {getattr(exc, 'problem', exc)}",
-                          location=where.at_line(mark.line + 1 if mark else None)) from exc
-    lines = _key_lines(text)
+    data = load_yaml_file(path, what="convention table", malformed="not YAML")
+    lines = _key_lines(data)
     if not isinstance(data, dict) or not isinstance(data.get("links"), dict) or not data["links"]:
         raise ConfigError("a convention table needs a 'links' mapping: template link -> source name or [a, b, w]",
                           location=where.at_line(lines.get("links")))
@@ -214,7 +201,7 @@ def read_skeleton_map(path: str | os.PathLike[str]) -> SkeletonMap:
         else:
             raise ConfigError(f"link {k!r}: expected a source name or [a, b, w] with 0 <= w <= 1, got {v!r}",
                               location=at)
-    options = {k: data[k] for k in _READ_OPTIONS if data.get(k) is not None}
+    options = {k: plain_data(data[k]) for k in _READ_OPTIONS if data.get(k) is not None}
     unknown = sorted(set(data) - {"name", "description", "links", *_READ_OPTIONS})
     if unknown:
         raise ConfigError(f"unknown key(s) {', '.join(map(repr, unknown))}; expected: name, description, links, "

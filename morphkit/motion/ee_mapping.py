@@ -29,7 +29,6 @@ from __future__ import annotations
 import os
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -37,6 +36,7 @@ import numpy as np
 from morphkit.errors import ConfigError, SourceLocation
 from morphkit.motion.features import ACTIVE_HAND, ROOT_FEATURE_DIM, ActiveHand, motion_features
 from morphkit.motion.scale import body_length
+from morphkit.yaml_loader import MALFORMED, YamlMapping, load_yaml_file
 
 if TYPE_CHECKING:
     from morphkit.motion.motion import Motion
@@ -396,19 +396,8 @@ def read_override(path: str | os.PathLike[str]) -> dict[str, str]:
     Raises:
         ConfigError: unreadable file, malformed YAML or a value that is not a name.
     """
-    import yaml
-
     where = SourceLocation(str(path))
-    try:
-        text = Path(path).read_text(encoding="utf-8")
-    except OSError as exc:
-        raise ConfigError(f"cannot read override file: {exc.strerror or exc}", location=where) from None
-    try:
-        doc = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        line = mark.line + 1 if mark is not None else None
-        raise ConfigError(f"malformed YAML: {getattr(exc, 'problem', exc)}", location=where.at_line(line)) from None
+    doc = load_yaml_file(path, what="override file", malformed=MALFORMED)
     if isinstance(doc, dict) and set(doc) == {"mapping"}:
         doc = doc["mapping"]
     if not isinstance(doc, dict):
@@ -416,14 +405,7 @@ def read_override(path: str | os.PathLike[str]) -> dict[str, str]:
     out = {}
     for k, v in doc.items():
         if not isinstance(k, str) or not isinstance(v, str):
-            line = _line_of(text, str(k))
+            line = doc.key_lines.get(k) if isinstance(doc, YamlMapping) else None
             raise ConfigError(f"override {k!r}: {v!r} must map a name to a name", location=where.at_line(line))
         out[k] = v
     return out
-
-
-def _line_of(text: str, key: str) -> int | None:
-    for i, line in enumerate(text.splitlines(), start=1):
-        if line.strip().startswith(f"{key}:"):
-            return i
-    return None

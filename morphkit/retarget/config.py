@@ -30,6 +30,7 @@ import yaml
 
 from morphkit._atomic import atomic_write_text
 from morphkit.errors import ConfigError, SourceLocation
+from morphkit.yaml_loader import YamlMapping, load_yaml_file
 
 __all__ = [
     "MAX_COUNT",
@@ -97,20 +98,14 @@ def write_config(path: str | os.PathLike[str], config: Any) -> Path:
 
 
 def read_config(cls: type[C], path: str | os.PathLike[str]) -> C:
-    """Read a YAML file written by :func:`write_config` (or by hand) into config dataclass ``cls``."""
+    """Read a YAML file written by :func:`write_config` (or by hand) into config dataclass ``cls``.
+
+    Raises:
+        ConfigError: an unreadable file, malformed YAML (a duplicate key included) or a bad value, at its line.
+    """
     source = os.fspath(path)
-    try:
-        text = Path(path).read_text(encoding="utf-8")
-        node = yaml.compose(text)
-        data = yaml.safe_load(text)
-    except OSError as exc:
-        raise ConfigError(f"cannot read config: {exc.strerror}", location=SourceLocation(source)) from exc
-    except yaml.YAMLError as exc:
-        line = getattr(getattr(exc, "problem_mark", None), "line", None)
-        raise ConfigError(
-            f"not valid YAML: {exc}", location=SourceLocation(source, None if line is None else line + 1)
-        ) from exc
-    return _build(cls, {} if data is None else data, "", _LineMap(node), source)
+    data = load_yaml_file(path, what="config", malformed="not valid YAML")
+    return _build(cls, {} if data is None else data, "", _LineMap(data), source)
 
 
 def replace_config(config: C, overrides: Mapping[str, Any] | Iterable[str]) -> C:
@@ -173,18 +168,18 @@ def _flatten(data: dict[str, Any], prefix: str = "") -> dict[str, Any]:
 
 
 class _LineMap:
-    """1-based line numbers of the keys in a composed YAML mapping, by dotted path."""
+    """1-based line numbers of the keys in a loaded YAML mapping (:class:`~morphkit.yaml_loader.YamlMapping`),
+    by dotted path."""
 
-    def __init__(self, node: yaml.Node | None) -> None:
+    def __init__(self, data: Any) -> None:
         self.lines: dict[str, int] = {}
-        if node is not None:
-            self._walk(node, "")
+        self._walk(data, "")
 
-    def _walk(self, node: yaml.Node, prefix: str) -> None:
-        if isinstance(node, yaml.MappingNode):
-            for key, value in node.value:
-                path = f"{prefix}{key.value}"
-                self.lines[path] = key.start_mark.line + 1
+    def _walk(self, data: Any, prefix: str) -> None:
+        if isinstance(data, YamlMapping):
+            for key, value in data.items():
+                path = f"{prefix}{key}"
+                self.lines[path] = data.key_lines[key]
                 self._walk(value, path + ".")
 
     def at(self, source: str | None, path: str) -> SourceLocation | None:

@@ -63,6 +63,7 @@ from morphkit.retarget.distributed import (
     wrap_ddp,
 )
 from morphkit.retarget.logs import MetricsLog
+from morphkit.yaml_loader import load_yaml_file
 
 __all__ = [
     "CHECKPOINT_FILE", "CONFIG_FILE", "RUN_FILE", "Run", "RunProgress", "Stateful", "derive_seed", "required_file",
@@ -129,7 +130,7 @@ def stage_trainer(folder: Path, kind: str = "a trained stage") -> str:
         RunError: no ``run.yaml`` (the folder is not ``kind``).
     """
     path = required_file(folder / RUN_FILE, kind)
-    return str((yaml.safe_load(path.read_text()) or {}).get("trainer", ""))
+    return str((load_yaml_file(path, what="the run identity", error=RunError) or {}).get("trainer", ""))
 
 
 def derive_seed(*words: int) -> int:
@@ -288,15 +289,10 @@ class Run(Generic[C]):
         folder = Path(run_dir)
         position = load_checkpoint(folder / CHECKPOINT_FILE).get("position")
         config_file = folder / CONFIG_FILE
+        config = load_yaml_file(config_file, what="the run's config", error=RunError) or {}
         try:
-            config = yaml.safe_load(config_file.read_text(encoding="utf-8")) or {}
             epochs = int(config.get("epochs", 0))
             return RunProgress(int(position["epoch"]), epochs, int(position.get("seed", 0)))
-        except (OSError, yaml.YAMLError) as exc:
-            reason = getattr(exc, "strerror", None) or exc
-            raise RunError(
-                f"cannot read the run's config: {reason}", location=SourceLocation(str(config_file))
-            ) from exc
         except (AttributeError, KeyError, TypeError, ValueError) as exc:  # not a mapping, or not numbers
             raise RunError(f"no training position or epoch count: {exc}", location=SourceLocation(str(folder))) from exc
 
@@ -521,10 +517,7 @@ class Run(Generic[C]):
                 location=SourceLocation(str(self.dir / CHECKPOINT_FILE)),
             )
         if run_file.exists():
-            try:
-                saved = yaml.safe_load(run_file.read_text(encoding="utf-8")) or {}
-            except (OSError, yaml.YAMLError) as exc:
-                raise RunError(f"cannot read the run identity: {exc}", location=SourceLocation(str(run_file))) from exc
+            saved = load_yaml_file(run_file, what="the run identity", error=RunError) or {}
             for key in ("trainer", "creature"):
                 if saved.get(key) != identity[key]:
                     raise RunError(

@@ -36,6 +36,7 @@ from morphkit.motion import CANONICAL_HUMAN, ActiveHand, NormStats, Pairing, can
 from morphkit.retarget.config import config_from_dict, config_to_dict
 from morphkit.retarget.run import required_file
 from morphkit.retarget.training_data import DataConfig
+from morphkit.yaml_loader import load_yaml_file, plain_data
 
 __all__ = [
     "AVERAGE_STATE", "BEST_STATE", "META_FILE", "PRIOR_STAGE", "PRIOR_TRAINER", "AceArtifact",
@@ -79,11 +80,7 @@ def _need(path: Path) -> Path:
 
 
 def _read_meta(run: Path) -> dict[str, Any]:
-    path = _need(run / META_FILE)
-    try:
-        return yaml.safe_load(path.read_text(encoding="utf-8")) or {}
-    except (OSError, yaml.YAMLError) as exc:
-        raise RunError(f"cannot read it: {exc}", location=SourceLocation(str(path))) from exc
+    return plain_data(load_yaml_file(_need(run / META_FILE), what="it", error=RunError)) or {}
 
 
 @dataclass(eq=False)

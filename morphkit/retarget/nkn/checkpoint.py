@@ -33,6 +33,7 @@ from morphkit.io import read_morphology, write_morphology
 from morphkit.motion import NormStats
 from morphkit.output_names import safe_stem
 from morphkit.retarget.run import required_file
+from morphkit.yaml_loader import load_yaml_file, plain_data
 
 __all__ = ["LABEL", "META_FILE", "TRAINERS", "NknArtifact"]
 
@@ -100,10 +101,7 @@ class NknArtifact:
         path = Path(run_dir) / META_FILE
         if not path.is_file():
             return None
-        try:
-            return yaml.safe_load(path.read_text(encoding="utf-8")) or {}
-        except (OSError, yaml.YAMLError) as exc:
-            raise RunError(f"cannot read it: {exc}", location=SourceLocation(str(path))) from exc
+        return plain_data(load_yaml_file(path, what="it", error=RunError)) or {}
 
     def save(self, run_dir: str | os.PathLike[str]) -> None:
         """Write every file into ``run_dir`` (atomically, file by file; ``nkn.yaml`` last)."""
