@@ -9,6 +9,7 @@ know each other. A run has finished when its :class:`~morphkit.retarget.run.RunP
 
 from __future__ import annotations
 
+import importlib
 import os
 import warnings
 from collections.abc import Callable
@@ -52,10 +53,8 @@ class Method:
     """Its trainer name (``morphkit train NAME``)."""
     folder: str
     """Its run folder in messages (``an ACE run folder``)."""
-    marker: Callable[[], str]
-    """The file that marks its run folders."""
-    is_run: Callable[[Path], bool]
-    """Whether a folder is one of its runs."""
+    checkpoint: str
+    """Its module that spells its run folder's files; its ``META_FILE`` marks its run folders."""
     open: Callable[[Path, str | os.PathLike[str] | None, str | torch.device], tuple[Retargeter, Path]]
     """Its :class:`Retargeter` of ``(run, stage, device)`` and the folder whose progress says whether it has
     finished."""
@@ -65,6 +64,14 @@ class Method:
     """The run a stage folder given directly belongs to (``None``: none of its stages)."""
     trained_stage: Callable[[Path], list[TrainedRetargeter]] = lambda _: []
     """The retargeter of a folder inside one of its runs (refused where it is none of the run's stages)."""
+
+    def marker(self) -> str:
+        """The file that marks its run folders (its checkpoint module imported only now)."""
+        return str(importlib.import_module(self.checkpoint).META_FILE)
+
+    def is_run(self, path: Path) -> bool:
+        """Whether folder ``path`` is one of its runs."""
+        return (path / self.marker()).is_file()
 
 
 def load(run: str | os.PathLike[str], *, stage: str | os.PathLike[str] | None = None,
@@ -143,18 +150,6 @@ def trained_retargeters(path: str | os.PathLike[str]) -> list[TrainedRetargeter]
 # ---- ACE ------------------------------------------------------------------------------------------
 
 
-def _ace_marker() -> str:
-    from morphkit.retarget.ace.checkpoint import META_FILE
-
-    return META_FILE
-
-
-def _ace_run(path: Path) -> bool:
-    from morphkit.retarget.ace.checkpoint import AceArtifact
-
-    return AceArtifact.is_run(path)
-
-
 def _ace_open(path: Path, stage: str | os.PathLike[str] | None,
               device: str | torch.device) -> tuple[Retargeter, Path]:
     from morphkit.retarget.ace.retarget import AceRetargeter
@@ -164,7 +159,8 @@ def _ace_open(path: Path, stage: str | os.PathLike[str] | None,
 
 
 def _ace_stage_run(path: Path) -> Path | None:
-    return path.parent if _ace_run(path.parent) and not _ace_run(path) else None
+    ace = METHODS["ace"]
+    return path.parent if ace.is_run(path.parent) and not ace.is_run(path) else None
 
 
 def _ace_trained(run: Path) -> list[TrainedRetargeter]:
@@ -198,18 +194,6 @@ def _ace_stages(run: Path, variants: list[Any]) -> list[TrainedRetargeter]:
 # ---- NKN ------------------------------------------------------------------------------------------
 
 
-def _nkn_marker() -> str:
-    from morphkit.retarget.nkn.checkpoint import META_FILE
-
-    return META_FILE
-
-
-def _nkn_run(path: Path) -> bool:
-    from morphkit.retarget.nkn.checkpoint import NknArtifact
-
-    return NknArtifact.is_run(path)
-
-
 def _nkn_open(path: Path, stage: str | os.PathLike[str] | None,
               device: str | torch.device) -> tuple[Retargeter, Path]:
     from morphkit.retarget.nkn.retarget import NknRetargeter
@@ -231,9 +215,9 @@ def _nkn_trained(folder: Path) -> list[TrainedRetargeter]:
 
 
 METHODS: dict[str, Method] = {
-    "ace": Method("ace", "an ACE run folder", _ace_marker, _ace_run, _ace_open, _ace_trained, _ace_stage_run,
-                  _ace_stage),
-    "nkn": Method("nkn", "an NKN run folder", _nkn_marker, _nkn_run, _nkn_open, _nkn_trained),
+    "ace": Method("ace", "an ACE run folder", "morphkit.retarget.ace.checkpoint", _ace_open, _ace_trained,
+                  _ace_stage_run, _ace_stage),
+    "nkn": Method("nkn", "an NKN run folder", "morphkit.retarget.nkn.checkpoint", _nkn_open, _nkn_trained),
 }
 """Every method the trainer layer knows, by trainer name; :func:`load` and :func:`trained_retargeters` ask each
 in turn (a new method adds its entry here and nowhere else in this module)."""

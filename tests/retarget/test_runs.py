@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import sys
+import types
 from pathlib import Path
 
 import pytest
@@ -34,7 +36,10 @@ def test_a_registered_method_is_found_and_listed_without_changing_load(tmp_path:
     run.mkdir(parents=True)
     (run / "toy.yaml").write_text("trainer: toy\n")
     found = runs.TrainedRetargeter("Toy", run, run, None, RunProgress(2, 2, 0))
-    toy = runs.Method("toy", "a toy run folder", lambda: "toy.yaml", lambda p: (p / "toy.yaml").is_file(),
+    checkpoint = types.ModuleType("toy_checkpoint")
+    checkpoint.META_FILE = "toy.yaml"  # type: ignore[attr-defined]
+    monkeypatch.setitem(sys.modules, "toy_checkpoint", checkpoint)
+    toy = runs.Method("toy", "a toy run folder", "toy_checkpoint",
                       lambda p, stage, device: pytest.fail("not opened here"), lambda p: [found])
     monkeypatch.setitem(runs.METHODS, "toy", toy)
 
