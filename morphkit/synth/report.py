@@ -17,8 +17,10 @@ Figures (the ``morphkit synth --report --json`` keys first):
   :func:`~morphkit.kernels.contact.self_collision_pairs` with ``rest_margin``: shapes that touch at
   rest by design, like neighbours across a joint, are not counted).
 - ``limit_violation_frac``: fraction of frames with any 1-DoF coordinate outside its limits.
-- ``tracking_error``: mean relative error of the root's planar velocity (central differences, in
-  the heading frame) against the commanded target, over frames where the command has settled:
+- ``tracking_error``: mean relative error of the root's planar velocity
+  (:func:`~morphkit.motion.heading.heading_velocity`: backward differences in the heading frame; on a
+  turn the chord lags the heading by half a frame's turn, ``w / (2 fps)`` of the speed) against the
+  commanded target, over frames where the command has settled:
   $\\lVert v - v^* \\rVert / \\max(\\lVert v^* \\rVert, v_{floor})$ (``None`` without commands or a moving base).
 
 Extra keys: ``yaw_rate_error`` (same for the yaw rate, floor 0.1 rad/s), ``foot_sliding_p95_cm_s``,
