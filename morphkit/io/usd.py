@@ -99,7 +99,7 @@ from morphkit.io._source import relative_mesh_path, resolve_mesh_path
 from morphkit.io.anatomy import complete_anatomy
 from morphkit.rotations import quat_between_vectors
 
-__all__ = ["USD_SUFFIXES", "load_usd_mesh", "read_usd", "write_usd"]
+__all__ = ["USD_SUFFIXES", "build_stage", "export_stage", "load_usd_mesh", "read_usd", "write_usd"]
 
 USD_SUFFIXES = (".usd", ".usda", ".usdc")
 """File suffixes of USD layers morphkit reads and writes."""
@@ -240,7 +240,7 @@ def _axis_frame(axis: tuple[float, float, float]) -> tuple[str, np.ndarray]:
     return "X", quat_between_vectors(_AXIS_TOKENS["X"], a / np.linalg.norm(a))
 
 
-def _build_stage(m: Morphology, target: str | None = None) -> Any:
+def build_stage(m: Morphology, target: str | None = None) -> Any:
     """Build the in-memory ``Usd.Stage`` of ``m`` (what :func:`write_usd` exports).
 
     Args:
@@ -354,17 +354,26 @@ def write_usd(m: Morphology, path: str | os.PathLike[str]) -> None:
             f"not a USD file suffix {suffix or '(none)'!r}; expected one of: {', '.join(USD_SUFFIXES)}",
             location=SourceLocation(target),
         )
+    export_stage(build_stage(m, target), target)
+
+
+def export_stage(stage: Any, path: str | os.PathLike[str]) -> None:
+    """Export ``stage``'s root layer to ``path`` atomically (the suffix picks text or crate).
+
+    Raises:
+        DescriptionError: USD could not write the file (a full disk, say): one line with pxr's reasons,
+            each once; nothing is left at ``path``.
+    """
     from pxr import Tf
 
-    stage = _build_stage(m, target)
+    target = os.fspath(path)
     # The temporary file keeps the suffix, so Sdf picks the same file format (text or crate).
     with atomic_path(target) as tmp:
         try:
             ok = stage.GetRootLayer().Export(str(tmp))
         except Tf.ErrorException as exc:
-            raise DescriptionError(
-                f"USD could not write the file: {_pxr_message(exc)}", location=SourceLocation(target)
-            ) from None
+            detail = _pxr_message(exc, most=2).replace(str(tmp), target)
+            raise DescriptionError(f"USD could not write the file: {detail}", location=SourceLocation(target)) from None
         if not ok:
             raise DescriptionError("USD could not write the file", location=SourceLocation(target))
 
@@ -372,11 +381,13 @@ def write_usd(m: Morphology, path: str | os.PathLike[str]) -> None:
 # ---------------------------------------------------------------------------------------------
 # reading
 # ---------------------------------------------------------------------------------------------
-def _pxr_message(exc: BaseException) -> str:
-    """The useful part of a pxr error: the quoted messages without C++ names and source lines."""
+def _pxr_message(exc: BaseException, most: int | None = None) -> str:
+    """The useful part of a pxr error: the quoted messages (each once, the first ``most``) without C++
+    names and source lines."""
     text = str(exc)
-    quoted = re.findall(r" : '(.*?)'(?=\n|$)", text, flags=re.S)
-    msg = "; ".join(q.strip() for q in quoted) if quoted else text.strip()
+    # A failed write posts one error per buffer flush (thousands on a full disk): each message once.
+    quoted = list(dict.fromkeys(q.strip() for q in re.findall(r" : '(.*?)'(?=\n|$)", text, flags=re.S)))
+    msg = "; ".join(quoted[:most]) if quoted else text.strip()
     return re.sub(r"pxrInternal_v\w+::", "", msg)
 
 

@@ -35,7 +35,6 @@ from typing import Any
 
 import numpy as np
 
-from morphkit._atomic import atomic_path
 from morphkit.conventions import quat_conjugate, quat_multiply, quat_rotate
 from morphkit.errors import MotionFormatError, SourceLocation
 from morphkit.graph import BaseType, JointType, Morphology
@@ -81,41 +80,40 @@ def write_usd_motion(motion: Motion, path: str | os.PathLike[str], *, skeleton: 
         MotionFormatError: the suffix is not ``.usd``, ``.usda`` or ``.usdc``.
         DescriptionError: USD could not write the file.
     """
-    from pxr import Gf, Sdf, Usd, UsdGeom, Vt
+    from pxr import Gf, Sdf, UsdGeom, Vt
 
-    from morphkit.io.usd import write_usd
+    from morphkit.io.usd import build_stage, export_stage
 
     target = os.fspath(path)
     _check_suffix(target)
     m = motion.morphology
     poses = motion.link_poses()  # [T, L, 7]
-    with atomic_path(target) as tmp:
-        write_usd(m, tmp)
-        stage = Usd.Stage.Open(str(tmp))
-        robot = stage.GetDefaultPrim()
-        stage.SetStartTimeCode(0)
-        stage.SetEndTimeCode(max(motion.frame_count - 1, 0))
-        stage.SetTimeCodesPerSecond(motion.fps)
-        stage.SetFramesPerSecond(motion.fps)
-        prims = _link_prims(stage, robot, m)
-        for link, prim in enumerate(prims):
-            ops = {op.GetOpType(): op for op in UsdGeom.Xformable(prim).GetOrderedXformOps()}
-            translate = ops[UsdGeom.XformOp.TypeTranslate].GetAttr()
-            orient = ops[UsdGeom.XformOp.TypeOrient].GetAttr()
-            for t in range(motion.frame_count):
-                p = poses[t, link]
-                translate.Set(Gf.Vec3d(float(p[0]), float(p[1]), float(p[2])), t)
-                orient.Set(Gf.Quatd(float(p[6]), float(p[3]), float(p[4]), float(p[5])), t)
-        q_attr = robot.CreateAttribute("morphkit:motion:q", Sdf.ValueTypeNames.DoubleArray, custom=True)
+    # Built in memory and exported once: a failed write (a full disk) is one error and leaves no file.
+    stage = build_stage(m, target)
+    robot = stage.GetDefaultPrim()
+    stage.SetStartTimeCode(0)
+    stage.SetEndTimeCode(max(motion.frame_count - 1, 0))
+    stage.SetTimeCodesPerSecond(motion.fps)
+    stage.SetFramesPerSecond(motion.fps)
+    prims = _link_prims(stage, robot, m)
+    for link, prim in enumerate(prims):
+        ops = {op.GetOpType(): op for op in UsdGeom.Xformable(prim).GetOrderedXformOps()}
+        translate = ops[UsdGeom.XformOp.TypeTranslate].GetAttr()
+        orient = ops[UsdGeom.XformOp.TypeOrient].GetAttr()
         for t in range(motion.frame_count):
-            q_attr.Set(Vt.DoubleArray([float(v) for v in motion.q[t]]), t)
-        robot.CreateAttribute("morphkit:motion:coordinateNames", Sdf.ValueTypeNames.StringArray, custom=True).Set(
-            list(m.coordinate_names)
-        )
-        robot.CreateAttribute("morphkit:motion:name", Sdf.ValueTypeNames.String, custom=True).Set(motion.name)
-        if skeleton:
-            _write_skel(stage, robot, motion, poses)
-        stage.GetRootLayer().Save()
+            p = poses[t, link]
+            translate.Set(Gf.Vec3d(float(p[0]), float(p[1]), float(p[2])), t)
+            orient.Set(Gf.Quatd(float(p[6]), float(p[3]), float(p[4]), float(p[5])), t)
+    q_attr = robot.CreateAttribute("morphkit:motion:q", Sdf.ValueTypeNames.DoubleArray, custom=True)
+    for t in range(motion.frame_count):
+        q_attr.Set(Vt.DoubleArray([float(v) for v in motion.q[t]]), t)
+    robot.CreateAttribute("morphkit:motion:coordinateNames", Sdf.ValueTypeNames.StringArray, custom=True).Set(
+        list(m.coordinate_names)
+    )
+    robot.CreateAttribute("morphkit:motion:name", Sdf.ValueTypeNames.String, custom=True).Set(motion.name)
+    if skeleton:
+        _write_skel(stage, robot, motion, poses)
+    export_stage(stage, target)
 
 
 def _joint_paths(m: Morphology) -> list[str]:

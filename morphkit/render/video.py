@@ -2,7 +2,12 @@
 
 from __future__ import annotations
 
+import contextlib
+import errno
+import itertools
 import os
+import re
+import signal
 import sys
 from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
@@ -81,8 +86,8 @@ def write_frames(
 
     ``.gif`` always works (Pillow; identical consecutive frames are merged into one, their
     durations added, so a still clip plays as long but holds fewer frames);
-    ``.mp4``/``.mov``/``.mkv``/``.webm``/``.avi`` need ffmpeg (``pip install imageio-ffmpeg``)
-    and stream frames to it; ``.png`` writes a still for one
+    ``.mp4``/``.mov``/``.mkv``/``.avi`` (H.264) and ``.webm`` (VP9) need ffmpeg (``pip install
+    imageio-ffmpeg``) and stream frames to it; ``.png`` writes a still for one
     frame and a contact sheet of up to 12 evenly spaced frames (captioned with ``labels``, one per
     frame, when given) for several.
 
@@ -94,7 +99,8 @@ def write_frames(
 
     Raises:
         ConfigError: Unknown suffix, no ffmpeg for a video suffix, or no frames.
-        OSError: ``out`` cannot be written (checked before the first frame is drawn).
+        OSError: ``out`` cannot be written (checked before the first frame is drawn), or writing failed
+            (a full disk, an encoder error): nothing is left at ``out``.
     """
     path = Path(out)
     suffix = path.suffix.lower()
@@ -112,39 +118,92 @@ def write_frames(
         sheet_labels = [labels[i] for i in idx] if labels is not None else None
         return write_image(contact_sheet([kept[i] for i in idx], labels=sheet_labels), path)
 
-    import imageio.v2 as imageio
-
-    count = 0
     with atomic_path(path) as tmp:
         if suffix == ".gif":
-            # Pillow's GIF writer takes a whole clip; GIF clips are short by nature.
-            kept = [np.asarray(f) for f in frames]
-            if not kept:
-                raise ConfigError(f"cannot write {path}: no frames")
-            import imageio.v3 as iio
-
-            iio.imwrite(tmp, np.stack(kept), extension=".gif", duration=1000.0 / fps, loop=0)
-            count = len(kept)
+            _write_gif(frames, tmp, path, fps=fps)
         else:
-            writer = imageio.get_writer(
-                tmp,
-                format="FFMPEG",
-                mode="I",
-                fps=fps,
-                codec="libx264",
-                pixelformat="yuv420p",
-                macro_block_size=1,
-                quality=8,
-            )
-            try:
-                for f in frames:
-                    writer.append_data(_even(np.asarray(f)))
-                    count += 1
-            finally:
-                writer.close()
-            if count == 0:
-                raise ConfigError(f"cannot write {path}: no frames")
+            _write_video(frames, tmp, path, fps=fps)
     return path
+
+
+def _write_gif(frames: Iterable[np.ndarray], tmp: Path, path: Path, *, fps: float) -> None:
+    """Write an animated GIF with Pillow (a failed write raises at once; imageio's plugin would retry
+    it from a destructor and print a second traceback)."""
+    from PIL import Image
+
+    # Pillow's GIF writer takes a whole clip; GIF clips are short by nature.
+    images = [Image.fromarray(np.ascontiguousarray(f, dtype=np.uint8)) for f in frames]
+    if not images:
+        raise ConfigError(f"cannot write {path}: no frames")
+    images[0].save(tmp, format="GIF", save_all=True, append_images=images[1:], duration=1000.0 / fps, loop=0)
+
+
+_CODECS = {".webm": ["-c:v", "libvpx-vp9", "-crf", "20", "-b:v", "0", "-row-mt", "1", "-cpu-used", "5"]}
+"""ffmpeg encoder options by suffix (WebM holds only VP8/VP9/AV1); every other video is H.264."""
+_H264 = ["-c:v", "libx264", "-crf", "10"]
+
+
+def _write_video(frames: Iterable[np.ndarray], tmp: Path, path: Path, *, fps: float) -> None:
+    """Stream frames to ffmpeg (imageio-ffmpeg's binary) writing ``tmp``; raise unless it succeeded.
+
+    imageio's writer ignores ffmpeg's exit status, so a video whose trailer could not be written (a
+    full disk) read as written; here any failure is an ``OSError`` naming ``path`` with ffmpeg's reason.
+    """
+    import subprocess
+    import threading
+    from fractions import Fraction
+
+    import imageio_ffmpeg
+
+    it = iter(frames)
+    first = next(it, None)
+    if first is None:
+        raise ConfigError(f"cannot write {path}: no frames")
+    shape = _even(np.asarray(first)).shape
+    cmd = [
+        imageio_ffmpeg.get_ffmpeg_exe(), "-y", "-hide_banner", "-loglevel", "error",
+        "-f", "rawvideo", "-pix_fmt", "rgb24", "-s", f"{shape[1]}x{shape[0]}",
+        "-r", str(Fraction(fps).limit_denominator(1001)), "-i", "-", "-an",
+        *_CODECS.get(path.suffix.lower(), _H264), "-pix_fmt", "yuv420p", os.fspath(tmp),
+    ]
+    proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    log: list[bytes] = []
+    # ffmpeg's messages are drained on a thread: a full stderr pipe would stall it while we write frames.
+    reader = threading.Thread(target=lambda: log.append(proc.stderr.read()), daemon=True)  # type: ignore[union-attr]
+    reader.start()
+    try:
+        try:
+            for frame in itertools.chain([first], it):
+                f = _even(np.ascontiguousarray(frame, dtype=np.uint8))
+                if f.shape != shape:
+                    raise ConfigError(f"cannot write {path}: frames of sizes {shape} and {f.shape}")
+                proc.stdin.write(f.tobytes())  # type: ignore[union-attr]
+        except BrokenPipeError:
+            pass  # ffmpeg quit early: its exit status and messages below say why
+        finally:
+            with contextlib.suppress(BrokenPipeError):
+                proc.stdin.close()  # type: ignore[union-attr]
+        code = proc.wait()
+    except BaseException:
+        proc.kill()
+        proc.wait()
+        raise
+    finally:
+        reader.join()
+    if code != 0:
+        reason = _ffmpeg_reason(b"".join(log), code).replace(os.fspath(tmp), os.fspath(path))
+        raise OSError(errno.EIO, f"ffmpeg could not write the video: {reason}", os.fspath(path))
+
+
+def _ffmpeg_reason(log: bytes, code: int) -> str:
+    """ffmpeg's first error line, without its ``[muxer @ 0x...]`` prefix (else its signal or exit status)."""
+    for line in log.decode(errors="replace").splitlines():
+        line = re.sub(r"^\s*(\[[^]]*\]\s*)+", "", line).strip()
+        if line and not line.startswith("Last message repeated"):
+            return line[:200]
+    if code < 0:  # killed by a signal: SIGXFSZ where a file-size limit stands in for a full disk
+        return signal.strsignal(-code) or f"signal {-code}"
+    return f"exit status {code}"
 
 
 def check_output(out: str | os.PathLike[str]) -> None:
