@@ -128,7 +128,7 @@ def _xml_files(path: Path) -> list[Path]:
     """The model file and every file it includes (recursively, once each), for locating errors."""
     out: list[Path] = []
     todo = [path]
-    base = path.parent
+    base = path.resolve().parent  # MuJoCo reads includes beside the real file (read through a link too)
     while todo:
         p = todo.pop(0)
         if p in out or not p.is_file():
@@ -203,19 +203,20 @@ def _find(raw: str, files: list[Path], line: int, tag: str | None) -> SourceLoca
     return None
 
 
-def _compile(path: Path) -> Any:
+def _compile(path: Path, shown: Path) -> Any:
+    """Compile ``path`` (the real, absolute file); messages name ``shown``, the path as the user gave it."""
     import mujoco
 
     # Includes and asset files inside the model's folder or package (morphkit.io.asset_paths), before MuJoCo
     # reads them; meshes outside are left out as missing ones are.
-    if check_mjcf_files(path) and (model := _compile_without_missing_assets(path)) is not None:
+    if check_mjcf_files(shown) and (model := _compile_without_missing_assets(path, shown)) is not None:
         return model
     try:
         return mujoco.MjModel.from_xml_path(str(path))
     except ValueError as exc:
-        model = _compile_without_missing_assets(path) if "Error opening file" in str(exc) else None
+        model = _compile_without_missing_assets(path, shown) if "Error opening file" in str(exc) else None
         if model is None:
-            raise _compiler_error(exc, path) from None
+            raise _compiler_error(exc, shown) from None
         return model
 
 
@@ -225,7 +226,7 @@ left out (``<compiler boundmass boundinertia>``): MuJoCo refuses a moving body w
 read here do not use masses."""
 
 
-def _compile_without_missing_assets(path: Path) -> Any:
+def _compile_without_missing_assets(path: Path, shown: Path) -> Any:
     """The model without what its missing asset files would give (one warning each kind), or None where none is
     missing: the geoms of missing meshes left out, missing textures drawn flat.
 
@@ -264,7 +265,7 @@ def _compile_without_missing_assets(path: Path) -> Any:
         spec.compiler.boundmass = max(spec.compiler.boundmass, MASSLESS_BOUND[0])
         spec.compiler.boundinertia = max(spec.compiler.boundinertia, MASSLESS_BOUND[1])
         warnings.warn(
-            f"{path}: {len(missing)} mesh file(s) not found (first: {missing[0].file}); reading without their "
+            f"{shown}: {len(missing)} mesh file(s) not found (first: {missing[0].file}); reading without their "
             f"{len(geoms)} geom(s) — primitive shapes stay, so kinematics and contacts hold; renders lose those "
             "meshes", stacklevel=4)
     for t, _ in textures:  # a material keeps its texture, drawn in one colour
@@ -272,12 +273,12 @@ def _compile_without_missing_assets(path: Path) -> Any:
         t.builtin = mujoco.mjtBuiltin.mjBUILTIN_FLAT
         t.width, t.height = t.width or 8, t.height or 8
     if textures:
-        warnings.warn(f"{path}: {len(textures)} texture file(s) not found (first: {textures[0][1]}); drawn flat",
+        warnings.warn(f"{shown}: {len(textures)} texture file(s) not found (first: {textures[0][1]}); drawn flat",
                       stacklevel=4)
     try:
         return spec.compile()
     except ValueError as exc:
-        raise _compiler_error(exc, path) from None
+        raise _compiler_error(exc, shown) from None
 
 
 # ---------------------------------------------------------------------------------------------
@@ -505,14 +506,30 @@ class _Builder:
             center = transform_multiply(T, _translation(0.5 * (lo + hi)))
             size = tuple(float(max(s, 1e-6)) for s in hi - lo)
             return Shape(ShapeType.BOX, _transform(center), size=size)  # type: ignore[arg-type]
-        rel = m.paths[adr:].split(b"\0", 1)[0].decode()
-        base = Path(self.source).resolve().parent if self.source else Path.cwd()
-        path = os.path.normpath(rel if os.path.isabs(rel) else base / rel)
+        path = self._mesh_file(m.paths[adr:].split(b"\0", 1)[0].decode())
         # MuJoCo moved the scaled file vertices into the mesh's inertial frame (mesh_pos, mesh_quat) and
         # compensated in the geom pose; undo it so that the file's own vertices land where MuJoCo draws them.
         T = transform_multiply(T, transform_inverse(_pose(m.mesh_pos[mesh], m.mesh_quat[mesh])))
         scale = tuple(float(v) for v in m.mesh_scale[mesh])
         return Shape(ShapeType.MESH, _transform(T), mesh=path, scale=scale)  # type: ignore[arg-type]
+
+    def _mesh_file(self, stored: str) -> str:
+        """The absolute path of a mesh file as MuJoCo stored it, warning when it is not there.
+
+        MuJoCo stores a mesh's path joined to the folder of the path it compiled (``mujoco_model`` compiles the
+        real absolute path, so these are absolute); a model compiled elsewhere from a relative path stores
+        one relative to the working folder of that time, tried before the description's folder.
+        """
+        if os.path.isabs(stored):
+            candidates = [stored]
+        else:
+            base = Path(self.source).resolve().parent if self.source else Path.cwd()
+            candidates = [os.path.abspath(stored), os.fspath(base / stored)]
+        found = next((c for c in candidates if os.path.isfile(c)), None)
+        if found is None:
+            where = f"{self.loc}: " if self.loc is not None else ""
+            warnings.warn(f"{where}mesh file not found: {os.path.normpath(candidates[-1])}", stacklevel=2)
+        return os.path.normpath(found or candidates[-1])
 
     # -- mimic joints
     def _mimics(self, bodies: set[int]) -> dict[int, Mimic]:
@@ -700,7 +717,10 @@ def mujoco_model(path: str | os.PathLike[str]) -> Any:
         raise DescriptionError(
             "reading MJCF needs MuJoCo: pip install 'morphkit[mujoco]'", location=SourceLocation(str(path))
         ) from None
-    return _compile(p)
+    # MuJoCo keeps asset paths joined to the folder of the path it is given: compiled from the real, absolute
+    # path, a model read by a relative path or through a symbolic link finds the same files and stores them
+    # absolute (the mesh paths of its shapes), as the asset roots (resolved) and the other readers do.
+    return _compile(p.resolve(), shown=p)
 
 
 def read_mjcf(path: str | os.PathLike[str]) -> Morphology:
