@@ -12,6 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 from typing import Any, ClassVar
 
+from morphkit.contact_rules import PRIOR_PLANTED_STEP
 from morphkit.retarget.training_data import DataConfig
 
 __all__ = ["PRESETS", "AceConfig", "DataConfig", "PriorConfig", "RetargetConfig", "preset"]
@@ -48,8 +49,9 @@ class PriorConfig:
     data's [body lengths²]. Ours (0: the paper's prior; docs/experiments/prior-foot-term.md)."""
     foot_planted_boost: float = 10.0
     """Extra weight of the foot term's step error where the data's foot is planted (ours, as motion diffusion)."""
-    planted_step: float = 0.002
-    """A data foot is planted over a transition when its ground step is below this [m] and below 2 cm height."""
+    planted_step: float = PRIOR_PLANTED_STEP
+    """A data foot is planted over a transition when its ground step is below this [m] and it is below the contact
+    rule's ``prior planted`` height (:data:`~morphkit.contact_rules.PRIOR_PLANTED`: 2 mm, 2 cm)."""
     rollout: int = 8
     """Steps of a scheduled-sampling rollout (MotionVAE: 8)."""
     teacher_fraction: float = 0.15

@@ -17,6 +17,7 @@ import torch
 from torch.nn import functional as F
 
 import morphkit.torch as mt
+from morphkit.contact_rules import PRIOR_PLANTED, PRIOR_PLANTED_STEP
 from morphkit.errors import ConfigError
 from morphkit.graph import Morphology
 from morphkit.metrics import feature_loss
@@ -82,7 +83,8 @@ def prior_loss(model: torch.nn.Module, windows: torch.Tensor, p_own: float, gene
 
 def prior_foot_term(fmap: FeatureMap, feet: Sequence[int], prev: torch.Tensor, pred: torch.Tensor,
                     prev_data: torch.Tensor, data: torch.Tensor, *, planted_boost: float = 0.0,
-                    planted_step: float = 0.002, contact_height: float = 0.02) -> torch.Tensor:
+                    planted_step: float = PRIOR_PLANTED_STEP,
+                    contact_height: float = PRIOR_PLANTED.height) -> torch.Tensor:
     """Beyond the paper: the prior's foot term (``PriorConfig.foot_weight``), in squared body lengths.
 
     For each transition ``prev`` → ``pred`` (normalised states [..., Sr]; ``pred`` = π's output) the

@@ -32,6 +32,7 @@ import numpy as np
 import torch
 
 import morphkit.torch as mt
+from morphkit.contact_rules import UFR
 from morphkit.graph import EndEffectorRole, Morphology
 from morphkit.model import compile_model
 from morphkit.motion import Motion
@@ -106,7 +107,7 @@ def end_effector_error(source: Motion, retargeted: Motion) -> float:
     return float(np.linalg.norm(got - ref, axis=-1).mean() / retargeted.morphology.characteristic_length)
 
 
-def contact_metrics(motion: Motion, *, height_threshold: float = 0.02) -> dict[str, float]:
+def contact_metrics(motion: Motion, *, height_threshold: float = UFR.height) -> dict[str, float]:
     """``sliding`` [m/s] (mean over foot-frames in contact), ``penetration`` [m] and ``float`` [m] of a motion."""
     feet = [i for i, e in enumerate(motion.morphology.end_effectors) if e.role == EndEffectorRole.FOOT]
     if not feet:
