@@ -16,7 +16,8 @@ def test_synth_writes_a_folder_and_reports_json(tmp_path, capsys):
     report = json.loads(capsys.readouterr().out)
     assert list(report)[: len(REPORT_KEYS)] == list(REPORT_KEYS)
     assert report["frames"] == 120
-    assert sorted(p.name for p in out.iterdir()) == ["crab_synth_1_0000.npz", "crab_synth_1_0001.npz", "manifest.json"]
+    assert sorted(p.name for p in out.iterdir()) == [".lock", "crab_synth_1_0000.npz", "crab_synth_1_0001.npz",
+                                                     "manifest.json"]  # .lock: the folder's one-writer lock
     assert report["files"] == [str(out / "crab_synth_1_0000.npz"), str(out / "crab_synth_1_0001.npz")]
 
 
