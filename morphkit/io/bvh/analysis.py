@@ -14,27 +14,18 @@ from typing import Any
 
 import numpy as np
 
+from morphkit.body.roles import BVH_ROLE_WORDS, BVH_WEAK_ROLE_WORDS, keyword_role
 from morphkit.graph import EndEffectorRole
 from morphkit.io.bvh.file import BvhFile, bvh_joint_positions, joint_frames, rest_positions
 
 __all__ = ["ROLE_KEYWORDS", "PlannedEndEffector", "detect_bvh_facing", "detect_bvh_up", "keyword_role",
            "plan_end_effectors"]
 
-ROLE_KEYWORDS = (
-    (
-        EndEffectorRole.HAND,
-        ("hand", "wrist", "finger", "thumb", "index", "middle", "mid", "ring", "pinky", "palm", "claw"),
-    ),
-    (EndEffectorRole.FOOT, ("foot", "toe", "ankle", "heel", "paw", "hoof")),
-    (EndEffectorRole.HEAD, ("head",)),
-)
-"""Keywords (matched in lower-cased joint names) that give an end-effector its role."""
-_WEAK = (
-    (EndEffectorRole.HAND, ("arm",)),
-    (EndEffectorRole.FOOT, ("leg",)),
-    (EndEffectorRole.HEAD, ("neck",)),
-)
-"""Fallback keywords, used only when no joint on the path to the root has a strong keyword."""
+ROLE_KEYWORDS = BVH_ROLE_WORDS
+"""Keywords (matched in lower-cased joint names) that give an end-effector its role: the strong words of the one
+keyword table (:data:`morphkit.body.roles.PART_WORDS`)."""
+_WEAK = BVH_WEAK_ROLE_WORDS
+"""Fallback keywords (the table's weak words), used only when no joint on the path to the root has a strong one."""
 
 _FRONT_PAW_FRACTION = 0.35
 """A leg-long "hand" whose median height above the feet is below this fraction of the hips' is a paw."""
@@ -55,15 +46,6 @@ class PlannedEndEffector:
     line: int | None
     column: int
     """Its point's index in :func:`bvh_joint_positions`' second axis."""
-
-
-def keyword_role(name: str, table: tuple[tuple[EndEffectorRole, tuple[str, ...]], ...]) -> EndEffectorRole | None:
-    """The role of the first row of ``table`` (e.g. :data:`ROLE_KEYWORDS`) one of whose keywords ``name`` holds."""
-    low = name.lower()
-    for role, words in table:
-        if any(w in low for w in words):
-            return role
-    return None
 
 
 _analyses: weakref.WeakKeyDictionary[BvhFile, dict[tuple[str, bool], Any]] = weakref.WeakKeyDictionary()
