@@ -68,6 +68,11 @@ def run(args: argparse.Namespace) -> int:
         from morphkit.motion import is_motion_file, read_motion, write_motion
 
         if is_motion_file(src):
+            if Path(src).suffix.lower() == ".bvh" and out_suffix in (".usd", ".usda", ".usdc"):
+                from morphkit.io.bvh.memory import USD_BYTES_PER_VALUE, check_bvh_memory
+
+                # pxr holds every time sample as its own value: the clip must fit that, checked before reading.
+                check_bvh_memory(src, bytes_per_value=USD_BYTES_PER_VALUE)
             motion = read_motion(src, **_rates(args))
             write_motion(motion, args.output)
             print(f"wrote {args.output} ({motion.morphology.name}: {len(motion.q)} frames at {motion.fps:g} fps)")

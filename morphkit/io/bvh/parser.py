@@ -16,6 +16,7 @@ import numpy as np
 from morphkit.errors import DescriptionError, MotionFormatError, SourceLocation
 from morphkit.io._source import read_text
 from morphkit.io.bvh.file import BVH_CHANNEL_NAMES, BvhEndSite, BvhFile
+from morphkit.io.bvh.memory import check_bvh_memory
 
 __all__ = ["parse_bvh", "read_bvh"]
 
@@ -465,6 +466,8 @@ def read_bvh(path: str | os.PathLike[str]) -> BvhFile:
 
     Raises:
         DescriptionError: the file is missing, unreadable, not UTF-8, or has a bad hierarchy.
-        MotionFormatError: the MOTION section is malformed.
+        MotionFormatError: the MOTION section is malformed, or the clip would not fit in memory
+            (:func:`~morphkit.io.bvh.memory.check_bvh_memory`, checked before its frames are read).
     """
+    check_bvh_memory(path)
     return parse_bvh(read_text(path, what="BVH"), source=os.fspath(path))

@@ -4,10 +4,11 @@ text that :func:`~morphkit.io.bvh.parser.parse_bvh` reads to the same file."""
 from __future__ import annotations
 
 import os
+from collections.abc import Iterator
 
 import numpy as np
 
-from morphkit._atomic import atomic_write_text
+from morphkit._atomic import atomic_path
 from morphkit.io.bvh.file import BvhEndSite, BvhFile
 
 __all__ = ["dump_bvh", "write_bvh"]
@@ -18,12 +19,22 @@ def _fmt(v: float) -> str:
     return repr(float(v))
 
 
+FRAMES_PER_CHUNK = 1024
+"""Frame lines formatted at a time: NumPy's text of a value takes ~8× its float64, so a whole clip at once
+took ~16× the file's size."""
+
+
 def dump_bvh(bvh: BvhFile) -> str:
     """BVH text of ``bvh`` (tab-indented hierarchy, one line per frame, 10 significant digits).
 
     ``parse_bvh(dump_bvh(b))`` reproduces ``b``'s tree exactly and its numbers to about 1e-9
     relative.
     """
+    return "".join(_chunks(bvh))
+
+
+def _chunks(bvh: BvhFile) -> Iterator[str]:
+    """The text of ``bvh``: the header, then frame lines :data:`FRAMES_PER_CHUNK` at a time."""
     out: list[str] = ["HIERARCHY"]
     children: dict[int, list[int]] = {i: [] for i in range(-1, bvh.joint_count)}
     for i, p in enumerate(bvh.joint_parents):
@@ -56,12 +67,13 @@ def dump_bvh(bvh: BvhFile) -> str:
     out.append("MOTION")
     out.append(f"Frames: {bvh.frame_count}")
     out.append(f"Frame Time: {_fmt(bvh.frame_time)}")
-    if bvh.frame_count:
-        rows = np.char.mod("%.10g", bvh.motion)
-        out.extend(" ".join(r) for r in rows)
-    return "\n".join(out) + "\n"
+    yield "\n".join(out) + "\n"
+    for start in range(0, bvh.frame_count, FRAMES_PER_CHUNK):
+        rows = np.char.mod("%.10g", bvh.motion[start : start + FRAMES_PER_CHUNK])
+        yield "".join(" ".join(r) + "\n" for r in rows)
 
 
 def write_bvh(bvh: BvhFile, path: str | os.PathLike[str]) -> None:
-    """Write ``bvh`` to ``path`` atomically (see :func:`dump_bvh`)."""
-    atomic_write_text(path, dump_bvh(bvh))
+    """Write ``bvh`` to ``path`` atomically (see :func:`dump_bvh`), streaming the frames."""
+    with atomic_path(path) as tmp, open(tmp, "w", encoding="utf-8", newline="\n") as f:
+        f.writelines(_chunks(bvh))
