@@ -26,7 +26,7 @@ __all__ = [
 ]
 
 MAX_BVH_MEMORY = 16 << 30
-"""Most bytes [16 GiB] reading and converting one BVH clip may take, whatever the machine has free: about
+"""Most bytes (16 GiB) reading and converting one BVH clip may take, whatever the machine has free: about
 134 million values (a 70-channel clip of 1.9 million frames, 4.4 h at 120 fps, near the most frames a motion
 may be resampled to; a file of ~1.3 GB)."""
 TEXT_COPIES = 4
