@@ -39,7 +39,7 @@ def main(argv: list[str] | None = None) -> int:
     from morphkit.retarget.nkn import preset
     from morphkit.retarget.nkn import train as T
     from morphkit.retarget.nkn.networks import build_networks
-    from morphkit.retarget.run import Run
+    from morphkit.retarget.training_run import Run
 
     torch.set_num_threads(args.threads)
     rows = []

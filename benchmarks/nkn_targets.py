@@ -7,7 +7,7 @@ Two tables, on a run trained over CMU's 22 joints (``examples/nkn_train.py --hum
    follow the source's (mean Pearson correlation, :func:`morphkit.metrics.pearson_follow`, over the
    end-effectors the source moves by more than 1 cm, see :data:`STILL`); PhysDiff's
    Float and Penetrate (median over clips, mm) and GMD's skating ratio — raw and through the
-   contact-aware export ``lock`` (:func:`morphkit.synth.lock_feet`).
+   contact-aware export ``lock`` (:func:`morphkit.contact_export.lock_feet`).
 2. **A paired truth** (the paper's Mixamo protocol, §5): five CMU trials exist in both ``human/cmu``
    (22 joints, 30 fps) and ``human/cmu_daz`` (43 joints, 120 fps), the same performance. The Daz clip is
    re-expressed on the 22 joints with its own bone lengths (``cmu_daz43`` onto the canonical human, then
@@ -78,12 +78,12 @@ def _follow(source, motion) -> float:
 
 def variant_table(model, data: Path, clips: int, plots: str | None) -> str:
     """Table 1 of the module docstring (markdown)."""
+    from morphkit.contact_export import lock_feet
     from morphkit.metrics import physdiff_figures, skating_ratio
     from morphkit.retarget.nkn.data import evaluation_pieces
     from morphkit.retarget.nkn.evaluate import plot_end_effector_heights
     from morphkit.retarget.nkn.retarget import copy_rotations
     from morphkit.retarget.nkn.skeleton import EVALUATION_VARIANTS, scale_limbs
-    from morphkit.synth import lock_feet
 
     pieces = evaluation_pieces(data / "human" / "cmu", model.config.data, limit=clips)
     rows = ["| target | method | finite | EE-height follow ↑ | Float mm (median) ↓ | Penetrate mm (median) ↓ | "
@@ -145,10 +145,10 @@ def _align(source, truth):
 
 def paired_table(model, data: Path) -> str:
     """Table 2 of the module docstring (markdown)."""
+    from morphkit.contact_export import lock_feet
     from morphkit.motion import read_motion
     from morphkit.retarget.nkn.retarget import copy_rotations
     from morphkit.retarget.nkn.skeleton import GROUPS, limb_groups
-    from morphkit.synth import lock_feet
 
     rows = ["| trial | method | " + " | ".join(f"{g} world ↓" for g in GROUPS) + " | all world ↓ | "
             "all root-relative ↓ |", "|---|---|" + "---|" * (len(GROUPS) + 2)]

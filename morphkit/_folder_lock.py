@@ -6,7 +6,7 @@ it; a second process asking for the folder is refused at once with :class:`~morp
 holder. The kernel drops the lock when its process exits, however it exits (a crash, ``kill -9``), so no stale
 lock is ever left to clear by hand. Within one process the lock is re-entrant, and a folder inside a held one
 (an ACE stage inside its run) counts as held: a train command holds its run for its whole length, the
-:class:`~morphkit.retarget.run.Run` of each stage nests inside.
+:class:`~morphkit.retarget.training_run.Run` of each stage nests inside.
 
 ``fcntl`` is used directly rather than ``filelock``: filelock truncates the lock file before it has the lock,
 which would erase the holder's name that a refused writer reports.

@@ -30,7 +30,7 @@ def test_a_config_key_written_twice_is_refused_at_the_second(tmp_path: Path):
 
 
 def test_run_metadata_names_the_line_of_its_malformed_yaml(tmp_path: Path):
-    from morphkit.retarget.run import stage_trainer
+    from morphkit.retarget.training_run import stage_trainer
 
     (tmp_path / "run.yaml").write_text("trainer: ace\ncreature: [dog\n")
     with pytest.raises(RunError, match="cannot read the run identity: malformed YAML") as err:

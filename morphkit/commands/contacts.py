@@ -37,10 +37,10 @@ def _self_collision(motion) -> float:
 def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
+    from morphkit.contact_export import apply_contacts
     from morphkit.errors import ConfigError
     from morphkit.metrics import foot_contact_figures
     from morphkit.motion import read_motion, write_motion_files
-    from morphkit.synth import apply_contacts
 
     if Path(args.out).resolve() == Path(args.motion).resolve():
         raise ConfigError(f"OUT is IN ({args.out}): write the export to another file, the input is kept")

@@ -28,7 +28,7 @@ from morphkit.graph import Morphology
 from morphkit.metrics import UnrealisticFrames, unrealistic_frame_ratio
 from morphkit.motion import Motion, Pairing, body_length, ee_distributions, map_end_effectors
 from morphkit.retarget.retargeter import RetargetedClip, Retargeter, contact_export
-from morphkit.retarget.runs import load
+from morphkit.retarget.run_loader import load
 from morphkit.retarget.training_data import (
     DataConfig,
     character_motions,
@@ -166,7 +166,7 @@ def evaluate_methods(
         reference: :func:`reference_for` of the methods.
         keep: Keep the retargeted motions of the first ``keep`` clips (for videos).
         seed: Seed of DIV's random subsets (the same for every row).
-        contacts: Contact-aware exports (:data:`morphkit.synth.CONTACT_MODES` other than ``none``) whose
+        contacts: Contact-aware exports (:data:`morphkit.contact_export.CONTACT_MODES` other than ``none``) whose
             rows join ACE's and NKN's (named ``ACE+replan``, ...): the same motions through the export.
         device: Torch device of the retargeters.
         log: Where progress lines go.

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from morphkit.errors import RunError, SourceLocation
-from morphkit.retarget.runs import trained_retargeters
+from morphkit.retarget.run_loader import trained_retargeters
 
 __all__ = ["METHOD_ORDER", "Method", "find_methods", "method_order"]
 

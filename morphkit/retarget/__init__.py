@@ -6,13 +6,13 @@ name a creature. Method packages (``ace/``, ``nkn/``) build on this.
 
 * :mod:`~morphkit.retarget.config`: frozen-dataclass configs as YAML, type-checked, presets and overrides.
 * :mod:`~morphkit.retarget.checkpoint`: atomic, ``weights_only``-loadable checkpoints; every RNG state.
-* :mod:`~morphkit.retarget.run`: :class:`Run`, the run folder and the resumable training loop.
+* :mod:`~morphkit.retarget.training_run`: :class:`Run`, the run folder and the resumable training loop.
 * :mod:`~morphkit.retarget.logs`: ``metrics.csv`` and TensorBoard events.
 * :mod:`~morphkit.retarget.distributed`: DistributedDataParallel under ``torchrun``.
 * :mod:`~morphkit.retarget.networks`: activations by name, MLPs, FLOP counting.
 * :mod:`~morphkit.retarget.training_data`: the data every trainer reads (character and human motion, the split).
 * :mod:`~morphkit.retarget.retargeter`: the :class:`Retargeter` protocol.
-* :mod:`~morphkit.retarget.runs`: :func:`load`, any trained run folder as a :class:`Retargeter`.
+* :mod:`~morphkit.retarget.run_loader`: :func:`load`, any trained run folder as a :class:`Retargeter`.
 """
 
 from morphkit.retarget.checkpoint import CHECKPOINT_FORMAT as CHECKPOINT_FORMAT
@@ -47,13 +47,13 @@ from morphkit.retarget.networks import matmul_flops as matmul_flops
 from morphkit.retarget.retargeter import RetargetedClip as RetargetedClip
 from morphkit.retarget.retargeter import Retargeter as Retargeter
 from morphkit.retarget.retargeter import WithContacts as WithContacts
-from morphkit.retarget.run import CHECKPOINT_FILE as CHECKPOINT_FILE
-from morphkit.retarget.run import CONFIG_FILE as CONFIG_FILE
-from morphkit.retarget.run import RUN_FILE as RUN_FILE
-from morphkit.retarget.run import Run as Run
-from morphkit.retarget.run import Stateful as Stateful
-from morphkit.retarget.run import derive_seed as derive_seed
-from morphkit.retarget.runs import load as load
+from morphkit.retarget.run_loader import load as load
+from morphkit.retarget.training_run import CHECKPOINT_FILE as CHECKPOINT_FILE
+from morphkit.retarget.training_run import CONFIG_FILE as CONFIG_FILE
+from morphkit.retarget.training_run import RUN_FILE as RUN_FILE
+from morphkit.retarget.training_run import Run as Run
+from morphkit.retarget.training_run import Stateful as Stateful
+from morphkit.retarget.training_run import derive_seed as derive_seed
 
 __all__ = [
     "CHECKPOINT_FILE",

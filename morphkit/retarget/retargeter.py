@@ -2,7 +2,7 @@
 
 ACE (:class:`~morphkit.retarget.ace.retarget.AceRetargeter`) and NKN
 (:class:`~morphkit.retarget.nkn.retarget.NknRetargeter`) implement it; the evaluation, the CLI and
-the ACE examples use only it, through :func:`morphkit.retarget.runs.load`.
+the ACE examples use only it, through :func:`morphkit.retarget.run_loader.load`.
 """
 
 from __future__ import annotations
@@ -76,9 +76,9 @@ def paired_swings(source: Motion, creature: Morphology, pairing: Pairing) -> dic
 
 
 def swing_hint(clip: RetargetedClip, pairing: Pairing | None) -> dict[str, np.ndarray] | None:
-    """The ``replan`` export's ``swing_hint`` of ``clip`` (:func:`~morphkit.synth.apply_contacts`): its source's
-    :func:`paired_swings` where the source and the motion share frames (length and rate); None where there is no
-    pairing, no one-to-one paired foot or no common timeline."""
+    """The ``replan`` export's ``swing_hint`` of ``clip`` (:func:`~morphkit.contact_export.apply_contacts`): its
+    source's :func:`paired_swings` where the source and the motion share frames (length and rate); None where there
+    is no pairing, no one-to-one paired foot or no common timeline."""
     src, motion = clip.source, clip.motion
     if pairing is None or src.frame_count != motion.frame_count or src.fps != motion.fps:
         return None
@@ -86,14 +86,14 @@ def swing_hint(clip: RetargetedClip, pairing: Pairing | None) -> dict[str, np.nd
 
 
 def contact_export(clip: RetargetedClip, mode: str, pairing: Pairing | None) -> Motion:
-    """``clip``'s motion through the contact-aware export ``mode`` (:func:`morphkit.synth.apply_contacts`, with the
-    clip's stance flags). ``replan``'s one-to-one paired feet follow the source human's swings
+    """``clip``'s motion through the contact-aware export ``mode`` (:func:`morphkit.contact_export.apply_contacts`,
+    with the clip's stance flags). ``replan``'s one-to-one paired feet follow the source human's swings
     (:func:`swing_hint`) where that costs no realism: the clip is re-planned without them too, and the plan with
     fewer unrealistic frames (:func:`~morphkit.metrics.unrealistic_frame_ratio`) is kept, the human's timing on a
     tie. A timing the creature's legs cannot keep (a touchdown out of reach, a stance foot held at its ellipse's
     edge) then falls back to the planner's own steps for that clip."""
+    from morphkit.contact_export import apply_contacts
     from morphkit.metrics import unrealistic_frame_ratio
-    from morphkit.synth import apply_contacts
 
     plain = apply_contacts(clip.motion, mode, stance=clip.stance)
     hint = swing_hint(clip, pairing) if mode == "replan" else None
@@ -146,11 +146,11 @@ class Retargeter(Protocol):
 
 class WithContacts:
     """A :class:`Retargeter` whose motions go through a contact-aware export
-    (:func:`morphkit.synth.apply_contacts`: ``replan`` re-steps the legs along the retargeted root
+    (:func:`morphkit.contact_export.apply_contacts`: ``replan`` re-steps the legs along the retargeted root
     path, a biped's feet lifting as the human's do); its label gains ``+mode``."""
 
     def __init__(self, retargeter: Retargeter, mode: str) -> None:
-        from morphkit.synth import CONTACT_MODES
+        from morphkit.contact_export import CONTACT_MODES
 
         if mode not in CONTACT_MODES:
             raise ConfigError(f"unknown contact mode {mode!r}; expected one of: {', '.join(CONTACT_MODES)}")

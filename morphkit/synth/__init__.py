@@ -12,9 +12,8 @@ limb with the morphkit DLS IK kernel, many rollouts at once (:mod:`.core`), lift
 heads that would go below the ground (:mod:`.ground`). :mod:`.report` measures what came out with the
 contact kernels; :mod:`.output` writes it (a folder with a manifest, or one file, batch by batch with
 :func:`iter_synthesize`); :mod:`.human` is the embedded default human motion
-(:func:`default_human_motion`). The same rig exports retargeted motions contact-aware
-(:func:`apply_contacts`): legs re-stepped (:mod:`.replan`) or stance feet locked (:mod:`.lock`), then
-the upper body moved out of the body and the ground (:mod:`.clearance`).
+(:func:`default_human_motion`). The contact-aware export of retargeted motion, which uses this rig, is
+the package above it, :mod:`morphkit.contact_export`.
 
 Example::
 
@@ -32,9 +31,6 @@ from morphkit.synth.analysis import BodyPlan as BodyPlan
 from morphkit.synth.analysis import Limb as Limb
 from morphkit.synth.analysis import analyse as analyse
 from morphkit.synth.arms import ArmConfig as ArmConfig
-from morphkit.synth.clearance import clear_upper_body as clear_upper_body
-from morphkit.synth.contacts import CONTACT_MODES as CONTACT_MODES
-from morphkit.synth.contacts import apply_contacts as apply_contacts
 from morphkit.synth.core import SynthConfig as SynthConfig
 from morphkit.synth.core import SynthResult as SynthResult
 from morphkit.synth.core import SynthRig as SynthRig
@@ -47,16 +43,12 @@ from morphkit.synth.human import default_human_clips as default_human_clips
 from morphkit.synth.human import default_human_config as default_human_config
 from morphkit.synth.human import default_human_motion as default_human_motion
 from morphkit.synth.legged import LegConfig as LegConfig
-from morphkit.synth.lock import lock_feet as lock_feet
-from morphkit.synth.lock import stance_flags as stance_flags
 from morphkit.synth.locomotion_commands import COMMAND_NAMES as COMMAND_NAMES
 from morphkit.synth.locomotion_commands import CommandConfig as CommandConfig
-from morphkit.synth.replan import replan_legs as replan_legs
 
 __all__ = [
     "ACTION_NAMES",
     "COMMAND_NAMES",
-    "CONTACT_MODES",
     "ActionConfig",
     "ActionSpan",
     "ArmConfig",
@@ -69,16 +61,11 @@ __all__ = [
     "SynthResult",
     "SynthRig",
     "analyse",
-    "apply_contacts",
-    "clear_upper_body",
     "default_human_clips",
     "default_human_config",
     "default_human_motion",
     "iter_synthesize",
-    "lock_feet",
     "prepare",
-    "replan_legs",
     "source_digest",
-    "stance_flags",
     "synthesize",
 ]

@@ -72,10 +72,10 @@ def test_callers_default_to_their_presets() -> None:
     """Each caller's defaults are its preset's numbers (a preset changed once changes every caller)."""
     import inspect
 
+    from morphkit.contact_export.lock import lock_feet, stance_flags
     from morphkit.kernels import eval_contact_flags, eval_sliding_speed
     from morphkit.metrics import UnrealisticFrameThresholds, skating_ratio
     from morphkit.motion.states import foot_contact_flags
-    from morphkit.synth.lock import lock_feet, stance_flags
 
     def default(fn, name):
         return inspect.signature(fn).parameters[name].default

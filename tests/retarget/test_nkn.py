@@ -186,7 +186,7 @@ def test_sigterm_then_resume_equals_an_uninterrupted_run(tmp_path, data_dir, mon
     cfg = replace_config(preset("smoke"), _SIGTERM_SETS)
     train_nkn(tmp_path / "full", cfg, human_data=data_dir, **QUIET)
 
-    from morphkit.retarget.run import Run
+    from morphkit.retarget.training_run import Run
 
     log = Run.log
 
@@ -362,7 +362,7 @@ def test_a_run_is_listed_and_opened_through_the_protocol_and_one_cut_short_says_
 
     from morphkit.motion import read_motion
     from morphkit.retarget import load
-    from morphkit.retarget.runs import trained_retargeters
+    from morphkit.retarget.run_loader import trained_retargeters
 
     (found,) = trained_retargeters(trained)
     assert (found.label, found.run, found.stage, found.creature) == ("NKN", trained, trained, None)

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from morphkit_testing import spot_like
 
-import morphkit.synth
+import morphkit.contact_export
 from morphkit.graph import Limit, MorphologyBuilder, Transform
 from morphkit.motion import Motion, Pairing
 from morphkit.retarget import RetargetedClip, WithContacts
@@ -75,7 +75,7 @@ def test_with_contacts_hands_replan_the_hints_and_lock_none(human, monkeypatch):
         seen.append((mode, swing_hint))
         return motion
 
-    monkeypatch.setattr(morphkit.synth, "apply_contacts", record)
+    monkeypatch.setattr(morphkit.contact_export, "apply_contacts", record)
     clip = RetargetedClip(human, Motion(creature, FPS, np.repeat(creature.rest_q()[None], T, axis=0), "out"))
     for pairing, feet in ((_pairing(("fl_foot", "fr_foot"), ("left_foot", "right_foot")), {"fl_foot", "fr_foot"}),
                           (_pairing(("fl_foot", "hl_foot"), ("left_foot", "left_foot")), None)):
@@ -113,7 +113,7 @@ def test_the_human_timing_is_kept_only_where_it_costs_no_realism(human, monkeypa
     pairing = _pairing(("fl_foot", "fr_foot"), ("left_foot", "right_foot"))
     clip = RetargetedClip(human, standing)
     for hinted, expected in ((sunk, standing), (lifted, lifted)):
-        monkeypatch.setattr(morphkit.synth, "apply_contacts",
+        monkeypatch.setattr(morphkit.contact_export, "apply_contacts",
                             lambda motion, mode, *, stance=None, swing_hint=None, h=hinted:
                             h if swing_hint is not None else motion)
         assert contact_export(clip, "replan", pairing) is expected

@@ -34,8 +34,8 @@ from morphkit.graph import Morphology
 from morphkit.io import read_morphology, write_morphology
 from morphkit.motion import CANONICAL_HUMAN, ActiveHand, NormStats, Pairing, canonical_record
 from morphkit.retarget.config import config_from_dict, config_to_dict
-from morphkit.retarget.run import required_file
 from morphkit.retarget.training_data import DataConfig
+from morphkit.retarget.training_run import required_file
 from morphkit.yaml_loader import load_yaml_file, plain_data
 
 __all__ = [

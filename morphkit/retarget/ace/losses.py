@@ -1,7 +1,7 @@
 """ACE's losses: the motion prior's (§4), the discriminator's (Eq. 5) and the generator's (Eq. 3–10).
 
 Each ``*_loss`` is a pure function of the networks, a batch and the config, returning ``(loss, figures)``:
-the scalar to back-propagate and the detached 0-d tensors :meth:`~morphkit.retarget.run.Run.log` records,
+the scalar to back-propagate and the detached 0-d tensors :meth:`~morphkit.retarget.training_run.Run.log` records,
 in the order of ``metrics.csv``'s columns. :mod:`~morphkit.retarget.ace.train` only orchestrates (data,
 optimisers, steps, checkpoints). The terms beyond the paper (the prior's foot term, G's hand weights and
 hand-velocity term, the contact term) are here too, each with its config switch.

@@ -46,7 +46,7 @@ from morphkit.retarget.ace.variants import AceVariant
 from morphkit.retarget.checkpoint import load_checkpoint, load_module_state
 from morphkit.retarget.config import read_config
 from morphkit.retarget.retargeter import RetargetedClip, check_finite
-from morphkit.retarget.run import CHECKPOINT_FILE, CONFIG_FILE, RUN_FILE, required_file, stage_trainer
+from morphkit.retarget.training_run import CHECKPOINT_FILE, CONFIG_FILE, RUN_FILE, required_file, stage_trainer
 from morphkit.rotations import yaw_from_quat
 
 __all__ = ["AceRetargeter", "RetargetedClip", "read_prior_config"]  # RetargetedClip: from the protocol

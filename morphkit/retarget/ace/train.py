@@ -4,7 +4,7 @@ The run folder's files are :class:`~.checkpoint.AceArtifact`'s (written here onc
 losses are :mod:`~.losses`' (the loss helpers are re-exported here, where earlier code imports them); this
 module only orchestrates: data, optimisers, steps, checkpoints.
 
-Each stage is a :class:`~morphkit.retarget.run.Run` and resumes exactly: re-running the same
+Each stage is a :class:`~morphkit.retarget.training_run.Run` and resumes exactly: re-running the same
 command continues where it stopped; a finished stage is skipped. A prior can be shared: ablations
 point ``prior_dir`` at another run's ``prior/`` (train the prior once, three retargeters from it).
 """
@@ -65,8 +65,8 @@ from morphkit.retarget.ace.model import Discriminator, FeatureMap, Generator, bu
 from morphkit.retarget.ace.networks import MotionVAE
 from morphkit.retarget.ace.variants import AceVariant
 from morphkit.retarget.distributed import average_gradients, broadcast_parameters, is_main_process, joined_group
-from morphkit.retarget.run import Run
 from morphkit.retarget.training_data import StateWindows, character_data, human_motions, validation_split
+from morphkit.retarget.training_run import Run
 
 __all__ = [
     "AceData",

@@ -11,7 +11,7 @@ An NKN run folder::
     creature.yaml              cross-morphology mode: the creature, and its side's normalisation
     target_features.npz
     target_offsets.npz
-    config.yaml, checkpoint.pt, run.yaml, metrics.csv   the training Run (:class:`~morphkit.retarget.run.Run`)
+    config.yaml, checkpoint.pt, run.yaml, metrics.csv   the training Run (:class:`~morphkit.retarget.training_run.Run`)
 
 :class:`NknArtifact` is written once by :func:`~.train.prepare` and read by
 :class:`~.retarget.NknRetargeter` and the evaluation; nothing else opens these files.
@@ -32,7 +32,7 @@ from morphkit.graph import Morphology
 from morphkit.io import read_morphology, write_morphology
 from morphkit.motion import NormStats
 from morphkit.output_names import safe_stem
-from morphkit.retarget.run import required_file
+from morphkit.retarget.training_run import required_file
 from morphkit.yaml_loader import load_yaml_file, plain_data
 
 __all__ = ["LABEL", "META_FILE", "TRAINERS", "NknArtifact"]

@@ -43,8 +43,8 @@ from morphkit.retarget.nkn.skeleton import (
     topology_difference,
 )
 from morphkit.retarget.retargeter import RetargetedClip, check_finite
-from morphkit.retarget.run import CHECKPOINT_FILE, CONFIG_FILE, RUN_FILE, required_file, stage_trainer
 from morphkit.retarget.training_data import DataConfig
+from morphkit.retarget.training_run import CHECKPOINT_FILE, CONFIG_FILE, RUN_FILE, required_file, stage_trainer
 from morphkit.rotations import quat_from_yaw, quat_multiply, quat_normalize, yaw_from_quat
 
 __all__ = ["GLOBAL_MOTION_BOUND", "NknRetargeter", "copy_rotations", "world_motion"]

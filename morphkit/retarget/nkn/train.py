@@ -18,7 +18,7 @@ release). Both networks: Adam (β1 = 0.5), gradients clipped at global norm 25.
 The run folder's files are :class:`~.checkpoint.NknArtifact`'s (written here once, by :func:`prepare`), beside
 the training Run's (trainer ``nkn`` or ``nkn-cross``).
 
-Re-running the same command resumes exactly (:class:`~morphkit.retarget.run.Run`).
+Re-running the same command resumes exactly (:class:`~morphkit.retarget.training_run.Run`).
 """
 
 from __future__ import annotations
@@ -50,8 +50,8 @@ from morphkit.retarget.nkn.losses import (
 )
 from morphkit.retarget.nkn.model import NknGenerator, motion_differences
 from morphkit.retarget.nkn.networks import build_networks, cpu_threads
-from morphkit.retarget.run import Run
 from morphkit.retarget.training_data import HumanData, as_folders, character_motions
+from morphkit.retarget.training_run import Run
 
 __all__ = ["NknSetup", "prepare", "train_nkn"]
 

@@ -1,6 +1,6 @@
 """Contact-aware export by locking: feet in stance held at their touchdown point, the legs solved by IK.
 
-Where :mod:`~morphkit.synth.replan` replaces a motion's steps by the planner's, ``lock`` keeps the
+Where :mod:`~morphkit.contact_export.replan` replaces a motion's steps by the planner's, ``lock`` keeps the
 retargeter's own steps and only removes their slide: a foot is *in stance* by the contact rule's
 ``lock`` preset (:data:`~morphkit.contact_rules.LOCK`, decided from the frames up to the current
 one); a stance foot's IK target is the point where it touched down, on the ground; a

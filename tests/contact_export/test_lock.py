@@ -8,11 +8,12 @@ import numpy as np
 import pytest
 from morphkit_testing import spot_like, wheeled
 
+from morphkit.contact_export import CONTACT_MODES, apply_contacts, lock_feet, stance_flags
 from morphkit.contact_rules import LOCK
 from morphkit.io import read_morphology
 from morphkit.metrics import foot_contact_figures, skating_ratio
 from morphkit.motion import Motion
-from morphkit.synth import CONTACT_MODES, SynthConfig, apply_contacts, lock_feet, prepare, stance_flags, synthesize
+from morphkit.synth import SynthConfig, prepare, synthesize
 
 
 def _legs(m) -> tuple[list[int], np.ndarray]:

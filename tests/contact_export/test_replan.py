@@ -8,10 +8,11 @@ import numpy as np
 import pytest
 from morphkit_testing import spot_like, wheeled
 
+from morphkit.contact_export import apply_contacts, replan_legs
 from morphkit.errors import ConfigError
 from morphkit.metrics import foot_contact_figures, unrealistic_frame_ratio
 from morphkit.rotations import quat_from_yaw
-from morphkit.synth import SynthConfig, apply_contacts, replan_legs, synthesize
+from morphkit.synth import SynthConfig, synthesize
 
 
 @pytest.fixture(scope="module")

@@ -4,7 +4,7 @@
 says which) and refuses anything else with one clear error; :func:`trained_retargeters` lists the
 retargeters a folder holds (an ACE run has one per trained variant stage) without loading their
 networks. This is the one module of the trainer layer that knows every method; the methods do not
-know each other. A run has finished when its :class:`~morphkit.retarget.run.RunProgress` says so.
+know each other. A run has finished when its :class:`~morphkit.retarget.training_run.RunProgress` says so.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ import torch
 
 from morphkit.errors import RunError, SourceLocation
 from morphkit.retarget.retargeter import Retargeter, WithContacts
-from morphkit.retarget.run import CHECKPOINT_FILE, RUN_FILE, Run, RunProgress
+from morphkit.retarget.training_run import CHECKPOINT_FILE, RUN_FILE, Run, RunProgress
 
 __all__ = ["METHODS", "Method", "TrainedRetargeter", "load", "method_of", "trained_retargeters"]
 
@@ -39,7 +39,7 @@ class TrainedRetargeter:
     creature: str | None
     """The creature it retargets onto (``None``: NKN between human skeletons)."""
     progress: RunProgress
-    """How far its training got (:attr:`~morphkit.retarget.run.RunProgress.finished`, the seed)."""
+    """How far its training got (:attr:`~morphkit.retarget.training_run.RunProgress.finished`, the seed)."""
 
 
 @dataclass(frozen=True)
@@ -79,15 +79,15 @@ def load(run: str | os.PathLike[str], *, stage: str | os.PathLike[str] | None = 
          target: str | None = None) -> Retargeter:
     """Open a trained run folder as a :class:`Retargeter`, whichever method trained it.
 
-    A retargeter that has not finished training (:attr:`~morphkit.retarget.run.RunProgress.finished`) opens with
-    its last checkpoint and a warning saying how far it got.
+    A retargeter that has not finished training (:attr:`~morphkit.retarget.training_run.RunProgress.finished`) opens
+    with its last checkpoint and a warning saying how far it got.
 
     Args:
         run: An ACE run folder, an ACE retargeter stage folder, or an NKN run folder.
         stage: ACE only: the retargeter stage to use (a folder, or a variant name such as ``ace-wofea``;
             default ``retarget``).
         device: Torch device.
-        contacts: Contact-aware export of its motions (:data:`morphkit.synth.CONTACT_MODES`; ``none``: raw).
+        contacts: Contact-aware export of its motions (:data:`morphkit.contact_export.CONTACT_MODES`; ``none``: raw).
         target: NKN runs over human skeletons: the skeleton to retarget onto (a training character, a
             bone-length variant name or a skeleton file; default the template); see :meth:`Retargeter.with_target`.
 

@@ -7,20 +7,20 @@ from typing import Any
 
 import numpy as np
 
+from morphkit.contact_export.clearance import clear_upper_body
+from morphkit.contact_export.lock import lock_feet
+from morphkit.contact_export.replan import replan_legs
 from morphkit.errors import ConfigError
 from morphkit.motion.motion import Motion
-from morphkit.synth.clearance import clear_upper_body
-from morphkit.synth.lock import lock_feet
-from morphkit.synth.replan import replan_legs
 
 __all__ = ["CONTACT_MODES", "apply_contacts"]
 
 CONTACT_MODES = ("none", "replan", "lock")
 """``none``: the retargeter's raw output (the paper's); ``replan``: legs re-stepped by the synthesis' planner
-along the root path (:func:`~morphkit.synth.replan.replan_legs`); ``lock``: the retargeter's own steps
-with stance feet held at their touchdown points (:func:`~morphkit.synth.lock.lock_feet`). Both then move the
+along the root path (:func:`~morphkit.contact_export.replan.replan_legs`); ``lock``: the retargeter's own steps
+with stance feet held at their touchdown points (:func:`~morphkit.contact_export.lock.lock_feet`). Both then move the
 upper body out of the creature's own shapes and the ground by a short change of its joints
-(:func:`~morphkit.synth.clearance.clear_upper_body`)."""
+(:func:`~morphkit.contact_export.clearance.clear_upper_body`)."""
 
 
 def apply_contacts(motion: Motion, mode: str, *, stance: Any = None,
@@ -30,7 +30,7 @@ def apply_contacts(motion: Motion, mode: str, *, stance: Any = None,
     ``stance``: the retargeter's stance flags [T, F] (feet in :func:`~morphkit.motion.foot_names` order),
     which ``lock`` holds instead of deciding stance from the feet's height and speed. ``swing_hint``:
     ``{foot end-effector: [T] bool}``, when each of those feet should be in the air, which ``replan``'s
-    swings follow (:func:`~morphkit.synth.replan.replan_legs`); ``lock`` ignores it.
+    swings follow (:func:`~morphkit.contact_export.replan.replan_legs`); ``lock`` ignores it.
 
     Raises:
         ConfigError: an unknown mode.

@@ -6,12 +6,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from _synth_creatures import read_creature
+from synth._synth_creatures import read_creature
 
+from morphkit.contact_export import replan_legs
 from morphkit.errors import ConfigError
 from morphkit.metrics import foot_contact_figures
 from morphkit.motion import Motion
-from morphkit.synth import prepare, replan_legs
+from morphkit.synth import prepare
 
 FPS = 30.0
 T = 120

@@ -5,11 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from morphkit.contact_export import apply_contacts, clear_upper_body, replan_legs
 from morphkit.io import read_morphology
 from morphkit.kernels import eval_self_collision_distance, self_collision_pairs
 from morphkit.metrics import unrealistic_frame_ratio
 from morphkit.motion import Motion, compiled_model
-from morphkit.synth import apply_contacts, clear_upper_body, prepare, replan_legs
+from morphkit.synth import prepare
 
 # A fixed box (top at z = 0.6 m) and one arm: a capsule (radius 3 cm, segment 0.4 m along the link's x) on a
 # hinge 10 cm above the box, on a post that turns about the vertical (two joints from the box, so the pair is
