@@ -137,10 +137,20 @@ def parse_overrides(items: Iterable[str]) -> dict[str, Any]:
         if not sep or not key.strip():
             raise ConfigError(f"override {item!r} is not of the form name=value")
         try:
+            _refuse_aliases(text, key.strip())
             out[key.strip()] = yaml.safe_load(text) if text.strip() else ""
         except yaml.YAMLError as exc:
             raise ConfigError(f"override {item!r}: value is not valid YAML") from exc
     return out
+
+
+def _refuse_aliases(text: str, key: str) -> None:
+    """Refuse anchors and aliases in a command-line value before it is built: nine lines of ``*a`` aliases
+    (a "billion laughs") expand to 10⁹ items when the value is copied; no config field needs them."""
+    for event in yaml.parse(text, Loader=yaml.SafeLoader):  # events only: nothing is expanded
+        if isinstance(event, yaml.AliasEvent) or getattr(event, "anchor", None) is not None:
+            raise ConfigError(f"override {key}: YAML anchors and aliases (&name, *name) are not allowed in a "
+                              "--set value; write the value out")
 
 
 def preset_config(presets: Mapping[str, C], name: str, overrides: Mapping[str, Any] | Iterable[str] | None = None) -> C:
