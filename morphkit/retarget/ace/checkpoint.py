@@ -21,6 +21,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
+import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -77,6 +78,37 @@ def retargeting_generator_state(states: dict[str, Any]) -> dict[str, Any]:
 
 def _need(path: Path) -> Path:
     return required_file(path, "an ACE run folder")
+
+
+def _load_start_states(path: Path) -> tuple[np.ndarray, np.ndarray]:
+    """``states`` [N, Sr] and their ``psi`` [N, P] from a run's ``start_states.npz``: numbers only, never a pickle.
+
+    Raises:
+        RunError: naming the file, where it is no NPZ, lacks an array, holds objects (pickled Python data),
+            or its arrays are not two finite 2-D number arrays of one length.
+    """
+    where = SourceLocation(str(path))
+    try:
+        f = np.load(path, allow_pickle=False)  # an object array would unpickle code: refused by numpy
+        if not isinstance(f, np.lib.npyio.NpzFile):  # a bare .npy array
+            raise RunError("damaged start states: not an NPZ archive of 'states' and 'psi'", location=where)
+        with f:
+            missing = [k for k in ("states", "psi") if k not in f.files]
+            if missing:
+                raise RunError(f"damaged start states: no array {missing[0]!r}", location=where)
+            states, psi = f["states"], f["psi"]
+    except (ValueError, OSError, EOFError, zipfile.BadZipFile) as exc:
+        text = str(exc)
+        if "pickle" in text.lower() or "object" in text.lower():  # numpy's words vary by version
+            text = "it holds pickled Python objects; morphkit reads numbers only"
+        raise RunError(f"damaged start states: {text}", location=where) from None
+    for name, a in (("states", states), ("psi", psi)):
+        if a.dtype.kind not in "fiu" or a.ndim != 2 or not np.isfinite(a).all():
+            raise RunError(f"damaged start states: {name!r} must be a 2-D array of finite numbers, got "
+                           f"{a.dtype} {list(a.shape)}", location=where)
+    if len(states) != len(psi) or not len(states):
+        raise RunError(f"damaged start states: {len(states)} states but {len(psi)} psi rows", location=where)
+    return states, psi
 
 
 def _read_meta(run: Path) -> dict[str, Any]:
@@ -208,8 +240,7 @@ class AceArtifact:
                                               human_height_centre=centre.get("human_height"))
         except (KeyError, TypeError, ValueError, ConfigError) as exc:
             raise RunError(f"damaged ACE run folder: {exc!r}", location=SourceLocation(str(run / META_FILE))) from exc
-        with np.load(_need(run / _START_STATES)) as f:
-            states, psi = f["states"], f["psi"]
+        states, psi = _load_start_states(_need(run / _START_STATES))
         known = {"creature", "human_data", "human_skeleton", "creature_body_length", "human_body_length", "fps",
                  "data", "mapping", "prior_dir", "psi_centre", "canonical_human", "active_hand"}
         canonical = meta.get("canonical_human")
