@@ -12,7 +12,12 @@ from morphkit.graph.elements import IDENTITY, EndEffector, Joint, Limit, Link, M
 from morphkit.graph.morphology import Morphology
 from morphkit.graph.types import BaseType, EndEffectorRole, JointType, ShapeType, parse_enum
 
-__all__ = ["MorphologyBuilder"]
+__all__ = ["MAX_LIMIT", "MorphologyBuilder"]
+
+MAX_LIMIT = 1e6
+"""Largest magnitude [rad or m] of a revolute or prismatic joint's limit. Samplers draw joint values uniformly
+between the limits (a width of 2e308 overflows) and poses at 10⁶ m or 10⁶ rad mean nothing; an unlimited turn is
+a continuous joint."""
 
 
 def _finite(values: Iterable[float], what: str, location: SourceLocation | None) -> tuple[float, ...]:
@@ -177,6 +182,10 @@ class MorphologyBuilder:
             lo, hi = _finite([limit.lower, limit.upper], f"joint {name!r} limit", loc)
             if lo > hi:
                 raise GraphError(f"joint {name!r}: limit lower {lo} > upper {hi}", location=loc)
+            if jtype in (JointType.REVOLUTE, JointType.PRISMATIC) and max(-lo, hi) > MAX_LIMIT:
+                hint = "; use type continuous for an unlimited revolute joint" if jtype == JointType.REVOLUTE else ""
+                raise GraphError(f"joint {name!r}: limit [{lo:g}, {hi:g}] beyond ±{MAX_LIMIT:g} (rad or m){hint}",
+                                 location=loc)
             extra = [v for v in (limit.velocity, limit.effort) if v is not None]
             _finite(extra, f"joint {name!r} limit", loc)
             limit = Limit(lo, hi, limit.velocity, limit.effort)
@@ -352,7 +361,10 @@ class MorphologyBuilder:
         joint_names = set(self._joints)
         for j in order:
             if j.mimic is not None:
-                if j.mimic.joint not in joint_names or j.mimic.joint == j.name:
+                if j.mimic.joint == j.name:
+                    raise GraphError(f"joint {j.name!r} mimics itself; a mimic follows another joint",
+                                     location=j.location)
+                if j.mimic.joint not in joint_names:
                     raise GraphError(f"joint {j.name!r} mimics unknown joint {j.mimic.joint!r}", location=j.location)
                 target = self._joints[j.mimic.joint]
                 if (
