@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
 
@@ -56,6 +57,30 @@ def _matrix(p: np.ndarray, R: np.ndarray) -> np.ndarray:
     M[:3, :3] = R
     M[:3, 3] = p
     return M
+
+
+def _product(ms: Sequence[np.ndarray]) -> np.ndarray:
+    """``ms[0] @ ms[1] @ ...`` folded from the left, starting at the identity."""
+    M = np.eye(4)
+    for m in ms:
+        M = M @ m
+    return M
+
+
+def _tail_products(ms: Sequence[np.ndarray], starts: Sequence[int], tip: np.ndarray) -> dict[int, np.ndarray]:
+    """``_product(ms[s:]) @ tip`` for every ``s`` of ``starts`` (ascending), the folds run side by side.
+
+    Each fold multiplies the same matrices in the same order as :func:`_product` (a stacked matmul is
+    one small matrix product per item), so the results are the same to the bit, in one pass over ``ms``.
+    """
+    if not starts:
+        return {}
+    first = np.asarray(starts)
+    acc = np.broadcast_to(np.eye(4), (len(starts), 4, 4)).copy()
+    for t in range(starts[0], len(ms)):
+        k = int(np.searchsorted(first, t, side="right"))  # the folds that have begun by ms[t]
+        acc[:k] = acc[:k] @ ms[t]
+    return {s: acc[i] @ tip for i, s in enumerate(starts)}
 
 
 @dataclass(frozen=True)
@@ -436,35 +461,45 @@ class Morphology:
             if target not in free and t.name not in self.wheel_joints and t.type in (*_ONE_DOF, JointType.SPHERICAL):
                 free.append(target)
         # Chain positions each free joint's value enters (several where mimic joints follow it).
-        enters = {ji: [k for k, c in enumerate(chain) if c == ji or self._mimic_target(c) == ji] for ji in free}
+        enters: dict[int, list[int]] = {ji: [] for ji in free}
+        for k, c in enumerate(chain):  # one pass: a scan per joint would cost the chain's length squared
+            for ji in {c, self._mimic_target(c)}:
+                if ji in enters:
+                    enters[ji].append(k)
         tip = np.array([*ee.offset, 1.0])
         values = self._rest_values()
         locals_ = [self._local_matrix(c, values) for c in chain]
 
-        def product(ms: list[np.ndarray]) -> np.ndarray:
-            M = np.eye(4)
-            for m in ms:
-                M = M @ m
-            return M
-
-        best = sign * float((product(locals_) @ tip)[2])
+        best = sign * float((_product(locals_) @ tip)[2])
         for _ in range(sweeps):
             improved = False
+            # Products before and after each joint, each the same left fold as multiplying them out (the
+            # same floating-point result) but shared between joints: a long chain costs its length per
+            # sweep, not its length squared. A head stays valid below the first change of the sweep,
+            # a tail above the last.
+            heads = [np.eye(4)]
+            tails = _tail_products(locals_, sorted({enters[ji][-1] + 1 for ji in free if enters[ji]}), tip)
+            changed = -1
             for ji in free:
                 ks = enters[ji]
                 if not ks:
                     continue
                 lo, hi = ks[0], ks[-1] + 1
-                head, tail = product(locals_[:lo]), product(locals_[hi:]) @ tip
+                while len(heads) <= lo:
+                    heads.append(heads[-1] @ locals_[len(heads) - 1])
+                head = heads[lo]
+                tail = tails[hi] if changed < hi else _product(locals_[hi:]) @ tip
                 for col, grid in self._search_grid(self.joints[ji]):
                     for x in grid:
                         trial = values.copy()
                         trial[ji, col] = x
                         middle = [self._local_matrix(chain[k], trial) if k in ks else locals_[k] for k in range(lo, hi)]
-                        h = sign * float((head @ product(middle) @ tail)[2])
+                        h = sign * float((head @ _product(middle) @ tail)[2])
                         if h > best + 1e-12:
                             best, values, improved = h, trial, True
                             locals_[lo:hi] = middle
+                            del heads[lo + 1:]
+                            changed = max(changed, hi - 1)
             if not improved:
                 break
         return sign * best

@@ -36,19 +36,21 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
 
+from morphkit.body.roles import hint_rank, name_hint
 from morphkit.graph import BaseType, EndEffector, EndEffectorRole, JointType, Morphology, ShapeType
 from morphkit.rotations import transform_multiply
 
 __all__ = [
     "LEG_DEPTH_FRACTION",
     "STANCE_EXTENSION",
+    "STANCE_SEARCH_MAX_JOINTS",
+    "STANCE_SEARCH_MAX_LEGS",
     "Frame",
     "anatomy_warnings",
     "complete_anatomy",
@@ -61,6 +63,12 @@ STANCE_EXTENSION = {2: 0.92, 0: 0.8}
 """Hip-to-sole distance of a searched stance, as a fraction of the shortest leg's reach: bipeds stand
 near straight (as people do), other creatures with their knees well bent (quadruped robots' nominal
 heights: A1, Aliengo, Mini Cheetah 0.75–0.85)."""
+STANCE_SEARCH_MAX_LEGS = 32
+"""A stance is searched for at most this many legs: each leg costs a fixed multi-start solve (about 0.3 s),
+so a body of thousands of leg-like links would take hours. Beyond it the reference pose is kept, with a note."""
+STANCE_SEARCH_MAX_JOINTS = 256
+"""... and for legs whose chains (joints from the root to each foot) add up to at most this many: each solver
+step poses the whole chain, so a leg hung off a long spine costs the spine's length at every step."""
 _SAMPLES = 256
 _MERGE_FRACTION = 0.5
 _GROUND_TOL = 0.002
@@ -70,13 +78,6 @@ _PAW_FRACTION = 0.15
 _UNDER_HIP = 0.25
 
 _ONE_DOF = (JointType.REVOLUTE, JointType.CONTINUOUS, JointType.PRISMATIC)
-_HINTS: tuple[tuple[str, tuple[str, ...]], ...] = (
-    ("skip", ("tail", "ear", "antenna", "imu", "camera", "lidar", "sensor", "laser", "kinect")),
-    ("tool", ("grasp", "tcp", "tool", "gripper", "eef", "ee")),
-    ("hand", ("palm", "hand", "finger", "thumb", "claw", "wrist", "arm")),
-    ("foot", ("sole", "toe", "foot", "feet", "paw", "hoof", "heel", "ankle", "calf", "shank", "shin", "knee", "leg")),
-    ("head", ("head", "skull", "neck", "jaw")),
-)
 
 
 @dataclass(frozen=True)
@@ -86,21 +87,6 @@ class Frame:
     name: str
     link: str
     offset: tuple[float, float, float]
-
-
-def _tokens(name: str) -> list[str]:
-    spaced = re.sub(r"([a-z])([A-Z])", r"\1 \2", name)
-    return [t for t in re.split(r"[^a-z]+", spaced.lower()) if t]
-
-
-def name_hint(name: str) -> str | None:
-    """``"skip"``, ``"tool"``, ``"hand"``, ``"foot"`` or ``"head"`` from a link, joint or site name, if any."""
-    tokens = _tokens(name)
-    for hint, words in _HINTS:
-        for t in tokens:
-            if t in words or any(t.startswith(w) and len(w) >= 4 for w in words):
-                return hint
-    return None
 
 
 # ---------------------------------------------------------------------------------------------
@@ -137,13 +123,29 @@ class _Kinematics:
         rest = dict(m.rest_pose)
         self.rest = np.clip([rest.get(j.name, 0.0) for j in m.joints], lo, hi) if m.joints else np.zeros(0)
 
-    def poses(self, values: np.ndarray) -> np.ndarray:
-        """``T_root_link`` for values [N, joint_count] → [N, link_count, 4, 4]."""
+    def chain(self, links: Sequence[int]) -> list[int]:
+        """Indices of the joints that move ``links``: theirs and their ancestors', in joint order."""
+        seen: set[int] = set()
+        for li in links:
+            while li and li not in seen:
+                seen.add(li)
+                li = self.m.link_parent[li]
+        return sorted(li - 1 for li in seen)
+
+    def poses(self, values: np.ndarray, joints: Sequence[int] | None = None) -> np.ndarray:
+        """``T_root_link`` for values [N, joint_count] → [N, link_count, 4, 4].
+
+        ``joints`` (from :meth:`chain`) limits the work to the links those joints move; the other
+        links' poses are left zero. One limb's poses then cost its depth, not the body's size: the
+        array is laid out links first (a view puts samples first), so that the zeros of the links not
+        posed are never written.
+        """
         m = self.m
         n = values.shape[0]
-        out = np.zeros((n, m.link_count, 4, 4))
-        out[:, 0] = np.eye(4)
-        for ji, j in enumerate(m.joints):
+        out = np.zeros((m.link_count, n, 4, 4))
+        out[0] = np.eye(4)
+        for ji in range(m.joint_count) if joints is None else joints:
+            j = m.joints[ji]
             v = values[:, ji]
             if j.mimic is not None:
                 v = j.mimic.multiplier * values[:, self.index[j.mimic.joint]] + j.mimic.offset
@@ -155,8 +157,8 @@ class _Kinematics:
                 local[:, :3, :3] = local[:, :3, :3] @ R
             elif j.type == JointType.PRISMATIC:
                 local[:, :3, 3] += (local[:, :3, :3] @ np.asarray(j.axis, dtype=float)) * v[:, None]
-            out[:, ji + 1] = out[:, self.parent[ji + 1]] @ local
-        return out
+            out[ji + 1] = out[self.parent[ji + 1]] @ local
+        return out.transpose(1, 0, 2, 3)
 
     def sample(self, joints: Sequence[int], n: int, rng: np.random.Generator) -> np.ndarray:
         """``n`` value rows: the rest values with ``joints`` drawn uniformly within their limits."""
@@ -294,9 +296,15 @@ class _Tree:
         self.rest = rest
 
     def tips_below(self, g: int) -> list[int]:
-        if not self.kids[g]:
-            return [g]
-        return [t for k in self.kids[g] for t in self.tips_below(k)]
+        """Leaf groups under ``g``, depth first in child order (a stack, not recursion: bodies may be deep)."""
+        out, stack = [], [g]
+        while stack:
+            h = stack.pop()
+            if self.kids[h]:
+                stack += reversed(self.kids[h])
+            else:
+                out.append(h)
+        return out
 
     def spread(self, g: int, tip: int) -> float:
         """Rest distance [m] from group ``g``'s origin to the farthest link of ``tip``'s group."""
@@ -325,22 +333,20 @@ class _Tree:
 
     def ends(self) -> list[_End]:
         out: list[_End] = []
-
-        def visit(g: int, attach: int) -> None:
+        stack = [(0, 0)]  # (group, attach), depth first in child order, without recursion
+        while stack:
+            g, attach = stack.pop()
             kids = self.kids[g]
             if not kids:
                 out.append(_End(attach, g, [g], self.path(g), []))
-                return
+                continue
             if g and len(kids) > 1:
                 depth = self.chain_length(g)
                 tips = self.tips_below(g)
                 if max(self.spread(g, t) for t in tips) < _MERGE_FRACTION * depth:
                     out.append(_End(attach, g, tips, self.path(g), []))
-                    return
-            for k in kids:
-                visit(k, g if len(kids) > 1 or g == 0 else attach)
-
-        visit(0, 0)
+                    continue
+            stack += [(k, g if len(kids) > 1 or g == 0 else attach) for k in reversed(kids)]
         uses: dict[int, int] = {}
         for e in out:
             for ji in e.joints:
@@ -378,20 +384,13 @@ def _end_links(tree: _Tree, e: _End) -> list[int]:
     return sorted(set(links))
 
 
-def _rank(name: str) -> int:
-    """Order of a hinted name: earlier keywords of :data:`_HINTS` first (``head`` before ``jaw``)."""
-    words = [w for _, ws in _HINTS for w in ws]
-    tokens = _tokens(name)
-    return min((k for k, w in enumerate(words) for t in tokens if t == w or t.startswith(w)), default=len(words))
-
-
 def _hint_of(m: Morphology, tree: _Tree, e: _End, frames: Sequence[Frame]) -> tuple[str | None, Frame | None]:
     """The first name hint on the end (its frames, its tip links, then up its own joints) and the hinted frame."""
     links = _end_links(tree, e)
     names = {m.links[li].name for li in links}
     hinted = [f for f in frames if f.link in names and name_hint(f.name) not in (None, "skip")]
     if hinted:
-        f = min(hinted, key=lambda f: _rank(f.name))
+        f = min(hinted, key=lambda f: hint_rank(f.name))
         return name_hint(f.name), f
     for li in sorted(links, reverse=True):
         h = name_hint(m.links[li].name)
@@ -463,7 +462,7 @@ def _classify(m: Morphology, parts: list[_Part], kin: _Kinematics, shapes: _Shap
         if p.hint == "skip":
             continue
         values = np.concatenate([kin.rest[None], kin.sample(p.end.joints, _SAMPLES, rng)])
-        low = kin.poses(values)
+        low = kin.poses(values, kin.chain(p.links))
         p.reach = min(_lowest_z(shapes, low[k], p.links) for k in range(len(values)))
     live = [p for p in parts if p.hint != "skip"]
     for p in parts:
@@ -485,8 +484,9 @@ def _classify(m: Morphology, parts: list[_Part], kin: _Kinematics, shapes: _Shap
                   and not _on_midline(m, poses, p)]
     if len(candidates) < 2:  # one chain reaching down is an arm on a pedestal, not a body on legs
         candidates = []
+    chosen = {id(p) for p in candidates}  # by identity: `in` on a list compares dataclasses, O(ends²)
     for p in live:
-        near = p in candidates
+        near = id(p) in chosen
         resting = ref_low[id(p)] <= ground_ref + _PAW_FRACTION * abs(ground_ref)
         if deepest >= 0 or not near:
             continue
@@ -596,7 +596,7 @@ def _reference_stands(m: Morphology, kin: _Kinematics, shapes: _Shapes, legs: li
 def _leg_reach(m: Morphology, kin: _Kinematics, shapes: _Shapes, p: _Part, own: list[int]) -> float:
     """Largest distance [m] from the leg's first joint to its sole over joint-limit samples."""
     values = kin.sample(own, 128, np.random.default_rng(1))
-    poses = kin.poses(values)
+    poses = kin.poses(values, kin.chain(p.links))
     return max(float(np.linalg.norm(_sole_world(m, shapes, poses[k], p) - poses[k, own[0] + 1, :3, 3]))
                for k in range(len(values)))
 
@@ -609,6 +609,7 @@ def _solve_leg(m: Morphology, kin: _Kinematics, shapes: _Shapes, p: _Part, own: 
     rng = np.random.default_rng(2)
     starts += list(rng.uniform(lo, hi, (6, len(own))))
     best = (math.inf, base)
+    chain = kin.chain(p.links)
     for x0 in starts:
         x = np.clip(np.asarray(x0, dtype=float), lo, hi)
         for _ in range(40):
@@ -616,7 +617,7 @@ def _solve_leg(m: Morphology, kin: _Kinematics, shapes: _Shapes, p: _Part, own: 
             vals[:, own] = x
             for k in range(len(own)):
                 vals[k + 1, own[k]] += 1e-5
-            poses = kin.poses(vals)
+            poses = kin.poses(vals, chain)
             f = np.array([_sole_world(m, shapes, poses[k], p) for k in range(len(own) + 1)])
             err = target - f[0]
             if np.linalg.norm(err) < 1e-4:
@@ -626,7 +627,7 @@ def _solve_leg(m: Morphology, kin: _Kinematics, shapes: _Shapes, p: _Part, own: 
             x = np.clip(x + step, lo, hi)
         vals = base.copy()
         vals[own] = x
-        poses = kin.poses(vals[None])[0]
+        poses = kin.poses(vals[None], chain)[0]
         err = float(np.linalg.norm(target - _sole_world(m, shapes, poses, p)))
         under = max(0.0, target[2] - shapes.lowest(poses, p.links) - _GROUND_TOL)
         knee = _knee_offset(poses, own, hip, target)
@@ -647,6 +648,18 @@ def _knee_offset(poses: np.ndarray, own: list[int], hip: np.ndarray, foot: np.nd
         if np.linalg.norm(d) > best:
             best, off = float(np.linalg.norm(d)), float(d[0])
     return off
+
+
+def _too_big_to_search(m: Morphology, legs: list[_Part]) -> str | None:
+    """Why no stance is searched for these legs (``None`` where one is): the bounds on the search's work."""
+    if len(legs) > STANCE_SEARCH_MAX_LEGS:
+        return (f"no stance searched for {len(legs)} legs (at most {STANCE_SEARCH_MAX_LEGS}); "
+                "give a rest pose in the description")
+    joints = sum(len(m.chain(m.links[max(p.links)].name)) for p in legs)
+    if joints > STANCE_SEARCH_MAX_JOINTS:
+        return (f"no stance searched for legs of {joints} joints in all from the root (at most "
+                f"{STANCE_SEARCH_MAX_JOINTS}); give a rest pose in the description")
+    return None
 
 
 def _find_stance(m: Morphology, kin: _Kinematics, shapes: _Shapes, legs: list[_Part], poses: np.ndarray
@@ -737,6 +750,8 @@ def _complete(m: Morphology, kin: _Kinematics, shapes: _Shapes, poses: np.ndarra
         if why is not None and m.rest_pose:
             # The file's own stance (a keyframe, a YAML rest_pose) is kept; the note says what looks off.
             rest_note += f" (kept as the file gives it, though {why})"
+        elif why is not None and (big := _too_big_to_search(m, legs)) is not None:
+            rest_note += f" (kept, though {why}: {big})"
         elif why is not None:
             found = _find_stance(m, kin, shapes, legs, poses)
             if found is not None:
