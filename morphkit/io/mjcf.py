@@ -855,7 +855,8 @@ def dump_mjcf(m: Morphology, *, target: str | os.PathLike[str] | None = None) ->
     rest = dict(m.rest_pose)
     qpos: list[float] = []  # the rest pose as MuJoCo's qpos, in the order the joints are written
 
-    def body(name: str, joint: Any, depth: int) -> None:
+    def body(name: str, joint: Any, depth: int) -> tuple[int, str | None]:
+        """Write a body's opening lines; its children's depth less one and its closing line (``None``: none)."""
         pad = "  " * depth
         link = m.link(name)
         world = joint is None and name == _WORLD and m.base == BaseType.FIXED
@@ -888,12 +889,19 @@ def dump_mjcf(m: Morphology, *, target: str | os.PathLike[str] | None = None) ->
             body_lines.append(f"{pad}  {_geom(s, target, meshes)}")
         for ee in ees.get(name, ()):
             body_lines.append(f'{pad}  <site name={quoteattr(ee.name)} pos="{_fmt(ee.offset)}" size="0.01"/>')
-        for child in children[name]:
-            body(child.child, child, depth + 1)
-        if not world:
-            body_lines.append(f"{pad}</body>")
+        return depth, None if world else f"{pad}</body>"
 
-    body(m.root, None, 2)
+    # depth first with a stack, not recursion: a chain of a thousand links would exceed Python's recursion limit
+    stack: list[tuple[str, Any, int] | str] = [(m.root, None, 2)]
+    while stack:
+        item = stack.pop()
+        if isinstance(item, str):
+            body_lines.append(item)  # a closing tag, once the body's children are written
+            continue
+        depth, close = body(*item)
+        if close is not None:
+            stack.append(close)
+        stack += [(child.child, child, depth + 1) for child in reversed(children[item[0]])]
     lines = [f"<mujoco model={quoteattr(m.name)}>", '  <compiler angle="radian" autolimits="false"/>']
     if meshes:
         lines.append("  <asset>")
