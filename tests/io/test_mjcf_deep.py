@@ -9,28 +9,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _chains import chain_morphology
 
-from morphkit.graph import Limit, Morphology, MorphologyBuilder, Transform
 from morphkit.io import read_morphology
 from morphkit.io.mjcf import dump_mjcf, write_mjcf
 
 
-def _chain(n: int) -> tuple[Morphology, np.ndarray]:
-    """A fixed-base chain of ``n`` hinges at random offsets (no rotation), and the offsets [n, 3] [m]."""
-    offsets = np.random.default_rng(n).uniform([0.0, -0.01, -0.01], [0.02, 0.01, 0.01], (n, 3))
-    b = MorphologyBuilder("chain")
-    b.set_base("fixed")
-    b.add_link("l0")
-    for i, xyz in enumerate(offsets.tolist()):
-        b.add_link(f"l{i + 1}")
-        b.add_joint_revolute(f"j{i}", f"l{i}", f"l{i + 1}", origin=Transform(tuple(xyz)), axis=(0, 1, 0),
-                             limit=Limit(-1.0, 1.0))
-    b.add_end_effector("tip", f"l{n}", role="hand")
-    return b.build(), offsets
-
-
 def test_a_chain_longer_than_the_recursion_limit_is_written_nested_in_order():
-    m, offsets = _chain(1500)
+    m, offsets = chain_morphology(1500)
     assert m.link_count > sys.getrecursionlimit()
     root = ET.fromstring(dump_mjcf(m))
     body, names, tip = root.find("worldbody"), [], np.zeros(3)
@@ -43,7 +29,7 @@ def test_a_chain_longer_than_the_recursion_limit_is_written_nested_in_order():
 
 def test_a_written_chain_reads_back_with_its_tip_in_place(tmp_path: Path):
     pytest.importorskip("mujoco")
-    m, offsets = _chain(300)
+    m, offsets = chain_morphology(300)
     write_mjcf(m, tmp_path / "chain.xml")
     back = read_morphology(tmp_path / "chain.xml")
     assert back.link_count == m.link_count
