@@ -7,8 +7,8 @@ import json
 from collections import Counter
 from typing import Any
 
+from morphkit.body.anatomy import anatomy_warnings
 from morphkit.graph import HUMAN_HAND_REACH, BodyLengthRule, JointType, Morphology
-from morphkit.io.anatomy import anatomy_warnings
 
 _RULE_TEXT = {
     BodyLengthRule.DECLARED: "declared by the description",

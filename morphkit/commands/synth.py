@@ -46,10 +46,10 @@ def run(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
     from morphkit._folder_lock import hold_run_folder
+    from morphkit.body.anatomy import anatomy_warnings
     from morphkit.errors import ConfigError
     from morphkit.graph import BaseType
     from morphkit.io import read_morphology
-    from morphkit.io.anatomy import anatomy_warnings
     from morphkit.io.shipped import resolve_morphology
     from morphkit.synth import SynthConfig, SynthResult, analyse, iter_synthesize, prepare
     from morphkit.synth.core import rollout_count

@@ -26,7 +26,7 @@ the compiled model, so morphkit sees exactly the kinematics MuJoCo simulates:
   (radius: the mean of the other two) or a sphere when the semi-axes are equal within 1 %; a mesh keeps
   its file (scale and MuJoCo's re-centring undone in its origin), or its bounding box where it was given
   inline; planes and height fields (the ground) are skipped.
-- End-effectors: decided from the body by :func:`morphkit.io.anatomy.complete_anatomy` (feet at the
+- End-effectors: decided from the body by :func:`morphkit.body.anatomy.complete_anatomy` (feet at the
   soles of the chains that carry it, hands and tools at the ends of the others, a head ahead of the
   body), with sites and names as hints. A side file ``<model>.morphkit.yaml`` beside the model
   replaces the guess::
@@ -69,6 +69,7 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 
 from morphkit._atomic import atomic_write_text
+from morphkit.body.anatomy import Frame, complete_anatomy
 from morphkit.errors import DescriptionError, SourceLocation
 from morphkit.graph import (
     BaseType,
@@ -83,7 +84,6 @@ from morphkit.graph import (
     Transform,
 )
 from morphkit.io._source import relative_mesh_path
-from morphkit.io.anatomy import Frame, complete_anatomy
 from morphkit.io.asset_paths import asset_roots, check_mjcf_files, is_inside, outside_allowed
 from morphkit.rotations import (
     quat_between_vectors,

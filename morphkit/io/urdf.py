@@ -45,6 +45,7 @@ import numpy as np
 from lxml import etree
 
 from morphkit._atomic import atomic_write_text
+from morphkit.body.anatomy import complete_anatomy
 from morphkit.conventions import quat_from_rpy
 from morphkit.errors import DescriptionError, SourceLocation
 from morphkit.graph import (
@@ -61,7 +62,6 @@ from morphkit.graph import (
 )
 from morphkit.graph.types import parse_enum
 from morphkit.io._source import read_text, relative_mesh_path, resolve_mesh_path, warn_wheeled_without_wheels
-from morphkit.io.anatomy import complete_anatomy
 
 __all__ = ["dump_urdf", "parse_urdf", "read_urdf", "write_urdf"]
 

@@ -81,6 +81,7 @@ from typing import Any
 import numpy as np
 
 from morphkit._atomic import atomic_path
+from morphkit.body.anatomy import complete_anatomy
 from morphkit.conventions import quat_conjugate, quat_multiply, quat_rotate, transform_multiply
 from morphkit.errors import DescriptionError, MorphkitError, SourceLocation
 from morphkit.graph import (
@@ -97,7 +98,6 @@ from morphkit.graph import (
 )
 from morphkit.graph.types import parse_enum
 from morphkit.io._source import relative_mesh_path, resolve_mesh_path
-from morphkit.io.anatomy import complete_anatomy
 from morphkit.rotations import quat_between_vectors
 
 __all__ = ["USD_SUFFIXES", "build_stage", "export_stage", "load_usd_mesh", "read_usd", "write_usd"]

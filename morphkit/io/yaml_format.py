@@ -48,6 +48,7 @@ from typing import Any
 import numpy as np
 
 from morphkit._atomic import atomic_write_text
+from morphkit.body.anatomy import complete_anatomy
 from morphkit.conventions import quat_from_rpy
 from morphkit.errors import DescriptionError, SourceLocation
 from morphkit.graph import (
@@ -64,7 +65,6 @@ from morphkit.graph import (
 )
 from morphkit.graph.types import parse_enum
 from morphkit.io._source import read_text, relative_mesh_path, resolve_mesh_path, warn_wheeled_without_wheels
-from morphkit.io.anatomy import complete_anatomy
 from morphkit.yaml_loader import LineLoader, YamlList, YamlMapping, load_yaml
 
 __all__ = ["DocumentReader", "dump_yaml", "load_document", "parse_yaml", "read_yaml", "write_yaml"]

@@ -19,7 +19,7 @@ All legs and arms of a pose are solved in one :func:`~morphkit.kernels.ik.ik_ste
   knee, ankle pitch-roll): every hinge is in the solve, and two more points of the foot (ahead of and
   beside its sole) hold it level; a foot in the air is then placed exactly by a second solve that
   leaves its orientation free (:meth:`LimbSolver.leg_step_weights`), as its ankle may not reach level;
-- a ball foot whose point is the ball's bottom (as :mod:`morphkit.io.anatomy` places it) has its
+- a ball foot whose point is the ball's bottom (as :mod:`morphkit.body.anatomy` places it) has its
   target raised by what the ball turned (:meth:`LimbSolver.rolling_lift`), so it rolls, not sinks.
 """
 
@@ -260,7 +260,7 @@ def _round_shapes_holding(m: Morphology, ee: EndEffector) -> list[Shape]:
 
 def _sphere_under(m: Morphology, ee: EndEffector) -> list[tuple[np.ndarray, float]]:
     """``[(centre, radius)]`` of the sphere on ``ee``'s link whose surface holds the point (a ball foot's sole,
-    as :mod:`morphkit.io.anatomy` places it); empty for any other foot (Spot's point is its ball's centre)."""
+    as :mod:`morphkit.body.anatomy` places it); empty for any other foot (Spot's point is its ball's centre)."""
     return [(np.asarray(sh.origin.xyz, dtype=float), float(sh.radius))
             for sh in _round_shapes_holding(m, ee) if sh.type == ShapeType.SPHERE][:1]
 

@@ -8,7 +8,7 @@ primitive shapes (box body, capsule segments, sphere feet) and joint limits a re
 
 The end-effectors the generator labels (feet at the sole of each foot ball, the hand at the hand
 ball, the head; a tail carries none) are its own ground truth; ``labelled=False`` leaves them out,
-so that the readers' body-based guess (:mod:`morphkit.io.anatomy`) can be checked against them.
+so that the readers' body-based guess (:mod:`morphkit.body.anatomy`) can be checked against them.
 """
 
 from __future__ import annotations

@@ -10,9 +10,11 @@ import time
 import numpy as np
 import pytest
 
+from morphkit.body.anatomy import ANATOMY
 from morphkit.graph import EndEffectorRole
-from morphkit.io.anatomy import STANCE_SEARCH_MAX_LEGS
 from morphkit.io.yaml_format import parse_yaml
+
+STANCE_SEARCH_MAX_LEGS = ANATOMY.max_legs
 
 
 def _chain_yaml(offsets: np.ndarray, *, named_tip: bool) -> str:

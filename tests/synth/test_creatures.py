@@ -8,8 +8,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from morphkit.body.anatomy import complete_anatomy
 from morphkit.errors import ConfigError
-from morphkit.io.anatomy import complete_anatomy
 from morphkit.synth.creatures import CreatureFamily, random_creature
 
 FAMILIES = [

@@ -13,16 +13,17 @@ and their ``q = 0`` is often not a standing pose (legs folded flat, straight or 
    like ``grasp``/``tcp``/``tool``, else between the fingertips), else a hand at its farthest point.
    On a floating base, feet are the ends that carry the body: each end's lowest reachable point
    (joint limits sampled, root at rest) is compared with the deepest; ends within
-   :data:`LEG_DEPTH_FRACTION` of it are legs. Names are hints: an end named like an arm, hand or head
-   is a leg only if it rests on the ground at the reference pose (a dog's front paws); one named like
-   a tail, ear or sensor is no end-effector. A non-leg end ahead of and above the root, with at most
+   ``leg_depth_fraction`` (:class:`AnatomyConfig`) of it are legs. Names are hints
+   (:mod:`morphkit.body.roles`): an end named like an arm, hand or head is a leg only if it rests on
+   the ground at the reference pose (a dog's front paws); one named like a tail, ear or sensor is no
+   end-effector. A non-leg end ahead of and above the root, with at most
    three joints, is a head.
 3. **Base.** A floating base nobody declared (a URDF without a ``world`` link) whose creature has no
    feet is an arm bolted down: fixed.
 4. **Stance.** A rest pose the file gives (an MJCF keyframe, YAML ``rest_pose``) is kept, with a note
    where it does not look like a stance. Otherwise, unless ``q = 0`` already stands — feet
    lowest, every other shape above them, legs bent — one is searched for: the body level, each foot
-   under its hip on the ground at :data:`STANCE_EXTENSION` of the shortest leg's reach, knees bent the
+   under its hip on the ground at ``stance_extension`` of the shortest leg's reach, knees bent the
    way the joint limits allow (multi-start damped least squares per leg; among solutions, those that
    keep every link above the ground, then knees backwards for four or more legs and forwards for two).
 5. **Feet** sit on the sole of the distal shape of the leg's last rigid group with shapes, at the stance:
@@ -42,40 +43,61 @@ from functools import lru_cache
 
 import numpy as np
 
+from morphkit.body.kinematics import BodyKinematics
 from morphkit.body.roles import hint_rank, name_hint
 from morphkit.graph import BaseType, EndEffector, EndEffectorRole, JointType, Morphology, ShapeType
 from morphkit.rotations import transform_multiply
 
 __all__ = [
-    "LEG_DEPTH_FRACTION",
-    "STANCE_EXTENSION",
-    "STANCE_SEARCH_MAX_JOINTS",
-    "STANCE_SEARCH_MAX_LEGS",
+    "ANATOMY",
+    "AnatomyConfig",
     "Frame",
     "anatomy_warnings",
     "complete_anatomy",
     "leg_like_chains",
 ]
 
-LEG_DEPTH_FRACTION = 0.3
-"""An end is a leg when its lowest reach lies within this fraction of the deepest end's reach below the root."""
-STANCE_EXTENSION = {2: 0.92, 0: 0.8}
-"""Hip-to-sole distance of a searched stance, as a fraction of the shortest leg's reach: bipeds stand
-near straight (as people do), other creatures with their knees well bent (quadruped robots' nominal
-heights: A1, Aliengo, Mini Cheetah 0.75–0.85)."""
-STANCE_SEARCH_MAX_LEGS = 32
-"""A stance is searched for at most this many legs: each leg costs a fixed multi-start solve (about 0.3 s),
-so a body of thousands of leg-like links would take hours. Beyond it the reference pose is kept, with a note."""
-STANCE_SEARCH_MAX_JOINTS = 256
-"""... and for legs whose chains (joints from the root to each foot) add up to at most this many: each solver
-step poses the whole chain, so a leg hung off a long spine costs the spine's length at every step."""
-_SAMPLES = 256
-_MERGE_FRACTION = 0.5
-_GROUND_TOL = 0.002
-_FOOT_TOL = 0.01
-_STRAIGHT = 0.97
-_PAW_FRACTION = 0.15
-_UNDER_HIP = 0.25
+@dataclass(frozen=True)
+class AnatomyConfig:
+    """Every number the part finding and the stance search decide by (lengths relative to the body's where said)."""
+
+    leg_depth_fraction: float = 0.3
+    """An end is a leg when its lowest reach lies within this fraction of the deepest end's reach below the root."""
+    stance_extension: float = 0.8
+    """Hip-to-sole distance of a searched stance, as a fraction of the shortest leg's reach, for creatures of
+    other than two legs: knees well bent (quadruped robots' nominal heights: A1, Aliengo, Mini Cheetah
+    0.75–0.85)."""
+    biped_stance_extension: float = 0.92
+    """The same for two legs: near straight, as people stand."""
+    max_legs: int = 32
+    """A stance is searched for at most this many legs: each leg costs a fixed multi-start solve (about 0.3 s),
+    so a body of thousands of leg-like links would take hours. Beyond it the reference pose is kept, with a note."""
+    max_joints: int = 256
+    """... and for legs whose chains (joints from the root to each foot) add up to at most this many: each solver
+    step poses the whole chain, so a leg hung off a long spine costs the spine's length at every step."""
+    samples: int = 256
+    """Joint-value samples per end when its lowest reach is measured."""
+    merge_fraction: float = 0.5
+    """Tips branching off one group closer than this fraction of the chain from the root are one end (fingers)."""
+    ground_tolerance: float = 0.002
+    """[m] a shape this far under the ground still stands on it."""
+    foot_tolerance: float = 0.01
+    """[m] feet this close in height are level; other shapes this far above the feet are clear of the ground."""
+    straight: float = 0.97
+    """A leg stretched beyond this fraction of its reach is straight (no stance: knees must bend)."""
+    paw_fraction: float = 0.15
+    """A hand-named end whose lowest point at the reference pose lies within this fraction of the ground's depth
+    rests on the ground: a front paw, so a leg."""
+    under_hip: float = 0.25
+    """A foot farther than this fraction of its leg's reach from under its hip does not stand."""
+
+    def extension(self, legs: int) -> float:
+        """The searched stance's extension for a creature of ``legs`` legs."""
+        return self.biped_stance_extension if legs == 2 else self.stance_extension
+
+
+ANATOMY = AnatomyConfig()
+"""The defaults every reader uses."""
 
 _ONE_DOF = (JointType.REVOLUTE, JointType.CONTINUOUS, JointType.PRISMATIC)
 
@@ -87,85 +109,6 @@ class Frame:
     name: str
     link: str
     offset: tuple[float, float, float]
-
-
-# ---------------------------------------------------------------------------------------------
-# numpy forward kinematics over many joint-value samples
-# ---------------------------------------------------------------------------------------------
-def _matrix(T: np.ndarray) -> np.ndarray:
-    x, y, z, w = T[3:]
-    M = np.eye(4)
-    M[:3, :3] = [
-        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-    ]
-    M[:3, 3] = T[:3]
-    return M
-
-
-class _Kinematics:
-    """Link poses of ``m`` for batches of 1-DoF joint values, root at the origin (NumPy)."""
-
-    def __init__(self, m: Morphology) -> None:
-        self.m = m
-        self.origins = np.stack([_matrix(j.origin.as_array()) for j in m.joints]) if m.joints else np.zeros((0, 4, 4))
-        self.parent = np.asarray(m.link_parent)
-        self.index = {j.name: i for i, j in enumerate(m.joints)}
-        lo = np.full(m.joint_count, -math.pi)
-        hi = np.full(m.joint_count, math.pi)
-        for i, j in enumerate(m.joints):
-            if j.limit is not None and j.type in (JointType.REVOLUTE, JointType.PRISMATIC):
-                lo[i], hi[i] = j.limit.lower, j.limit.upper
-            elif j.type not in _ONE_DOF:
-                lo[i] = hi[i] = 0.0
-        self.lower, self.upper = lo, hi
-        rest = dict(m.rest_pose)
-        self.rest = np.clip([rest.get(j.name, 0.0) for j in m.joints], lo, hi) if m.joints else np.zeros(0)
-
-    def chain(self, links: Sequence[int]) -> list[int]:
-        """Indices of the joints that move ``links``: theirs and their ancestors', in joint order."""
-        seen: set[int] = set()
-        for li in links:
-            while li and li not in seen:
-                seen.add(li)
-                li = self.m.link_parent[li]
-        return sorted(li - 1 for li in seen)
-
-    def poses(self, values: np.ndarray, joints: Sequence[int] | None = None) -> np.ndarray:
-        """``T_root_link`` for values [N, joint_count] → [N, link_count, 4, 4].
-
-        ``joints`` (from :meth:`chain`) limits the work to the links those joints move; the other
-        links' poses are left zero. One limb's poses then cost its depth, not the body's size: the
-        array is laid out links first (a view puts samples first), so that the zeros of the links not
-        posed are never written.
-        """
-        m = self.m
-        n = values.shape[0]
-        out = np.zeros((m.link_count, n, 4, 4))
-        out[0] = np.eye(4)
-        for ji in range(m.joint_count) if joints is None else joints:
-            j = m.joints[ji]
-            v = values[:, ji]
-            if j.mimic is not None:
-                v = j.mimic.multiplier * values[:, self.index[j.mimic.joint]] + j.mimic.offset
-            local = np.broadcast_to(self.origins[ji], (n, 4, 4)).copy()
-            if j.type in (JointType.REVOLUTE, JointType.CONTINUOUS):
-                axis = np.asarray(j.axis, dtype=float)
-                K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
-                R = np.eye(3) + np.sin(v)[:, None, None] * K + (1 - np.cos(v))[:, None, None] * (K @ K)
-                local[:, :3, :3] = local[:, :3, :3] @ R
-            elif j.type == JointType.PRISMATIC:
-                local[:, :3, 3] += (local[:, :3, :3] @ np.asarray(j.axis, dtype=float)) * v[:, None]
-            out[ji + 1] = out[self.parent[ji + 1]] @ local
-        return out.transpose(1, 0, 2, 3)
-
-    def sample(self, joints: Sequence[int], n: int, rng: np.random.Generator) -> np.ndarray:
-        """``n`` value rows: the rest values with ``joints`` drawn uniformly within their limits."""
-        values = np.tile(self.rest, (n, 1))
-        for ji in joints:
-            values[:, ji] = rng.uniform(self.lower[ji], self.upper[ji], n)
-        return values
 
 
 # ---------------------------------------------------------------------------------------------
@@ -214,8 +157,9 @@ def _shape_points(shape) -> tuple[np.ndarray, float]:
 class _Shapes:
     """Every link's shapes as (core points, radius), for lowest points at any pose."""
 
-    def __init__(self, m: Morphology) -> None:
+    def __init__(self, m: Morphology, config: AnatomyConfig) -> None:
         self.per_link = [[_shape_points(s) for s in link.shapes] for link in m.links]
+        self.config = config
 
     def lowest(self, poses: np.ndarray, links: Sequence[int]) -> float:
         """Lowest z [m] of the shapes of ``links`` at ``poses`` [link_count, 4, 4] (+inf without shapes)."""
@@ -258,7 +202,7 @@ class _Shapes:
 
             low = world[min(faces, key=normal_z)]
         else:
-            low = world[z <= z.min() + max(_GROUND_TOL, 0.05 * float(np.ptp(z)))]
+            low = world[z <= z.min() + max(self.config.ground_tolerance, 0.05 * float(np.ptp(z)))]
         return R.T @ (low.mean(axis=0) - np.array([0.0, 0.0, r]) - p)
 
 
@@ -279,8 +223,9 @@ class _End:
 
 
 class _Tree:
-    def __init__(self, m: Morphology, rest: np.ndarray) -> None:
+    def __init__(self, m: Morphology, rest: np.ndarray, config: AnatomyConfig) -> None:
         self.m = m
+        self.config = config
         group = [0] * m.link_count
         for ji, j in enumerate(m.joints):
             child = ji + 1
@@ -343,7 +288,7 @@ class _Tree:
             if g and len(kids) > 1:
                 depth = self.chain_length(g)
                 tips = self.tips_below(g)
-                if max(self.spread(g, t) for t in tips) < _MERGE_FRACTION * depth:
+                if max(self.spread(g, t) for t in tips) < self.config.merge_fraction * depth:
                     out.append(_End(attach, g, tips, self.path(g), []))
                     continue
             stack += [(k, g if len(kids) > 1 or g == 0 else attach) for k in reversed(kids)]
@@ -455,13 +400,13 @@ def _under(m: Morphology, li: int, g: int) -> bool:
     return li == g
 
 
-def _classify(m: Morphology, parts: list[_Part], kin: _Kinematics, shapes: _Shapes, poses: np.ndarray,
+def _classify(m: Morphology, parts: list[_Part], kin: BodyKinematics, shapes: _Shapes, poses: np.ndarray,
               fixed: bool) -> None:
     rng = np.random.default_rng(0)
     for p in parts:
         if p.hint == "skip":
             continue
-        values = np.concatenate([kin.rest[None], kin.sample(p.end.joints, _SAMPLES, rng)])
+        values = np.concatenate([kin.rest[None], kin.sample(p.end.joints, shapes.config.samples, rng)])
         low = kin.poses(values, kin.chain(p.links))
         p.reach = min(_lowest_z(shapes, low[k], p.links) for k in range(len(values)))
     live = [p for p in parts if p.hint != "skip"]
@@ -480,14 +425,14 @@ def _classify(m: Morphology, parts: list[_Part], kin: _Kinematics, shapes: _Shap
             p.hint = "skip"
             p.reason = "a chain on the midline behind the body (a tail): not an end-effector"
     live = [p for p in live if p.hint != "skip"]
-    candidates = [p for p in live if p.reach <= deepest + LEG_DEPTH_FRACTION * abs(deepest)
+    candidates = [p for p in live if p.reach <= deepest + shapes.config.leg_depth_fraction * abs(deepest)
                   and not _on_midline(m, poses, p)]
     if len(candidates) < 2:  # one chain reaching down is an arm on a pedestal, not a body on legs
         candidates = []
     chosen = {id(p) for p in candidates}  # by identity: `in` on a list compares dataclasses, O(ends²)
     for p in live:
         near = id(p) in chosen
-        resting = ref_low[id(p)] <= ground_ref + _PAW_FRACTION * abs(ground_ref)
+        resting = ref_low[id(p)] <= ground_ref + shapes.config.paw_fraction * abs(ground_ref)
         if deepest >= 0 or not near:
             continue
         if p.hint in ("hand", "tool", "head") and not resting:
@@ -534,7 +479,7 @@ def _arm_role(p: _Part, why: str) -> None:
 # ---------------------------------------------------------------------------------------------
 # stance
 # ---------------------------------------------------------------------------------------------
-def _leg_geometry(m: Morphology, kin: _Kinematics, shapes: _Shapes, part: _Part, poses: np.ndarray
+def _leg_geometry(m: Morphology, kin: BodyKinematics, shapes: _Shapes, part: _Part, poses: np.ndarray
                   ) -> tuple[np.ndarray, list[int]]:
     """The hip point [3] (root frame, at rest) under which the foot stands, and the leg's own 1-DoF joints."""
     own = [ji for ji in part.end.own if m.joints[ji].type in _ONE_DOF and m.joints[ji].mimic is None]
@@ -567,33 +512,33 @@ def _sole_world(m: Morphology, shapes: _Shapes, poses: np.ndarray, part: _Part) 
     return poses[li, :3, :3] @ off + poses[li, :3, 3]
 
 
-def _reference_stands(m: Morphology, kin: _Kinematics, shapes: _Shapes, legs: list[_Part], poses: np.ndarray
+def _reference_stands(m: Morphology, kin: BodyKinematics, shapes: _Shapes, legs: list[_Part], poses: np.ndarray
                       ) -> str | None:
     """Why the reference pose is not a stance (``None`` where it is one)."""
     soles = np.array([_sole_world(m, shapes, poses, p) for p in legs])
     ground = float(soles[:, 2].min())
     if ground >= -1e-3:
         return "its feet are not below the body"
-    if float(soles[:, 2].max()) > ground + max(_FOOT_TOL, 0.05 * abs(ground)):
+    if float(soles[:, 2].max()) > ground + max(shapes.config.foot_tolerance, 0.05 * abs(ground)):
         return "its feet are not level"
     leg_links = {li for p in legs for li in p.links}
     others = [li for li in range(m.link_count) if li not in leg_links]
-    if shapes.lowest(poses, others) < ground + _FOOT_TOL or any(
-        shapes.lowest(poses, [li]) < ground - _GROUND_TOL for li in leg_links
+    if shapes.lowest(poses, others) < ground + shapes.config.foot_tolerance or any(
+        shapes.lowest(poses, [li]) < ground - shapes.config.ground_tolerance for li in leg_links
     ):
         return "a link other than the feet touches the ground"
     for p in legs:
         hip, own = _leg_geometry(m, kin, shapes, p, poses)
         reach = _leg_reach(m, kin, shapes, p, own)
         sole = _sole_world(m, shapes, poses, p)
-        if np.linalg.norm(sole - poses[own[0] + 1, :3, 3]) > _STRAIGHT * reach:
+        if np.linalg.norm(sole - poses[own[0] + 1, :3, 3]) > shapes.config.straight * reach:
             return "its legs are straight"
-        if np.linalg.norm((sole - hip)[:2]) > _UNDER_HIP * reach:
+        if np.linalg.norm((sole - hip)[:2]) > shapes.config.under_hip * reach:
             return "its feet are not under the hips"
     return None
 
 
-def _leg_reach(m: Morphology, kin: _Kinematics, shapes: _Shapes, p: _Part, own: list[int]) -> float:
+def _leg_reach(m: Morphology, kin: BodyKinematics, shapes: _Shapes, p: _Part, own: list[int]) -> float:
     """Largest distance [m] from the leg's first joint to its sole over joint-limit samples."""
     values = kin.sample(own, 128, np.random.default_rng(1))
     poses = kin.poses(values, kin.chain(p.links))
@@ -601,7 +546,7 @@ def _leg_reach(m: Morphology, kin: _Kinematics, shapes: _Shapes, p: _Part, own: 
                for k in range(len(values)))
 
 
-def _solve_leg(m: Morphology, kin: _Kinematics, shapes: _Shapes, p: _Part, own: list[int], base: np.ndarray,
+def _solve_leg(m: Morphology, kin: BodyKinematics, shapes: _Shapes, p: _Part, own: list[int], base: np.ndarray,
                target: np.ndarray, knee_sign: float, hip: np.ndarray) -> tuple[float, np.ndarray]:
     """Best values for the leg's joints putting its sole at ``target``: (cost, values [joint_count])."""
     lo, hi = kin.lower[own], kin.upper[own]
@@ -629,7 +574,7 @@ def _solve_leg(m: Morphology, kin: _Kinematics, shapes: _Shapes, p: _Part, own: 
         vals[own] = x
         poses = kin.poses(vals[None], chain)[0]
         err = float(np.linalg.norm(target - _sole_world(m, shapes, poses, p)))
-        under = max(0.0, target[2] - shapes.lowest(poses, p.links) - _GROUND_TOL)
+        under = max(0.0, target[2] - shapes.lowest(poses, p.links) - shapes.config.ground_tolerance)
         knee = _knee_offset(poses, own, hip, target)
         cost = 10.0 * err + 10.0 * under + (0.0 if knee * knee_sign >= 0 else 0.01)
         if cost < best[0]:
@@ -650,23 +595,23 @@ def _knee_offset(poses: np.ndarray, own: list[int], hip: np.ndarray, foot: np.nd
     return off
 
 
-def _too_big_to_search(m: Morphology, legs: list[_Part]) -> str | None:
+def _too_big_to_search(m: Morphology, legs: list[_Part], config: AnatomyConfig) -> str | None:
     """Why no stance is searched for these legs (``None`` where one is): the bounds on the search's work."""
-    if len(legs) > STANCE_SEARCH_MAX_LEGS:
-        return (f"no stance searched for {len(legs)} legs (at most {STANCE_SEARCH_MAX_LEGS}); "
+    if len(legs) > config.max_legs:
+        return (f"no stance searched for {len(legs)} legs (at most {config.max_legs}); "
                 "give a rest pose in the description")
     joints = sum(len(m.chain(m.links[max(p.links)].name)) for p in legs)
-    if joints > STANCE_SEARCH_MAX_JOINTS:
+    if joints > config.max_joints:
         return (f"no stance searched for legs of {joints} joints in all from the root (at most "
-                f"{STANCE_SEARCH_MAX_JOINTS}); give a rest pose in the description")
+                f"{config.max_joints}); give a rest pose in the description")
     return None
 
 
-def _find_stance(m: Morphology, kin: _Kinematics, shapes: _Shapes, legs: list[_Part], poses: np.ndarray
+def _find_stance(m: Morphology, kin: BodyKinematics, shapes: _Shapes, legs: list[_Part], poses: np.ndarray
                  ) -> tuple[np.ndarray, str] | None:
     geo = [_leg_geometry(m, kin, shapes, p, poses) for p in legs]
     reaches = [_leg_reach(m, kin, shapes, p, own) for p, (_hip, own) in zip(legs, geo, strict=True)]
-    ext0 = STANCE_EXTENSION.get(len(legs), STANCE_EXTENSION[0])
+    ext0 = shapes.config.extension(len(legs))
     knee_sign = 1.0 if len(legs) == 2 else -1.0
     best: tuple[float, np.ndarray, float] | None = None
     for ext in (ext0, ext0 - 0.05, ext0 + 0.05, ext0 - 0.1):
@@ -699,7 +644,7 @@ def _rest_pose_of(m: Morphology, values: np.ndarray) -> dict[str, float]:
 # entry points
 # ---------------------------------------------------------------------------------------------
 def complete_anatomy(m: Morphology, *, frames: Sequence[Frame] = (), base_declared: bool = True,
-                     reference: str = "q = 0") -> Morphology:
+                     reference: str = "q = 0", config: AnatomyConfig = ANATOMY) -> Morphology:
     """``m`` with end-effectors, base type and rest pose decided from its body where the file named none.
 
     Args:
@@ -708,6 +653,7 @@ def complete_anatomy(m: Morphology, *, frames: Sequence[Frame] = (), base_declar
         base_declared: Whether the file said how the base moves (a URDF ``world`` joint, an MJCF ``free``
             joint); if not, a floating base without feet becomes fixed.
         reference: What ``m``'s rest pose is, for the notes (``"q = 0"`` or ``"keyframe 'home'"``).
+        config: The numbers the part finding and the stance search decide by.
 
     Returns:
         ``m`` unchanged where it has end-effectors; else a copy with guessed end-effectors (each with
@@ -716,14 +662,14 @@ def complete_anatomy(m: Morphology, *, frames: Sequence[Frame] = (), base_declar
     """
     if m.end_effectors or all(j.type == JointType.FIXED for j in m.joints):
         return m  # named by the file, or one rigid body: nothing moves to decide on
-    kin = _Kinematics(m)
+    kin = BodyKinematics(m)
     poses = kin.poses(kin.rest[None])[0]
-    return _complete(m, kin, _Shapes(m), poses, frames, base_declared, reference)
+    return _complete(m, kin, _Shapes(m, config), poses, frames, base_declared, reference)
 
 
-def _complete(m: Morphology, kin: _Kinematics, shapes: _Shapes, poses: np.ndarray, given: Sequence[Frame],
+def _complete(m: Morphology, kin: BodyKinematics, shapes: _Shapes, poses: np.ndarray, given: Sequence[Frame],
               base_declared: bool, reference: str) -> Morphology:
-    tree = _Tree(m, poses)
+    tree = _Tree(m, poses, shapes.config)
     ends = tree.ends()
     frames = _frames_of(m, tree, ends, given)
     parts = []
@@ -750,7 +696,7 @@ def _complete(m: Morphology, kin: _Kinematics, shapes: _Shapes, poses: np.ndarra
         if why is not None and m.rest_pose:
             # The file's own stance (a keyframe, a YAML rest_pose) is kept; the note says what looks off.
             rest_note += f" (kept as the file gives it, though {why})"
-        elif why is not None and (big := _too_big_to_search(m, legs)) is not None:
+        elif why is not None and (big := _too_big_to_search(m, legs, shapes.config)) is not None:
             rest_note += f" (kept, though {why}: {big})"
         elif why is not None:
             found = _find_stance(m, kin, shapes, legs, poses)
@@ -782,15 +728,15 @@ def _complete(m: Morphology, kin: _Kinematics, shapes: _Shapes, poses: np.ndarra
                                notes=(*m.notes, *notes))
 
 
-def leg_like_chains(m: Morphology) -> list[str]:
+def leg_like_chains(m: Morphology, config: AnatomyConfig = ANATOMY) -> list[str]:
     """Tip links of chains that look like legs (reach the ground as deep as the deepest) but carry no foot."""
     if m.base != BaseType.FLOATING or not m.joint_count:
         return []
-    kin = _Kinematics(m)
+    kin = BodyKinematics(m)
     poses = kin.poses(kin.rest[None])[0]
-    tree = _Tree(m, poses)
+    tree = _Tree(m, poses, config)
     parts = [_Part(e, None, None, _end_links(tree, e)) for e in tree.ends()]
-    _classify(m, parts, kin, _Shapes(m), poses, False)
+    _classify(m, parts, kin, _Shapes(m, config), poses, False)
     feet_links = {m.link_index(e.link) for e in m.end_effectors if e.role == EndEffectorRole.FOOT}
     return [m.links[max(p.links)].name for p in parts
             if p.role == EndEffectorRole.FOOT and not feet_links.intersection(p.links)]
