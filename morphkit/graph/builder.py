@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Iterable, Sequence
 
 import numpy as np
@@ -17,7 +18,8 @@ __all__ = ["MAX_LIMIT", "MorphologyBuilder"]
 MAX_LIMIT = 1e6
 """Largest magnitude [rad or m] of a revolute or prismatic joint's limit. Samplers draw joint values uniformly
 between the limits (a width of 2e308 overflows) and poses at 10⁶ m or 10⁶ rad mean nothing; an unlimited turn is
-a continuous joint."""
+a continuous joint, and a revolute joint whose limits lie beyond the bound on both sides is read as one (with a
+warning)."""
 
 
 def _finite(values: Iterable[float], what: str, location: SourceLocation | None) -> tuple[float, ...]:
@@ -182,7 +184,13 @@ class MorphologyBuilder:
             lo, hi = _finite([limit.lower, limit.upper], f"joint {name!r} limit", loc)
             if lo > hi:
                 raise GraphError(f"joint {name!r}: limit lower {lo} > upper {hi}", location=loc)
-            if jtype in (JointType.REVOLUTE, JointType.PRISMATIC) and max(-lo, hi) > MAX_LIMIT:
+            if jtype == JointType.REVOLUTE and lo < -MAX_LIMIT and hi > MAX_LIMIT:
+                # Vendor files write an unlimited hinge so (example-robot-data's iris: ±1e16); Pinocchio and
+                # MuJoCo read it as one that turns freely.
+                warnings.warn(f"{loc or 'description'}: joint {name!r}: limit [{lo:g}, {hi:g}] beyond ±{MAX_LIMIT:g} "
+                              "rad read as unlimited (a continuous joint)", stacklevel=3)
+                jtype = JointType.CONTINUOUS
+            elif jtype in (JointType.REVOLUTE, JointType.PRISMATIC) and max(-lo, hi) > MAX_LIMIT:
                 hint = "; use type continuous for an unlimited revolute joint" if jtype == JointType.REVOLUTE else ""
                 raise GraphError(f"joint {name!r}: limit [{lo:g}, {hi:g}] beyond ±{MAX_LIMIT:g} (rad or m){hint}",
                                  location=loc)

@@ -1,5 +1,7 @@
 """Numbers and references a description may not hold, refused by the builder with the file and line: joint
-limits beyond ±MAX_LIMIT (±1e308 overflowed the samplers), a joint that mimics itself."""
+limits beyond ±MAX_LIMIT (±1e308 overflowed the samplers) — except a revolute joint beyond it on both sides,
+which vendor files write for a hinge that turns freely and which reads as continuous —, a joint that mimics
+itself."""
 
 from __future__ import annotations
 
@@ -9,7 +11,7 @@ import pytest
 
 from morphkit.cli import main
 from morphkit.errors import GraphError, SourceLocation
-from morphkit.graph import Limit, Mimic, MorphologyBuilder
+from morphkit.graph import JointType, Limit, Mimic, MorphologyBuilder
 from morphkit.graph.builder import MAX_LIMIT
 from morphkit.io.urdf import parse_urdf
 from morphkit.io.yaml_format import parse_yaml
@@ -33,8 +35,9 @@ def _yaml(kind: str, lo: str, hi: str) -> str:
     return _YAML.replace("{kind}", kind).replace("{lo}", lo).replace("{hi}", hi)
 
 
-@pytest.mark.parametrize("kind", ["revolute", "prismatic"])
-@pytest.mark.parametrize(("lo", "hi"), [("-1e308", "1e308"), ("-1.5e6", "0"), ("0", "2e6")])
+@pytest.mark.parametrize(("kind", "lo", "hi"), [("prismatic", "-1e308", "1e308"), ("revolute", "-1.5e6", "0"),
+                                               ("prismatic", "-1.5e6", "0"), ("revolute", "0", "2e6"),
+                                               ("prismatic", "0", "2e6")])
 def test_a_limit_beyond_the_bound_is_refused_at_its_line(kind: str, lo: str, hi: str):
     with pytest.raises(GraphError, match=r"joint 'j': limit \[.*\] beyond ±1e\+06 \(rad or m\)") as info:
         parse_yaml(_yaml(kind, lo, hi), source="arm.yaml")
@@ -48,12 +51,26 @@ def test_limits_up_to_the_bound_read_and_a_continuous_joint_ignores_its_limit():
     assert parse_yaml(_yaml("continuous", "-1e308", "1e308"), source="arm.yaml").joints[0].limit is None
 
 
-def test_a_urdf_limit_of_1e308_is_refused_at_its_line():
+@pytest.mark.parametrize("big", ["1e16", "1e308"])
+def test_a_urdf_hinge_unlimited_by_huge_limits_reads_as_continuous(big: str):
+    """example-robot-data's iris drone writes its rotors' limits as ±1e16: a hinge that turns freely."""
+    text = f"""<robot name="r">
+  <link name="base"/>
+  <link name="a"/>
+  <joint name="j" type="revolute"><parent link="base"/><child link="a"/><axis xyz="0 0 1"/>
+    <limit lower="-{big}" upper="{big}"/></joint>
+</robot>"""
+    with pytest.warns(UserWarning, match=r"r.urdf:4: joint 'j': limit .* read as unlimited"):
+        m = parse_urdf(text, source="r.urdf")
+    assert m.joints[0].type == JointType.CONTINUOUS and m.joints[0].limit is None
+
+
+def test_a_urdf_limit_beyond_the_bound_on_one_side_is_refused_at_its_line():
     text = """<robot name="r">
   <link name="base"/>
   <link name="a"/>
   <joint name="j" type="revolute"><parent link="base"/><child link="a"/><axis xyz="0 0 1"/>
-    <limit lower="-1e308" upper="1e308"/></joint>
+    <limit lower="0" upper="1e308"/></joint>
 </robot>"""
     with pytest.raises(GraphError, match="beyond") as info:
         parse_urdf(text, source="r.urdf")
@@ -62,7 +79,7 @@ def test_a_urdf_limit_of_1e308_is_refused_at_its_line():
 
 def test_the_cli_refuses_1e308_limits_with_one_line(tmp_path: Path, capsys):
     path = tmp_path / "arm.yaml"
-    path.write_text(_yaml("revolute", "-1e308", "1e308"))
+    path.write_text(_yaml("prismatic", "-1e308", "1e308"))
     for argv in (["info", str(path)], ["synth", str(path), "--frames", "30", "--out", str(tmp_path / "out")]):
         assert main(argv) == 2
         err = capsys.readouterr().err
