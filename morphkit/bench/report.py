@@ -130,7 +130,7 @@ def _target(entry: Any, where: str) -> Target:
     if len(bounds) != 1 or not isinstance(entry[bounds[0]], (int, float)):
         hint = ""
         if len(bounds) == 1 and isinstance(entry[bounds[0]], str):
-            hint = f" ({entry[bounds[0]]!r} is text: YAML wants a signed exponent, as in 4.0e+6)"
+            hint = f" ({entry[bounds[0]]!r} is text, not a number)"
         raise ConfigError(f"{where}: give exactly one number, at_least or at_most{hint}")
     needed = {"rate": ("creature", "mode", "impl"), "speedup": ("creature", "mode", "impl", "over")}.get(kind, ())
     allowed = {"kind", bounds[0], *needed}

@@ -342,7 +342,7 @@ def test_evaluate_refuses_bad_input_with_one_clear_error(smoke, tmp_path, monkey
         (["--runs", str(empty)], "not an ACE or NKN run folder"),
         (["--runs", str(runs / "ace_seed0"), str(other)], "run of creature 'crab'"),
         (["--runs", str(runs / "ace_seed0"), "--human-data", str(clips), "--videos", "0"], "no two arms"),
-        (["--runs", str(runs / "ace_seed0"), "--clips", "0"], "--clips must be at least 1"),
+        (["--runs", str(runs / "ace_seed0"), "--clips", "0"], "--clips: expected an integer >= 1"),
     ]
     for args, message in cases:
         assert cli(["evaluate", *args, "--out", str(tmp_path / "report")]) == 2, args
