@@ -33,7 +33,7 @@ missing.
 2. *Canonical proportions* (:func:`to_canonical`). Each canonical link takes $W_l(t)$ with the canonical
    human's own bone lengths. The root is placed so that the midpoint of the two hip joints is the
    source's, scaled by $s = L_c / L_s$, where $L$ is the leg length thigh + shank (hip to knee to
-   ankle joints, mean of both sides; :func:`leg_length`). Ours: ACE normalises lengths by body length;
+   ankle joints, mean of both sides; :func:`thigh_shank_length`). Ours: ACE normalises lengths by body length;
    we scale by the legs because they set a clip's root height and stride, so a child and a tall adult
    drive a creature alike, and because every convention places its hip, knee and ankle joints alike
    (roots, spines, heads and toes differ). Then the clip is grounded: its lowest foot end-effector
@@ -81,13 +81,13 @@ __all__ = [
     "find_skeleton_map",
     "guess_skeleton_map",
     "is_canonical",
-    "leg_length",
     "map_skeleton_motion",
     "mapped_poses",
     "plan_skeleton_map",
     "read_canonical_motion",
     "read_skeleton_map",
     "skeleton_maps",
+    "thigh_shank_length",
     "to_canonical",
 ]
 
@@ -453,9 +453,10 @@ def canonical_human() -> Morphology:
     return read_morphology(CANONICAL_HUMAN)
 
 
-def leg_length(skeleton: Morphology) -> float:
+def thigh_shank_length(skeleton: Morphology) -> float:
     """Thigh + shank [m] of a skeleton of the canonical topology: hip → knee → ankle joints, mean of
-    both sides (the length clips are scaled by)."""
+    both sides; the foot is left out (the length clips are scaled by). Not
+    :attr:`~morphkit.graph.Morphology.leg_length`, which runs on to the foot point."""
     sides = []
     for side in _LEFT_RIGHT:
         knee, ankle = skeleton.joint(f"{side}Leg"), skeleton.joint(f"{side}Foot")
@@ -481,9 +482,11 @@ def _rest_height(m: Morphology) -> float:
 
 def canonical_record() -> dict[str, Any]:
     """What a run records of the canonical human it was trained on: ``skeleton`` (its name), ``height``
-    (sole to crown at rest [m]) and ``leg_length`` (:func:`leg_length` [m])."""
+    (sole to crown at rest [m]) and ``leg_length`` (:func:`thigh_shank_length` [m]; the key keeps its name, runs
+    store it)."""
     m = canonical_human()
-    return {"skeleton": CANONICAL_HUMAN, "height": round(_rest_height(m), 4), "leg_length": round(leg_length(m), 4)}
+    return {"skeleton": CANONICAL_HUMAN, "height": round(_rest_height(m), 4),
+            "leg_length": round(thigh_shank_length(m), 4)}
 
 
 def is_canonical(morphology: Morphology) -> bool:
@@ -537,7 +540,7 @@ def to_canonical(motion: Motion, *, maps: Sequence[SkeletonMap] | None = None, s
                              rest_tolerance=TPOSE_TOLERANCE)
     pos, W = mapped_poses(motion, plan)
     W = _fit_twists(plan, canon, pos, W)
-    s = leg_length(canon) / max(leg_length(plan.skeleton), 1e-9) if scale else 1.0
+    s = thigh_shank_length(canon) / max(thigh_shank_length(plan.skeleton), 1e-9) if scale else 1.0
     hips = [canon.link_index(f"{side}UpLeg") for side in _LEFT_RIGHT]
     hip_mid = pos[:, hips].mean(axis=1)
     hip_off = np.mean([canon.joint(f"{side}UpLeg").origin.xyz for side in _LEFT_RIGHT], axis=0)

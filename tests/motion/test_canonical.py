@@ -27,7 +27,7 @@ from morphkit.motion import (
     to_canonical,
     write_motion,
 )
-from morphkit.motion.canonical import find_skeleton_map, map_skeleton_motion
+from morphkit.motion.canonical import find_skeleton_map, map_skeleton_motion, thigh_shank_length
 from morphkit.rotations import heading_frame, quat_rotate_inverse
 
 DATA = Path(os.environ["MORPHKIT_DATA"]) if os.environ.get("MORPHKIT_DATA") else None
@@ -52,6 +52,19 @@ def test_tables_name_every_canonical_link_and_the_canonical_human_passes_unchang
     assert to_canonical(clip) is clip
     assert canonical_record() == {"skeleton": "human", "height": 1.75, "leg_length": 0.84}
     assert human_state_layout(c).dim == 104
+
+
+def test_thigh_shank_length_is_hip_to_knee_to_ankle_without_the_foot():
+    """The length clips are scaled by: thigh + shank between the rest joints, mean of both sides; shorter than
+    Morphology.leg_length, which runs on to the foot point."""
+    c = canonical_human()
+    at = c.rest_link_poses()[:, :3]
+    by_hand = np.mean([np.linalg.norm(at[c.link_index(f"{s}Leg")] - at[c.link_index(f"{s}UpLeg")])
+                       + np.linalg.norm(at[c.link_index(f"{s}Foot")] - at[c.link_index(f"{s}Leg")])
+                       for s in ("Left", "Right")])
+    assert thigh_shank_length(c) == pytest.approx(by_hand, abs=1e-12)
+    assert round(by_hand, 4) == canonical_record()["leg_length"]
+    assert thigh_shank_length(c) < c.leg_length
 
 
 def test_a_renamed_clip_maps_back_onto_the_same_world_joints(tmp_path):
