@@ -8,9 +8,10 @@ from functools import cached_property
 
 import numpy as np
 
-from morphkit.conventions import quat_from_axis_angle, transform_multiply
+from morphkit.conventions import transform_multiply
 from morphkit.errors import GraphError
 from morphkit.graph.elements import EndEffector, Joint, Link, Wheels
+from morphkit.graph.kinematics import link_poses
 from morphkit.graph.layout import (
     BASE_COORD_NAMES,
     BASE_COORD_WIDTH,
@@ -299,26 +300,9 @@ class Morphology:
         return values
 
     def rest_link_poses(self) -> np.ndarray:
-        """Link poses ``T_world_link`` at :meth:`rest_q`, shape [link_count, 7] (NumPy, for queries only)."""
-        q = self.rest_q()
-        value = np.zeros(self.joint_count)  # 1-DoF joint values; mimic joints follow their target
-        for ji, j in enumerate(self.joints):
-            if not self.is_driven(j) and j.type in (JointType.REVOLUTE, JointType.CONTINUOUS, JointType.PRISMATIC):
-                value[ji] = q[self.joint_q_start[ji]]
-        for ji, j in enumerate(self.joints):
-            if j.mimic is not None:
-                value[ji] = j.mimic.multiplier * value[self.joint_index(j.mimic.joint)] + j.mimic.offset
-        poses = np.zeros((self.link_count, 7))
-        poses[0, 6] = 1.0
-        for ji, j in enumerate(self.joints):
-            local = j.origin.as_array()
-            if j.type in (JointType.REVOLUTE, JointType.CONTINUOUS):
-                motion = np.array([0, 0, 0, *quat_from_axis_angle(np.asarray(j.axis), value[ji])])
-                local = transform_multiply(local, motion)
-            elif j.type == JointType.PRISMATIC:
-                local = transform_multiply(local, np.array([*(value[ji] * np.asarray(j.axis)), 0, 0, 0, 1]))
-            poses[ji + 1] = transform_multiply(poses[self.link_parent[ji + 1]], local)
-        return poses
+        """Link poses ``T_world_link`` at :meth:`rest_q`, root at the origin, shape [link_count, 7]
+        (:func:`~morphkit.graph.kinematics.link_poses`, for queries only)."""
+        return link_poses(self, self.rest_q()[None], root_at_origin=True)[0]
 
     def rest_points(self) -> np.ndarray:
         """Link origins and end-effector points at rest, shape [link_count + ee_count, 3] [m]."""

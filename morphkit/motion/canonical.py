@@ -59,6 +59,7 @@ import numpy as np
 
 from morphkit.errors import ConfigError, MotionFormatError, SourceLocation
 from morphkit.graph import BaseType, EndEffectorRole, JointType, Morphology, ShapeType, Transform
+from morphkit.graph.kinematics import link_poses
 from morphkit.motion.motion import Motion
 from morphkit.rotations import (
     matrix_from_quat,
@@ -66,7 +67,6 @@ from morphkit.rotations import (
     quat_conjugate,
     quat_from_matrix,
     quat_multiply,
-    quat_normalize,
     quat_rotate,
 )
 from morphkit.yaml_loader import YamlMapping, load_yaml_file, plain_data
@@ -236,25 +236,14 @@ def find_skeleton_map(source: Morphology, template: Morphology,
 def _link_poses(m: Morphology, q: np.ndarray) -> np.ndarray:
     """World link poses ``T_world_link`` [T, L, 7] of coordinates ``q`` [T, C].
 
-    NumPy for a floating base with ball and fixed joints (every BVH skeleton); other morphologies go
-    through the FK kernels.
+    The NumPy reference FK (:func:`~morphkit.graph.kinematics.link_poses`) for a floating base with ball and
+    fixed joints (every BVH skeleton); other morphologies go through the FK kernels.
     """
     if m.base != BaseType.FLOATING or any(j.type not in (JointType.SPHERICAL, JointType.FIXED) for j in m.joints):
         from morphkit.motion._fk import link_poses_and_end_effectors
 
         return link_poses_and_end_effectors(m, q)[0]
-    T = q.shape[0]
-    out = np.zeros((T, m.link_count, 7))
-    out[:, 0, :3] = q[:, :3]
-    out[:, 0, 3:] = quat_normalize(q[:, 3:7])
-    for ji, (j, start) in enumerate(zip(m.joints, m.joint_q_start[:-1], strict=True)):
-        c, p = ji + 1, m.link_parent[ji + 1]
-        local = np.broadcast_to(np.asarray(j.origin.quat, dtype=float), (T, 4))
-        if j.type == JointType.SPHERICAL:
-            local = quat_multiply(local, quat_normalize(q[:, start : start + 4]))
-        out[:, c, 3:] = quat_multiply(out[:, p, 3:], local)
-        out[:, c, :3] = out[:, p, :3] + quat_rotate(out[:, p, 3:], np.asarray(j.origin.xyz, dtype=float))
-    return out
+    return link_poses(m, q)
 
 
 def _ee_positions(m: Morphology, poses: np.ndarray, role: EndEffectorRole | None = None) -> np.ndarray:
