@@ -81,7 +81,7 @@ def _clips(clips: list) -> str:
 
 def run(args: argparse.Namespace) -> int:
     from morphkit.errors import ConfigError, SourceLocation
-    from morphkit.motion import body_length, ee_distributions, map_end_effectors, read_override
+    from morphkit.motion import ee_distributions, map_end_effectors, measured_body_length, read_override
     from morphkit.motion.datasets import load_motions
 
     if args.max_frames < 1:
@@ -102,8 +102,8 @@ def run(args: argparse.Namespace) -> int:
         creatures = load_motions(args.creature, cache_dir=cache, **_bvh_options([args.creature], args.creature_facing))
         # One length per data set, measured on all its clips unless given.
         lengths = {
-            "creature": args.creature_length or body_length(creatures[0].morphology, creatures),
-            "human": args.human_length or body_length(humans[0].morphology, humans),
+            "creature": args.creature_length or measured_body_length(creatures[0].morphology, creatures),
+            "human": args.human_length or measured_body_length(humans[0].morphology, humans),
         }
         human = ee_distributions(humans, max_frames_per_clip=args.max_frames, length=lengths["human"])
         creature = ee_distributions(creatures, max_frames_per_clip=args.max_frames, length=lengths["creature"])

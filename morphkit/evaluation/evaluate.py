@@ -26,7 +26,7 @@ from morphkit.evaluation.methods import Method
 from morphkit.evaluation.table import TableRow, dataset_row, evaluate_clips, pooled_skating, reference_data
 from morphkit.graph import Morphology
 from morphkit.metrics import UnrealisticFrames, unrealistic_frame_ratio
-from morphkit.motion import Motion, Pairing, body_length, ee_distributions, map_end_effectors
+from morphkit.motion import Motion, Pairing, ee_distributions, map_end_effectors, measured_body_length
 from morphkit.retarget.retargeter import RetargetedClip, Retargeter, contact_export
 from morphkit.retarget.run_loader import load
 from morphkit.retarget.training_data import (
@@ -122,7 +122,7 @@ def reference_for(methods: Sequence[Method], *, human_data: str | os.PathLike[st
         pairing, origin = model.pairing, os.fspath(method.run)
     else:
         human = clips[0].morphology
-        c_len, h_len = body_length(creature, character), body_length(human, clips)
+        c_len, h_len = measured_body_length(creature, character), measured_body_length(human, clips)
         roles = ({e.name: e.role for e in creature.end_effectors}, {e.name: e.role for e in human.end_effectors})
         mapping = map_end_effectors(ee_distributions(character, length=c_len, max_frames_per_clip=300),
                                     ee_distributions(clips, length=h_len, max_frames_per_clip=300), roles=roles,

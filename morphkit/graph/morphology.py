@@ -332,7 +332,10 @@ class Morphology:
     # ---- body length -----------------------------------------------------------------------
     @property
     def body_length(self) -> float:
-        """The length [m] Ψ divides by, putting a human and any creature on one scale.
+        """The length [m] Ψ divides by, putting a human and any creature on one scale, from the description alone.
+
+        Trainers measure it on motion instead (:func:`morphkit.motion.measured_body_length`, which falls
+        back on this without feet or motion).
 
         :attr:`declared_body_length` when the description gives one; otherwise, by
         :attr:`body_length_rule`:
@@ -342,7 +345,7 @@ class Morphology:
           1 and its feet at -1 in Ψ (human 0.98 m, crab 0.186 m, Spot 0.646 m on straight legs);
         - **feet, rest pose not upright** (BVH rigs posed lying or with paws forward): the mean leg
           length from the hip to the foot point, the height the root would stand at on straight
-          legs; :func:`morphkit.motion.body_length` measures the standing height on a motion instead;
+          legs; :func:`morphkit.motion.measured_body_length` measures the standing height on a motion instead;
         - **no feet, hands or tools** (wheeled and fixed robots): the highest point a hand reaches
           above the ground (:attr:`hand_height_range`) over :data:`HUMAN_HAND_REACH`, so its top
           reach stands for a human's hand raised overhead;
@@ -394,7 +397,8 @@ class Morphology:
     @cached_property
     def leg_length(self) -> float:
         """Mean length [m] of the legs, from the hip (the first joint only that foot's chain uses) to
-        the foot point along the bones (0 without feet)."""
+        the foot point along the bones, the foot included (0 without feet); the canonical human's
+        thigh + shank alone is :func:`morphkit.motion.canonical.thigh_shank_length`."""
         chains = self.end_effector_chains
         uses: dict[str, int] = {}
         for chain in chains.values():

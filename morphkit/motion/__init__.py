@@ -60,7 +60,7 @@ from morphkit.motion.mirror import MIRRORED_SUFFIX as MIRRORED_SUFFIX
 from morphkit.motion.mirror import mirror_motion as mirror_motion
 from morphkit.motion.mirror import mirror_partners as mirror_partners
 from morphkit.motion.motion import Motion as Motion
-from morphkit.motion.scale import body_length as body_length
+from morphkit.motion.scale import measured_body_length as measured_body_length
 from morphkit.motion.scale import standing_height as standing_height
 from morphkit.motion.states import NormStats as NormStats
 from morphkit.motion.states import StateLayout as StateLayout
@@ -93,7 +93,6 @@ __all__ = [
     "Pairing",
     "SkeletonMap",
     "StateLayout",
-    "body_length",
     "bvh_to_motion",
     "canonical_human",
     "canonical_record",
@@ -123,6 +122,7 @@ __all__ = [
     "kl_divergence",
     "load_motions",
     "map_end_effectors",
+    "measured_body_length",
     "mirror_motion",
     "mirror_partners",
     "motion_features",

@@ -35,7 +35,7 @@ import numpy as np
 
 from morphkit.errors import ConfigError, SourceLocation
 from morphkit.motion.features import ACTIVE_HAND, ROOT_FEATURE_DIM, ActiveHand, motion_features
-from morphkit.motion.scale import body_length
+from morphkit.motion.scale import measured_body_length
 from morphkit.yaml_loader import MALFORMED, YamlMapping, load_yaml_file
 
 if TYPE_CHECKING:
@@ -110,7 +110,7 @@ def ee_distributions(
         max_frames_per_clip: Use at most this many evenly spaced frames of each clip (speed).
         regularization: Diagonal added to each covariance (normalised units²).
         length: Body length [m] to normalise by (default:
-            :func:`~morphkit.motion.scale.body_length` of the first clip's morphology, measured on
+            :func:`~morphkit.motion.scale.measured_body_length` of the first clip's morphology, measured on
             all the clips together, so every clip shares it).
 
     Returns:
@@ -122,7 +122,7 @@ def ee_distributions(
     """
     motions = list(motions)
     if length is None and motions:
-        length = body_length(motions[0].morphology, motions)
+        length = measured_body_length(motions[0].morphology, motions)
     names: tuple[str, ...] | None = None
     chunks: list[np.ndarray] = []
     for m in motions:

@@ -2,7 +2,7 @@
 and the end-effector mapping.
 
 Ψ reads the fields every state has in common (see :mod:`morphkit.motion.states`) and divides
-lengths by the creature's body length ``length`` (:func:`morphkit.motion.scale.body_length`: its
+lengths by the creature's body length ``length`` (:func:`morphkit.motion.scale.measured_body_length`: its
 standing root height, so a standing creature's root is at 1 and its feet near -1):
 
 ===========================  ==========  ===================================================
@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from morphkit.errors import ConfigError
-from morphkit.motion.scale import body_length
+from morphkit.motion.scale import measured_body_length
 from morphkit.motion.states import (
     StateLayout,
     character_state_from_motion,
@@ -198,13 +198,13 @@ def motion_features(
     Args:
         motion: The motion.
         ee_names: End-effectors to include, in this order (default: all).
-        length: Body length [m] (default: :func:`~morphkit.motion.scale.body_length` of the
+        length: Body length [m] (default: :func:`~morphkit.motion.scale.measured_body_length` of the
             morphology, measured on this motion; pass one length for every clip of a data set).
         centre: See :func:`features`.
     """
     layout = character_state_layout(motion.morphology)
     state = character_state_from_motion(motion)
-    body = body_length(motion.morphology, motion) if length is None else length
+    body = measured_body_length(motion.morphology, motion) if length is None else length
     return features(state, layout, length=body, ee_names=ee_names, centre=centre)
 
 
@@ -222,7 +222,7 @@ class Pairing:
     human_ees: tuple[str, ...]
     """The human end-effector paired with each of ``creature_ees`` (same order)."""
     creature_length: float
-    """The creature's body length [m] (:func:`~morphkit.motion.scale.body_length` on its data set)."""
+    """The creature's body length [m] (:func:`~morphkit.motion.scale.measured_body_length` on its data set)."""
     human_length: float
     """The human's body length [m] (on the human data the run was trained on)."""
     creature_centre: tuple[float, ...] | None = None

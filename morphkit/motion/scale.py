@@ -3,10 +3,10 @@
 ACE normalises every length of its feature function "according to the character's body length".
 morphkit takes a creature's **standing root height** — how high its root stands above its feet —
 so that in Ψ a standing creature's root sits at 1 and its feet at about -1, whatever its size or
-leg count. The graph gives one from the description alone
-(:attr:`~morphkit.graph.Morphology.body_length`: the rest stance, straight legs for rigs whose rest
-pose is not upright, hand reach for creatures without feet); :func:`body_length` measures it on
-the creature's own motion where one is given, because a rest pose need not be how a creature
+leg count. Two estimates of that one length, each named for its source: the graph gives one from the
+description alone (:attr:`~morphkit.graph.Morphology.body_length`: the rest stance, straight legs for
+rigs whose rest pose is not upright, hand reach for creatures without feet); :func:`measured_body_length`
+measures it on the creature's own motion where one is given, because a rest pose need not be how a creature
 stands (Spot's rest pose has straight legs, 0.65 m; it walks at about 0.51 m) and some BVH rigs
 are not posed upright at all. See ``docs/concepts/body-length.md``.
 """
@@ -24,7 +24,7 @@ from morphkit.graph import EndEffectorRole, Morphology
 if TYPE_CHECKING:
     from morphkit.motion.motion import Motion
 
-__all__ = ["STANDING_PERCENTILE", "body_length", "standing_height"]
+__all__ = ["STANDING_PERCENTILE", "measured_body_length", "standing_height"]
 
 STANDING_PERCENTILE = 90.0
 """Percentile of the per-frame root height above the lowest foot that counts as standing: high
@@ -63,8 +63,8 @@ def standing_height(motion: Motion | Iterable[Motion]) -> float | None:
     return float(np.percentile(np.concatenate(heights), STANDING_PERCENTILE))
 
 
-def body_length(morphology: Morphology, motion: Motion | Iterable[Motion] | None = None) -> float:
-    """The body length [m] of a creature, measured on its motion where one is given.
+def measured_body_length(morphology: Morphology, motion: Motion | Iterable[Motion] | None = None) -> float:
+    """The body length [m] of a creature, measured on its motion where one is given (what Ψ divides by).
 
     1. The length the description declares (YAML ``body_length:``), if any.
     2. A creature with feet and a motion: its :func:`standing_height` over the motion (pass a

@@ -12,7 +12,6 @@ from morphkit.errors import ConfigError
 from morphkit.motion import (
     GROUND_MOTION_FEATURES,
     Motion,
-    body_length,
     canonical_human,
     character_state_from_motion,
     character_state_layout,
@@ -24,6 +23,7 @@ from morphkit.motion import (
     human_state_layout,
     kl_divergence,
     map_end_effectors,
+    measured_body_length,
     motion_features,
     read_override,
 )
@@ -39,7 +39,7 @@ def _motion(seed: int = 0) -> Motion:
 def test_features_pick_shared_fields_and_normalise_lengths() -> None:
     motion = _motion()
     m = motion.morphology
-    L = body_length(m, motion)  # the default: the standing height measured on the motion
+    L = measured_body_length(m, motion)  # the default: the standing height measured on the motion
     hl, rl = human_state_layout(m), character_state_layout(m)
     xh, xr = human_state_from_motion(motion), character_state_from_motion(motion)
     fh = features(xh, hl, length=L)
@@ -159,7 +159,7 @@ def test_ee_distributions_from_motions_and_override_file(tmp_path: Path) -> None
     dists = ee_distributions(motions)
     names = [e.name for e in motions[0].morphology.end_effectors]
     assert list(dists) == names
-    L = body_length(motions[0].morphology, motions)  # one length for the data set, measured on every clip
+    L = measured_body_length(motions[0].morphology, motions)  # one length for the data set, measured on every clip
     psi = np.concatenate([motion_features(m, length=L)[:, 11:] for m in motions]).reshape(-1, len(names), 3)
     np.testing.assert_allclose(dists[names[0]].mean, psi[:, 0].mean(0), atol=1e-12)
     sub = ee_distributions(motions, max_frames_per_clip=5)

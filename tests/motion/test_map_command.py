@@ -10,7 +10,7 @@ import pytest
 from morphkit_testing import human_like, random_q, spot_like
 
 from morphkit.cli import main
-from morphkit.motion import Motion, body_length, load_motions, write_motion
+from morphkit.motion import Motion, load_motions, measured_body_length, write_motion
 from morphkit.motion._fk import compiled_model
 
 
@@ -61,7 +61,7 @@ def test_map_body_lengths_are_measured_reported_and_overridable(data: tuple[Path
     measured = json.loads(capsys.readouterr().out)["body_length"]
     for key, folder in (("human", human), ("creature", spot)):
         clips = load_motions([folder], cache_dir=None)
-        assert measured[key] == pytest.approx(body_length(clips[0].morphology, clips), abs=1e-6)
+        assert measured[key] == pytest.approx(measured_body_length(clips[0].morphology, clips), abs=1e-6)
     assert main(["map", str(human), str(spot), "--json", "--no-cache", "--body-length", "0.5",
                  "--human-body-length", "1.25"]) == 0
     doc = json.loads(capsys.readouterr().out)

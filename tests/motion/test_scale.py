@@ -21,9 +21,9 @@ from morphkit.graph import HUMAN_HAND_REACH, BodyLengthRule, EndEffectorRole, Mo
 from morphkit.motion import (
     ROOT_FEATURE_DIM,
     Motion,
-    body_length,
     ee_distributions,
     ground_motion,
+    measured_body_length,
     motion_features,
     read_motion,
     standing_height,
@@ -95,7 +95,7 @@ def test_rest_stance_puts_the_root_at_one_and_the_feet_at_minus_one(name: str) -
     np.testing.assert_allclose(feet.min(axis=1), -1.0, atol=1e-6)
     np.testing.assert_allclose(motion_features(rest, length=m.body_length)[:, 0], 1.0, atol=1e-6)
     # Measured on the rest pose itself, the standing height is the same.
-    assert body_length(m, rest) == pytest.approx(m.body_length, abs=1e-6)
+    assert measured_body_length(m, rest) == pytest.approx(m.body_length, abs=1e-6)
 
 
 # ---- standing feet agree across creatures -----------------------------------------------------
@@ -121,8 +121,8 @@ def test_standing_feet_sit_at_one_normalised_height(standing: dict[str, Motion])
 
 def test_spot_is_measured_at_the_height_it_stands_not_on_straight_legs(standing: dict[str, Motion]) -> None:
     spot = standing["spot home"].morphology
-    home = body_length(spot, standing["spot home"])
-    trot = body_length(spot, standing["spot trot"])
+    home = measured_body_length(spot, standing["spot home"])
+    trot = measured_body_length(spot, standing["spot trot"])
     # Home pose: feet 0.428 m below the body (README); trotting on bent legs: ACE's Spot (≈ 0.51 m).
     assert home == pytest.approx(0.428, abs=0.005)
     assert 0.42 <= trot <= 0.55
@@ -200,17 +200,17 @@ def test_declared_length_wins_over_motion_and_other_creatures_are_refused() -> N
     b.add_link("body")
     b.set_body_length(0.55)
     declared = b.build()
-    assert body_length(declared) == 0.55
-    assert body_length(declared, Motion(declared, 30.0, np.tile([0.0, 0, 0, 0, 0, 0, 1], (3, 1)))) == 0.55
+    assert measured_body_length(declared) == 0.55
+    assert measured_body_length(declared, Motion(declared, 30.0, np.tile([0.0, 0, 0, 0, 0, 0, 1], (3, 1)))) == 0.55
     with pytest.raises(ConfigError, match="end-effectors differ"):
-        body_length(declared, motion)
+        measured_body_length(declared, motion)
 
 
 def test_ee_distributions_share_one_length_over_the_clips() -> None:
     m = human_like()
     clips = [Motion(m, 30.0, random_q(compiled_model(m), 15, seed=s), f"c{s}") for s in range(3)]
-    pooled = body_length(m, clips)
-    assert len({round(body_length(m, c), 9) for c in clips}) > 1  # clips differ on their own
+    pooled = measured_body_length(m, clips)
+    assert len({round(measured_body_length(m, c), 9) for c in clips}) > 1  # clips differ on their own
     auto = ee_distributions(clips)
     given = ee_distributions(clips, length=pooled)
     for name in auto:
@@ -247,7 +247,7 @@ def test_mocap_feet_sit_where_the_shipped_creatures_feet_do(rig: str, request: p
                                                            standing: dict[str, Motion]) -> None:
     clips = request.getfixturevalue(rig)
     m = clips[0].morphology
-    length = body_length(m, clips)
+    length = measured_body_length(m, clips)
     if rig == "cmu":
         assert m.body_length_rule == BodyLengthRule.STANCE  # its rest pose stands
     else:
@@ -265,7 +265,7 @@ def test_mocap_feet_sit_where_the_shipped_creatures_feet_do(rig: str, request: p
 @pytest.mark.parametrize("rig", ["cmu", "bandai"])
 def test_stretch_gripper_heights_span_mocap_hand_heights(rig: str, request: pytest.FixtureRequest) -> None:
     clips = request.getfixturevalue(rig)
-    length = body_length(clips[0].morphology, clips)
+    length = measured_body_length(clips[0].morphology, clips)
     hands = np.concatenate([_psi_above_ground(c, EndEffectorRole.HAND, length).ravel() for c in clips])
     lo, hi = _stretch_range()
     # Everything but hands on the floor (a human picking something up; Stretch's lowest is 0.12 m).

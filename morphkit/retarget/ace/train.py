@@ -29,13 +29,13 @@ from morphkit.motion import (
     Motion,
     NormStats,
     Pairing,
-    body_length,
     character_state_from_motion,
     character_state_layout,
     ee_distributions,
     human_state_from_motion,
     human_state_layout,
     map_end_effectors,
+    measured_body_length,
 )
 from morphkit.retarget.ace.checkpoint import (
     AVERAGE_STATE,
@@ -145,7 +145,7 @@ def prepare(
         f" ({'embedded default' if human_data is None else human_data})")
     c_states = [character_state_from_motion(m) for m in character]
     h_states = [human_state_from_motion(m) for m in human]
-    c_len, h_len = body_length(creature, character), body_length(human_m, human)
+    c_len, h_len = measured_body_length(creature, character), measured_body_length(human_m, human)
     c_dist = ee_distributions(character, length=c_len, max_frames_per_clip=300)
     h_dist = ee_distributions(human, length=h_len, max_frames_per_clip=300)
     roles = None if cfg.kl_only_mapping else ({e.name: e.role for e in creature.end_effectors},
