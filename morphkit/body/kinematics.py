@@ -3,7 +3,10 @@
 Used where a body question needs many poses of one creature at once without a device or a compiled model (the
 stance search and the part finding of :mod:`morphkit.body.anatomy` pose thousands of samples of a leg); the Warp
 kernels (:mod:`morphkit.kernels.fk`) serve motion, training and everything on a device. Rotations are
-Rodrigues' formula on 4 × 4 matrices, in float64.
+Rodrigues' formula on 4 × 4 matrices, in float64: the same poses as the reference FK
+(:func:`morphkit.graph.kinematics.link_poses_of_values`) to rounding, kept apart because the stance search is a
+multi-start search whose outcome follows the last bits (computed through the reference FK, 15 of 139 public robots'
+searched stances change).
 """
 
 from __future__ import annotations

@@ -8,6 +8,7 @@ Poses compose as ``T_world_child = T_world_parent · T_origin · T_motion(q)`` w
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -18,7 +19,7 @@ from morphkit.rotations import quat_from_axis_angle, quat_normalize, transform_m
 if TYPE_CHECKING:
     from morphkit.graph.morphology import Morphology
 
-__all__ = ["link_poses"]
+__all__ = ["link_poses", "link_poses_of_values"]
 
 _Z = np.array([0.0, 0.0, 1.0])
 
@@ -32,23 +33,47 @@ def link_poses(m: Morphology, q: np.ndarray, *, root_at_origin: bool = False) ->
     q = np.asarray(q, dtype=float)
     n = q.shape[0]
     starts = m.joint_q_start
-    value = np.zeros((n, m.joint_count))  # 1-DoF joint values; mimic joints follow their target
+    value = np.zeros((n, m.joint_count))
     for ji, j in enumerate(m.joints):
         if not m.is_driven(j) and j.type in (JointType.REVOLUTE, JointType.CONTINUOUS, JointType.PRISMATIC):
             value[:, ji] = q[:, starts[ji]]
-    for ji, j in enumerate(m.joints):
+    root = np.zeros((n, 7))
+    root[:, 6] = 1.0
+    if not root_at_origin and m.base == BaseType.FLOATING:
+        root[:, :3] = q[:, :3]
+        root[:, 3:] = quat_normalize(q[:, 3:7])
+    elif not root_at_origin and m.base in (BaseType.PLANAR, BaseType.WHEELED):
+        root[:, :2] = q[:, :2]
+        root[:, 3:] = quat_from_axis_angle(_Z, q[:, 2])
+    balls = {ji: quat_normalize(q[:, starts[ji] : starts[ji] + 4]) for ji, j in enumerate(m.joints)
+             if j.type == JointType.SPHERICAL and not m.is_driven(j)}
+    return _compose(m, value, balls, root, range(m.joint_count))
+
+
+def link_poses_of_values(m: Morphology, values: np.ndarray, joints: Sequence[int] | None = None) -> np.ndarray:
+    """Link poses ``T_root_link`` [N, link_count, 7] of joint value rows ``values`` [N, joint_count].
+
+    A row holds each 1-DoF joint's angle [rad] or travel [m] (other joints' entries are ignored: ball joints
+    at identity; a mimic joint follows its target's entry). ``joints`` (closed under ancestors, in joint
+    order) limits the work to the links they move; the other links' poses are left zero.
+    """
+    values = np.asarray(values, dtype=float)
+    root = np.zeros((values.shape[0], 7))
+    root[:, 6] = 1.0
+    return _compose(m, values.copy(), {}, root, range(m.joint_count) if joints is None else joints)
+
+
+def _compose(m: Morphology, value: np.ndarray, balls: dict[int, np.ndarray], root: np.ndarray,
+             joints: Iterable[int]) -> np.ndarray:
+    n = value.shape[0]
+    for ji, j in enumerate(m.joints):  # mimic joints follow their target
         if j.mimic is not None:
             value[:, ji] = j.mimic.multiplier * value[:, m.joint_index(j.mimic.joint)] + j.mimic.offset
     poses = np.zeros((n, m.link_count, 7))
-    poses[:, 0, 6] = 1.0
-    if not root_at_origin and m.base == BaseType.FLOATING:
-        poses[:, 0, :3] = q[:, :3]
-        poses[:, 0, 3:] = quat_normalize(q[:, 3:7])
-    elif not root_at_origin and m.base in (BaseType.PLANAR, BaseType.WHEELED):
-        poses[:, 0, :2] = q[:, :2]
-        poses[:, 0, 3:] = quat_from_axis_angle(_Z, q[:, 2])
+    poses[:, 0] = root
     parent = m.link_parent
-    for ji, j in enumerate(m.joints):
+    for ji in joints:
+        j = m.joints[ji]
         local = np.broadcast_to(j.origin.as_array(), (n, 7))
         if j.type in (JointType.REVOLUTE, JointType.CONTINUOUS):
             turn = quat_from_axis_angle(np.asarray(j.axis, dtype=float), value[:, ji])
@@ -56,8 +81,7 @@ def link_poses(m: Morphology, q: np.ndarray, *, root_at_origin: bool = False) ->
         elif j.type == JointType.PRISMATIC:
             slide = value[:, ji, None] * np.asarray(j.axis, dtype=float)
             local = transform_multiply(local, np.concatenate([slide, np.tile([0.0, 0.0, 0.0, 1.0], (n, 1))], axis=-1))
-        elif j.type == JointType.SPHERICAL and not m.is_driven(j):
-            ball = quat_normalize(q[:, starts[ji] : starts[ji] + 4])
-            local = transform_multiply(local, np.concatenate([np.zeros((n, 3)), ball], axis=-1))
+        elif ji in balls:
+            local = transform_multiply(local, np.concatenate([np.zeros((n, 3)), balls[ji]], axis=-1))
         poses[:, ji + 1] = transform_multiply(poses[:, parent[ji + 1]], local)
     return poses
