@@ -41,11 +41,13 @@ COMMANDS = [
 class _Parser(argparse.ArgumentParser):
     # argparse exits with 2 on usage errors already; keep its message on one line, no traceback. A bad value of
     # a named argument ("argument --fps: expected a number from 1 to 1000 fps, got 'inf'") is that one line
-    # alone, as every other bad input; a missing or unknown argument comes with the usage.
+    # alone, as every other bad input; so is an unknown flag ("unrecognized arguments: --prior", e.g. an ACE flag
+    # given to `train nkn`: argparse reports it from the top parser, whose usage would not help); a missing
+    # argument comes with the usage of the (sub)command that needs it.
     def error(self, message: str) -> None:  # type: ignore[override]
         if message.startswith("argument "):
             message = message.removeprefix("argument ")
-        else:
+        elif not message.startswith("unrecognized arguments: "):
             self.print_usage(sys.stderr)
         sys.stderr.write(f"error: {message}\n")
         raise SystemExit(2)
