@@ -1,28 +1,27 @@
-"""``morphkit train nkn [CREATURE]``: the NKN half of the ``train`` command (parser in :mod:`.train`)."""
+"""``morphkit train nkn [CREATURE]``: NKN's subcommand of ``train`` (the table and shared flags in :mod:`.train`)."""
 
 from __future__ import annotations
 
 import argparse
 
-ACE_ONLY = ("no_feature_loss", "no_adversarial", "map", "map_file", "body_length", "prior")
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    """NKN's optional CREATURE (NKN has no flags of its own beyond the shared ones)."""
+    p.add_argument("creature", metavar="CREATURE", nargs="?",
+                   help="a shipped name (spot, crab, stretch, human) or a description file: the cross-morphology "
+                   "mode onto it (default: none, the paper's NKN between the human skeletons)")
 
 
-def run_nkn(args: argparse.Namespace) -> int:
+def run(args: argparse.Namespace) -> int:
     """Train NKN: without CREATURE the paper's same-topology mode over the human skeletons, with one the
     cross-morphology mode (human → CREATURE)."""
     from pathlib import Path
 
     from morphkit.commands.train import hold_for_command
-    from morphkit.errors import ConfigError
     from morphkit.output_names import safe_stem
     from morphkit.retarget.config import replace_config
     from morphkit.retarget.nkn import preset, train_nkn
 
-    used = [f"--{n.replace('_', '-')}" for n in ACE_ONLY if getattr(args, n, None) not in (None, False, [], 0.0)]
-    if getattr(args, "contact_weight", 0.0):
-        used.append("--contact-weight")
-    if used:
-        raise ConfigError(f"{', '.join(used)}: ACE options, not NKN's")
     creature = None
     if args.creature is not None:
         from morphkit.io import read_morphology
