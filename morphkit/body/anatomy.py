@@ -66,9 +66,13 @@ class AnatomyConfig:
     stance_extension: float = 0.8
     """Hip-to-sole distance of a searched stance, as a fraction of the shortest leg's reach, for creatures of
     other than two legs: knees well bent (quadruped robots' nominal heights: A1, Aliengo, Mini Cheetah
-    0.75–0.85)."""
+    0.75–0.85). The same quantity and value as synthesis's fallback stance,
+    :attr:`morphkit.synth.LegConfig.stance_extension_fallback` (there a fraction of each leg's effective reach),
+    kept apart: reading and synthesis tune their own."""
     biped_stance_extension: float = 0.92
-    """The same for two legs: near straight, as people stand."""
+    """The same for two legs: near straight, as people stand. Synthesis caps a described stance's extension at
+    this same 0.92 (:attr:`morphkit.synth.LegConfig.stance_extension_max`); where it cannot step there it falls
+    back to :attr:`~morphkit.synth.LegConfig.biped_stance_extension_fallback` (0.88)."""
     max_legs: int = 32
     """A stance is searched for at most this many legs: each leg costs a fixed multi-start solve (about 0.3 s),
     so a body of thousands of leg-like links would take hours. Beyond it the reference pose is kept, with a note."""

@@ -6,7 +6,8 @@
    (never raised) until no leg is stretched beyond ``stance_extension`` of its reach, so knees keep
    room to bend both ways: by default the rest pose's own extension (the described stance, at most
    ``stance_extension_max``) where the step region found in 3. stays at least ``stance_step_test`` of
-   the reach, else the first of ``stance_extension_steps`` that does, else 0.8. Legs that are straight
+   the reach, else the first of ``stance_extension_steps`` that does, else ``stance_extension_fallback``
+   (0.8; bipeds ``biped_stance_extension_fallback``, 0.88). Legs that are straight
    at rest are pre-bent first (knee forward for upright legs), because a straight chain is singular and
    DLS cannot bend it. The body's dip, pitch and roll are then bounded so that the upper body's joints
    can keep every link above the ground (:meth:`~morphkit.synth.ground.GroundGuard.root_floor`).
@@ -93,15 +94,59 @@ class LegConfig:
     stance_extension: float | None = None
     """Hip-to-foot distance at stance as a fraction of reach. None: as at rest (the described stance) where the
     legs can still step from there (``stance_step_test``), else the first of ``stance_extension_steps`` below it
-    that can, else 0.8 (bipeds 0.88). Upright bipeds (see ``upright``) calibrate their step region at this
-    height and stand taller."""
+    that can, else ``stance_extension_fallback`` (bipeds ``biped_stance_extension_fallback``). Upright bipeds
+    (see ``upright``) calibrate their step region at this height and stand taller."""
+    stance_extension_fallback: float = 0.8
+    """Stance extension (fraction of each leg's effective reach) of creatures of more than two legs where
+    ``stance_extension`` is None and the rest pose is no straighter or cannot step: knees well bent. The same
+    quantity and value as the anatomy's searched stance, :attr:`morphkit.body.AnatomyConfig.stance_extension`
+    (there a fraction of the shortest leg's reach), kept apart: synthesis and reading tune their own."""
+    biped_stance_extension_fallback: float = 0.88
+    """The same for one or two legs (upright bipeds calibrate their step region there and stand taller). The
+    anatomy stands two legs straighter, at :attr:`morphkit.body.AnatomyConfig.biped_stance_extension` (0.92,
+    which ``stance_extension_max`` equals)."""
     stance_extension_max: float = 0.92
-    """Straighter legs than this stand at it (a straight chain is singular: DLS cannot bend it)."""
+    """Straighter legs than this stand at it (a straight chain is singular: DLS cannot bend it). Equal to the
+    anatomy's two-legged stance, :attr:`morphkit.body.AnatomyConfig.biped_stance_extension`, so a biped read at
+    that stance is tried at it first."""
     stance_extension_steps: tuple[float, ...] = (0.88, 0.84)
     """Extensions tried, in order, where the rest pose's cannot step."""
     stance_step_test: tuple[float, float] = (0.15, 0.08)
     """A stance can step when its step region's semi-axes (fore-aft, sideways; fractions of the leg's reach)
     come out at least this long."""
+    rest_extension_tolerance: float = 1e-3
+    """The rest pose's extension is tried (``stance_extension_max``, ``stance_extension_steps``) only where it
+    exceeds the fallback by more than this (fraction of reach)."""
+    stance_note_tolerance: float = 0.01
+    """A stance lower than the rest pose's extension by more than this (fraction of reach) is noted in the stats."""
+    stance_height_min: float = 0.3
+    """A stance's root stands at least this fraction of its rest height."""
+    stance_residual: float = 5e-4
+    """IK residual [m] up to which a stance has every foot on its nominal point (else the root is raised, see
+    ``settle_tries``, and finally the rest pose is kept)."""
+    stance_iterations: int = 150
+    """IK iterations of a stance solve (the nominal posture, and the stretch measuring the effective reach)."""
+    settle_tries: int = 4
+    """Where IK misses the nominal feet, the root is raised ``settle_step`` of the way to its rest height, at most
+    this many times."""
+    settle_step: float = 0.5
+    """See ``settle_tries``."""
+    reach_stretch: float = 1.5
+    """The effective reach: each leg's IK point is stretched toward a target this many reaches from its mount,
+    along its rest direction (joint limits may stop it well short of the summed segment lengths)."""
+    reach_stretch_error: float = 0.05
+    """... by IK steps working on at most this fraction of the mean reach."""
+    step_region_min: float = 0.02
+    """Smallest step-region semi-axis factor (fraction of reach) a stance must allow; the commanded body poses
+    are halved (at most ``body_pose_halvings`` times) until it does, and bisection starts from it."""
+    step_region_max: float = 0.6
+    """Largest step-region semi-axis factor (fraction of reach) the bisection tries."""
+    step_region_bisections: int = 6
+    """Bisection steps per semi-axis factor."""
+    step_region_margin: float = 0.95
+    """The bisected semi-axis factors are scaled by this: a margin inside the largest feasible ellipse."""
+    body_pose_halvings: int = 4
+    """See ``step_region_min``."""
     upright: bool | None = None
     """Stand tall and let the root ride over straight stance legs (see "Upright bipeds" in the module
     docstring); None decides from the graph (:func:`is_upright_biped`)."""
@@ -648,7 +693,7 @@ class _StanceSearch:
         """Feet at rest in the root frame [NL, 3] [m]."""
         self.nominal_xy = self.feet_rest[:, :2].copy()
         self.default_extension = cfg.stance_extension if cfg.stance_extension is not None else (
-            0.88 if NL <= 2 else 0.8)
+            cfg.biped_stance_extension_fallback if NL <= 2 else cfg.stance_extension_fallback)
         self.upright = is_upright_biped(plan) if cfg.upright is None else bool(cfg.upright)
         if self.upright:
             k, kh = cfg.upright_pose_scale, cfg.upright_height_scale
@@ -664,16 +709,16 @@ class _StanceSearch:
     def _effective_reach(self) -> np.ndarray:
         """[NL] how far each leg's IK point gets from its mount when stretched toward the rest direction [m] (joint
         limits may stop it well short of the summed segment lengths)."""
-        cal, solver, plan, NL = self.cal, self.solver, self.plan, self.NL
+        cal, solver, plan, NL, cfg = self.cal, self.solver, self.plan, self.NL, self.cfg
         feet_rest, ank = self.feet_rest, self.ank
         q_far = cal.root_q(self.q0[None], np.zeros(1), np.zeros(1), np.zeros(1))
         far = np.zeros((1, NL, 3))
         for li, leg in enumerate(plan.legs):
             mount = np.asarray(leg.mount_rest)
             d = feet_rest[li] - ank[li] - mount
-            far[0, li] = mount + d / max(np.linalg.norm(d), 1e-9) * 1.5 * leg.reach
-        q_far, _ = solver.step(q_far, far, ee=solver.leg_ee, mask=solver.leg_mask, iterations=150,
-                               max_error=0.05 * float(cal.reach.mean()))
+            far[0, li] = mount + d / max(np.linalg.norm(d), 1e-9) * cfg.reach_stretch * leg.reach
+        q_far, _ = solver.step(q_far, far, ee=solver.leg_ee, mask=solver.leg_mask, iterations=cfg.stance_iterations,
+                               max_error=cfg.reach_stretch_error * float(cal.reach.mean()))
         X = eval_fk(cal.model, q_far, device="cpu").numpy()[0]
         eff = np.array([np.linalg.norm(_ee_point(cal.model, X, int(solver.leg_ee[li])) - np.asarray(leg.mount_rest))
                         for li, leg in enumerate(plan.legs)])
@@ -700,7 +745,7 @@ class _StanceSearch:
             if dxy < lim:
                 # at stance height hh the ik point is at z = -hh - ank_z (root frame): mount_z + hh + ank_z = vertical
                 hh = min(hh, np.sqrt(lim**2 - dxy**2) - mount[2] - self.ank[li, 2])
-        return max(hh, 0.3 * self.h_rest)
+        return max(hh, self.cfg.stance_height_min * self.h_rest)
 
     def nominal(self, hh: float) -> tuple[np.ndarray, np.ndarray]:
         """IK posture [C] with the root level at height ``hh`` [m] and the feet on their nominal points, and the
@@ -708,16 +753,17 @@ class _StanceSearch:
         q = self.q0.copy()[None]
         q = self.cal.root_q(q, np.array([hh]), np.zeros(1), np.zeros(1))
         feet = np.concatenate([self.nominal_xy, np.zeros((self.NL, 1))], axis=1)[None]
-        qs, err = self.cal.solve(q, feet, 150)
+        qs, err = self.cal.solve(q, feet, self.cfg.stance_iterations)
         return qs[0], err[0]
 
     def settle(self, hh: float) -> tuple[float, np.ndarray, np.ndarray]:
         """``hh`` raised toward the rest height until IK puts every foot at its nominal point."""
+        cfg = self.cfg
         q_n, e_n = self.nominal(hh)
         tries = 0
-        while e_n.max() > 5e-4 and tries < 4:
+        while e_n.max() > cfg.stance_residual and tries < cfg.settle_tries:
             tries += 1
-            hh = hh + 0.5 * (self.h_rest - hh)
+            hh = hh + cfg.settle_step * (self.h_rest - hh)
             q_n, e_n = self.nominal(hh)
         return hh, q_n, e_n
 
@@ -738,16 +784,16 @@ class _StanceSearch:
                 hh = min(hh, float(np.sqrt(lim**2 - dxy**2) - mounts[li, 2] - self.ank[li, 2]))
         if hh > h:
             q_up, err_up = self.nominal(hh)
-            if err_up.max() <= 5e-4:
+            if err_up.max() <= cfg.stance_residual:
                 return hh, q_up, lengths, mounts
         return None
 
     def stance_at(self, ext: float) -> _Stance:
         """Stance, body-pose bounds and step region with the legs at ``ext`` of their reach."""
-        upright = self.upright
+        upright, cfg = self.upright, self.cfg
         pitch, roll = self.pitch, self.roll
         h, q_nom, err = self.settle(self.height_at(ext))
-        if err.max() > 5e-4:  # keep the rest pose: feet on the ground by construction
+        if err.max() > cfg.stance_residual:  # keep the rest pose: feet on the ground by construction
             h = self.h_rest
             q_nom = self.cal.root_q(self.q_rest[None], np.array([h]), np.zeros(1), np.zeros(1))[0]
         h_stand, q_stand = h, q_nom
@@ -776,22 +822,22 @@ class _StanceSearch:
                                                                            hr, pitch, roll)
             if low > h + 1e-6:  # an upright biped's root dips to h: calibrate its steps where the links stay up
                 q_up, err_up = self.nominal(low)
-                if err_up.max() <= 5e-4:
+                if err_up.max() <= cfg.stance_residual:
                     h, q_nom = low, q_up
                     if not upright:
                         h_stand, q_stand = h, q_nom
         region = _StepRegion(self.cal, self.nominal_xy, h, q_nom, fixed, hr, pitch, roll)
-        small = 0.02
+        small, large, steps = cfg.step_region_min, cfg.step_region_max, cfg.step_region_bisections
         if not region.feasible(small, small):
             # the commanded body poses are out of reach: shrink them until the stance works
-            for _ in range(4):
+            for _ in range(cfg.body_pose_halvings):
                 region.halve_body_poses()
                 if region.feasible(small, small):
                     break
-        a = _bisect(lambda x: region.feasible(x, small), small, 0.6)
-        b = _bisect(lambda y: region.feasible(a, y), small, 0.6)
-        a *= 0.95
-        b *= 0.95
+        a = _bisect(lambda x: region.feasible(x, small), small, large, steps)
+        b = _bisect(lambda y: region.feasible(a, y), small, large, steps)
+        a *= cfg.step_region_margin
+        b *= cfg.step_region_margin
         return _Stance(h=h, h_stand=h_stand, q_nom=q_nom, q_stand=q_stand, err=err, upright=upright, lengths=lengths,
                        mounts=mounts, fixed=fixed, region=region, bound_stats=bound_stats,
                        bound_warnings=bound_warnings, a=a, b=b)
@@ -804,13 +850,13 @@ class _StanceSearch:
         cfg, ext = self.cfg, self.default_extension
         stance_note = stance_warning = None
         st = None
-        if cfg.stance_extension is None and not self.upright and rest_ext > ext + 1e-3:
+        if cfg.stance_extension is None and not self.upright and rest_ext > ext + cfg.rest_extension_tolerance:
             tried = [e for e in (min(rest_ext, cfg.stance_extension_max), *cfg.stance_extension_steps)
                      if ext < e <= rest_ext]
             chosen = ext
             for e in tried:
                 cand = self.stance_at(e)
-                if cand.err.max() <= 5e-4 and all(cand.fixed[:, k].all() or ab >= cfg.stance_step_test[k]
+                if cand.err.max() <= cfg.stance_residual and all(cand.fixed[:, k].all() or ab >= cfg.stance_step_test[k]
                                                   for k, ab in enumerate((cand.a, cand.b))):
                     st, chosen = cand, e
                     break
@@ -821,7 +867,7 @@ class _StanceSearch:
             if failed:
                 reasons.append(f"at {min(failed):.2f} and above they step less than "
                                f"{100 * cfg.stance_step_test[0]:g} % of their reach fore-aft")
-            if chosen < rest_ext - 0.01:
+            if chosen < rest_ext - cfg.stance_note_tolerance:
                 stance_note = (f"legs stand at {chosen:.2f} of their reach, the rest pose's at {rest_ext:.2f}: "
                                + "; ".join(reasons))
             if st is None:

@@ -181,6 +181,18 @@ def test_dynamic_similarity_bounds_the_body_speed_not_the_turn(synth_creature):
     assert speed.max() >= 0.5 * top  # it does walk
 
 
+def test_stance_extension_defaults_match_the_anatomy_where_their_docstrings_say_so():
+    """LegConfig's fallback stance and cap are the anatomy's stance numbers, kept apart by layer: a change to one
+    must revisit the other's docstring."""
+    from morphkit.body import ANATOMY
+    from morphkit.synth.legged import LegConfig
+
+    legs = LegConfig()
+    assert legs.stance_extension_fallback == ANATOMY.stance_extension == 0.8
+    assert legs.stance_extension_max == ANATOMY.biped_stance_extension == 0.92
+    assert legs.biped_stance_extension_fallback == 0.88
+
+
 def test_integrate_root_follows_a_circle():
     fps, v, w = 60.0, 1.2, 0.5
     T = 600
