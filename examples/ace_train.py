@@ -41,9 +41,9 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def run(args: argparse.Namespace) -> int:
+    from morphkit.body.anatomy import anatomy_warnings
     from morphkit.evaluation.table import dataset_row, evaluate_clips, pooled_skating, reference_data, write_table
     from morphkit.io import read_morphology
-    from morphkit.body.anatomy import anatomy_warnings
     from morphkit.motion import write_motion_files
     from morphkit.retarget import WithContacts, load
     from morphkit.retarget.ace.config import preset
