@@ -127,8 +127,10 @@ class MorphologyBuilder:
         if s.type == ShapeType.MESH:
             if not s.mesh:
                 raise GraphError(f"{what}: needs a mesh file", location=loc)
-            if min(_vec(s.scale, 3, f"{what} scale", loc)) <= 0:
-                raise GraphError(f"{what}: scale must be positive, got {list(s.scale)}", location=loc)
+            # A negative factor mirrors the mesh (vendors ship one side's mesh for both: Talos, TIAGo Pro,
+            # Centauro), as Pinocchio, pybullet and MuJoCo read it; only a zero one collapses it.
+            if min(abs(v) for v in _vec(s.scale, 3, f"{what} scale", loc)) <= 0:
+                raise GraphError(f"{what}: scale must be non-zero on every axis, got {list(s.scale)}", location=loc)
 
     # ---- joints ----------------------------------------------------------------------------
     def add_joint(

@@ -603,9 +603,9 @@ class _Reader:
             else:
                 mesh = f"{os.path.abspath(self.src)}#{prim.GetPath()}"
             scale_m = tuple(float(v) * mpu for v in scale)
-            if min(scale_m) <= 0:
+            if min(abs(v) for v in scale_m) <= 0:  # negative mirrors (as the graph reads it); zero collapses
                 raise DescriptionError(
-                    f"{prim.GetPath()}: mesh scale must be positive, got {list(scale_m)}", location=where
+                    f"{prim.GetPath()}: mesh scale must be non-zero on every axis, got {list(scale_m)}", location=where
                 )
             return Shape(ShapeType.MESH, _transform(pose), mesh=mesh, scale=scale_m)  # type: ignore[arg-type]
         return None
