@@ -223,10 +223,11 @@ class _Reader:
             for h in holders:
                 b.add_shape(link_name, self.shape(h, what), location=self.loc(h))
 
+        mimics = {jname: self.mimic(el, f"joint {jname!r}") for jname, el in joint_els if el is not world_joint}
         for jname, el in joint_els:
             if el is world_joint:
                 continue
-            self.joint(b, jname, el)
+            self.joint(b, jname, el, _driven_by(jname, mimics, self.loc(el)))
 
         base_el = self.single(root, "base", "robot")
         if base_el is not None:
@@ -256,7 +257,16 @@ class _Reader:
         sub = el.find(tag)
         return sub.get("link") if sub is not None else None
 
-    def joint(self, b: MorphologyBuilder, jname: str, el: Any) -> None:
+    def mimic(self, el: Any, what: str) -> Mimic | None:
+        """The joint's ``<mimic>`` as written (the joint it follows, multiplier, offset), if any."""
+        mimic = self.single(el, "mimic", what)
+        if mimic is None:
+            return None
+        mw = f"{what} mimic"
+        return Mimic(self.name(mimic, "joint", mw), self.number(mimic, "multiplier", mw, default=1.0),
+                     self.number(mimic, "offset", mw, default=0.0))
+
+    def joint(self, b: MorphologyBuilder, jname: str, el: Any, mimic: Mimic | None = None) -> None:
         what = f"joint {jname!r}"
         jtype_text = self.attr(el, "type", what).strip()
         if jtype_text in ("floating", "planar"):
@@ -291,15 +301,36 @@ class _Reader:
         elif jtype in (JointType.REVOLUTE, JointType.PRISMATIC):
             hint = " (use type continuous for an unlimited revolute joint)" if jtype == JointType.REVOLUTE else ""
             raise self.error(f"{what}: a {jtype_text} joint needs a <limit>{hint}", el)
-        mimic = self.single(el, "mimic", what)
-        if mimic is not None:
-            mw = f"{what} mimic"
-            kw["mimic"] = Mimic(
-                self.name(mimic, "joint", mw),
-                self.number(mimic, "multiplier", mw, default=1.0),
-                self.number(mimic, "offset", mw, default=0.0),
-            )
+        if mimic is not None and jtype == JointType.FIXED:
+            # Reduced models lock joints by making them fixed and keep their <mimic> (example-robot-data's
+            # talos_reduced grippers): a fixed joint does not move, as Pinocchio reads it.
+            warnings.warn(f"{self.loc(el)}: {what} is fixed: its <mimic> of {mimic.joint!r} is ignored", stacklevel=3)
+        elif mimic is not None:
+            kw["mimic"] = mimic
         b.add_joint(jname, jtype, parent, child, location=self.loc(el), **kw)
+
+
+def _driven_by(jname: str, mimics: dict[str, Mimic | None], loc: SourceLocation) -> Mimic | None:
+    """``jname``'s mimic followed to the joint that drives it.
+
+    A mimic of a mimic (PAL's Talos grippers chain their finger joints so) is what MuJoCo's URDF import makes of
+    it, equalities solved together: q1 = a q2 + b with q2 = a2 q3 + b2 gives q1 = a a2 q3 + a b2 + b. The graph
+    keeps one level (a mimic's target drives itself), so the chain is composed here, with a warning: written
+    back, the file names the driving joint. A cycle is left as written (the builder refuses it).
+    """
+    mimic = mimics.get(jname)
+    if mimic is None or mimics.get(mimic.joint) is None:
+        return mimic
+    target, a, b = mimic.joint, mimic.multiplier, mimic.offset
+    seen = {jname}
+    while (nxt := mimics.get(target)) is not None and target not in seen:
+        seen.add(target)
+        target, a, b = nxt.joint, a * nxt.multiplier, a * nxt.offset + b
+    if target in seen:
+        return mimic
+    warnings.warn(f"{loc}: joint {jname!r} mimics {mimic.joint!r}, itself a mimic: read as a mimic of {target!r} "
+                  f"(multiplier {a:g}, offset {b:g}), as the chain moves it", stacklevel=3)
+    return Mimic(target, a, b)
 
 
 def _parse_xml(text: str, source: str | None) -> Any:
