@@ -11,7 +11,7 @@ import numpy as np
 from morphkit.conventions import transform_multiply
 from morphkit.errors import GraphError
 from morphkit.graph.elements import EndEffector, Joint, Link, Wheels
-from morphkit.graph.kinematics import link_poses
+from morphkit.graph.kinematics import link_poses_of_values
 from morphkit.graph.layout import (
     BASE_COORD_NAMES,
     BASE_COORD_WIDTH,
@@ -301,8 +301,8 @@ class Morphology:
 
     def rest_link_poses(self) -> np.ndarray:
         """Link poses ``T_world_link`` at :meth:`rest_q`, root at the origin, shape [link_count, 7]
-        (:func:`~morphkit.graph.kinematics.link_poses`, for queries only)."""
-        return link_poses(self, self.rest_q()[None], root_at_origin=True)[0]
+        (:func:`~morphkit.graph.kinematics.link_poses_of_values`, for queries only; ball joints rest at identity)."""
+        return link_poses_of_values(self, self._rest_values()[None, :, 0])[0]
 
     def rest_points(self) -> np.ndarray:
         """Link origins and end-effector points at rest, shape [link_count + ee_count, 3] [m]."""
