@@ -45,6 +45,7 @@ def run(args: argparse.Namespace) -> int:
     from morphkit.evaluation.table import dataset_row, evaluate_clips, pooled_skating, reference_data, write_table
     from morphkit.io import read_morphology
     from morphkit.motion import write_motion_files
+    from morphkit.output_names import safe_stem
     from morphkit.retarget import WithContacts, load
     from morphkit.retarget.ace.config import preset
     from morphkit.retarget.ace.train import train_ace
@@ -64,7 +65,8 @@ def run(args: argparse.Namespace) -> int:
               "URDF <end_effector>, MJCF side file <model>.morphkit.yaml)", file=sys.stderr)
         return 2
     _warn_unrealistic_data(creature, cfg)
-    out = Path(args.out) if args.out else Path("runs") / f"ace_{creature.name}_{name}"
+    # the creature's name is inside its file: it never steers where outputs go (morphkit.output_names)
+    out = Path(args.out) if args.out else Path("runs") / safe_stem(f"ace_{safe_stem(creature.name)}_{name}")
     train_ace(out, creature, cfg, human_data=args.human_data)
 
     model = load(out)

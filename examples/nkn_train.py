@@ -56,8 +56,12 @@ def run(args: argparse.Namespace) -> int:
         from morphkit.io import read_morphology
 
         creature = read_morphology(args.creature)
-    data = "_".join(Path(d).name for d in args.human_data) if args.human_data else "default"
-    out = Path(args.out) if args.out else Path("runs") / f"nkn_{data}{'_' + creature.name if creature else ''}_{name}"
+    from morphkit.output_names import safe_stem
+
+    # names from inside files never steer where outputs go (morphkit.output_names)
+    data = "_".join(safe_stem(Path(d).name, "data") for d in args.human_data) if args.human_data else "default"
+    suffix = f"_{safe_stem(creature.name)}" if creature else ""
+    out = Path(args.out) if args.out else Path("runs") / safe_stem(f"nkn_{data}{suffix}_{name}")
     train_nkn(out, cfg, human_data=args.human_data, creature=creature, device=args.device)
 
     model = NknRetargeter(out)
