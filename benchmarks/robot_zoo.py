@@ -22,6 +22,7 @@ import contextlib
 import json
 import math
 import os
+import shutil
 import subprocess
 import sys
 import time
@@ -307,10 +308,19 @@ def format_table(rows: list[dict[str, Any]]) -> str:
 
 def fetch_robots() -> Path:
     """The wheel's robots folder in morphkit's cache, downloaded and unzipped on first use."""
+    from morphkit._folder_lock import hold_run_folder
     from morphkit.cache import cache_dir
 
     root = cache_dir("robot_zoo", f"example-robot-data-{ERD_VERSION}")
     robots = root / "unzipped" / ROBOTS_SUBDIR
+    if robots.is_dir():  # only ever a whole extraction: it is renamed into place (below)
+        return robots
+    root.mkdir(parents=True, exist_ok=True)
+    with hold_run_folder(root):  # a second run is refused while this one unpacks
+        return _download_and_unzip(root, robots)
+
+
+def _download_and_unzip(root: Path, robots: Path) -> Path:
     if robots.is_dir():
         return robots
     wheel_dir = root / "wheel"
@@ -323,8 +333,11 @@ def fetch_robots() -> Path:
     if not wheels:
         raise SystemExit(f"no example_robot_data {ERD_VERSION} wheel in {wheel_dir}")
     print(f"unzipping {wheels[0]} -> {root / 'unzipped'}", file=sys.stderr)
+    partial = root / "unzipping"
+    shutil.rmtree(partial, ignore_errors=True)  # an interrupted earlier extraction
     with zipfile.ZipFile(wheels[0]) as z:
-        z.extractall(root / "unzipped")
+        z.extractall(partial)
+    partial.rename(root / "unzipped")
     return robots
 
 
