@@ -1,7 +1,7 @@
 """Argument types every subcommand uses for numbers and output paths, and the bounds they enforce.
 
 Each is an argparse ``type=``: a value outside its range is refused while parsing, one line
-``error: argument --fps: expected a number from 1 to 1000 fps, got 'inf'`` and exit code 2, before anything
+``error: --fps: expected a number from 1 to 1000 fps, got 'inf'`` and exit code 2, before anything
 is read or allocated. The bounds and why:
 
 - :data:`SEED_RANGE`: 0 to 2**32 - 1, what every generator seeded from it takes (NumPy refuses negative

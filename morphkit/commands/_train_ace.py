@@ -42,7 +42,6 @@ def parse_pairs(items: list[str], file: str | None) -> dict[str, str] | None:
 def run(args: argparse.Namespace) -> int:
     """Train ACE for CREATURE: its motion prior, then the retargeter variant the flags ask for."""
     import dataclasses
-    import math
     from pathlib import Path
 
     from morphkit.commands.train import hold_for_command
@@ -58,9 +57,7 @@ def run(args: argparse.Namespace) -> int:
     if args.creature is None:
         raise ConfigError("train ace needs a CREATURE (a shipped name or a description file)")
     creature = read_morphology(resolve_morphology(args.creature))
-    if args.body_length is not None:
-        if not (math.isfinite(args.body_length) and args.body_length > 0):
-            raise ConfigError(f"--body-length must be a finite length > 0 in metres, got {args.body_length}")
+    if args.body_length is not None:  # range-checked while parsing (commands._args.body_length)
         creature = dataclasses.replace(creature, declared_body_length=args.body_length)
     cfg = preset(args.preset)
     sets = list(args.set)

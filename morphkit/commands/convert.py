@@ -59,8 +59,6 @@ def run(args: argparse.Namespace) -> int:
         shown = out_suffix or "(no suffix)"
         raise ConfigError(f"{args.output}: unknown output format {shown!r}; supported: {supported}")
     src = resolve_morphology(args.input)
-    if args.fps is not None and not args.fps > 0:
-        raise ConfigError(f"--fps must be > 0, got {args.fps}")
     if args.canonical or args.convention:
         return _canonical(args, src, out_suffix)
     if not args.description_only and out_suffix in MOTION_SUFFIXES:

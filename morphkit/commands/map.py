@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import json
-import math
 import sys
 
 from morphkit.commands import _args
@@ -84,11 +83,6 @@ def run(args: argparse.Namespace) -> int:
     from morphkit.motion import ee_distributions, map_end_effectors, measured_body_length, read_override
     from morphkit.motion.datasets import load_motions
 
-    if args.max_frames < 1:
-        raise ConfigError(f"--max-frames must be >= 1, got {args.max_frames}")
-    for flag, value in (("--human-body-length", args.human_length), ("--body-length", args.creature_length)):
-        if value is not None and not (math.isfinite(value) and value > 0):
-            raise ConfigError(f"{flag} must be a finite length > 0 in metres, got {value}")
     override: dict[str, str] = read_override(args.override) if args.override else {}
     for pair in args.set:
         c, sep, h = pair.partition("=")

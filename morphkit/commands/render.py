@@ -202,8 +202,6 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError("--until-longer needs --compare (it says which clip ends the comparison)")
     if args.follow and not args.motion:
         raise ConfigError("--follow needs --motion (a turntable already circles the creature)")
-    if args.fps is not None and not args.fps > 0:
-        raise ConfigError(f"--fps must be positive, got {args.fps}")
     views = _views(args.frames) if args.motion is None else 0
     start, stop = _frame_range(args.frames) if args.motion else (None, None)
     if args.out is not None:  # before reading anything: a bad output is refused before any work

@@ -3,7 +3,8 @@
 Headless by default: without a display, EGL is used, else OSMesa (see
 :func:`~morphkit.render.select_platform`); a missing library raises
 :class:`~morphkit.render.RenderUnavailableError` naming the system package to install.
-Importing this package is light: pyrender, PyOpenGL, trimesh and imageio load on first render.
+Importing this package is light: pyrender, PyOpenGL and trimesh load on first render (videos are
+encoded by the ffmpeg that ``imageio-ffmpeg`` ships, GIFs by Pillow).
 
 Example:
     >>> from morphkit.io import read_morphology

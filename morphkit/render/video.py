@@ -57,7 +57,7 @@ def progress_bar(iterable: Iterable[Any], *, total: int, desc: str, enabled: boo
 
 # ---- writers --------------------------------------------------------------------------------
 def ffmpeg_available() -> bool:
-    """Whether imageio can find an ffmpeg executable (the ``imageio-ffmpeg`` package ships one)."""
+    """Whether ``imageio-ffmpeg`` can find an ffmpeg executable (it ships one) to encode videos with."""
     try:
         import imageio_ffmpeg
 

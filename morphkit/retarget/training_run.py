@@ -6,7 +6,7 @@ Layout of a run folder::
     config.yaml       the trainer's config (morphkit.retarget.config.write_config)
     checkpoint.pt     the whole training state, replaced atomically (morphkit.retarget.checkpoint)
     metrics.csv       one row per Run.log call
-    .lock             held (flock) by the one process writing the folder (morphkit.retarget.folder_lock)
+    .lock             held (flock) by the one process writing the folder (morphkit._folder_lock)
     tensorboard/      TensorBoard event files
 
 :class:`Run` owns the position in training (epoch, step within the epoch, global step), every
