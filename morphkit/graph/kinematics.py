@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from morphkit.graph.types import BaseType, JointType
-from morphkit.rotations import quat_from_axis_angle, quat_normalize, transform_multiply
+from morphkit.rotations import quat_from_axis_angle, quat_multiply, quat_normalize, transform_multiply
 
 if TYPE_CHECKING:
     from morphkit.graph.morphology import Morphology
@@ -81,7 +81,7 @@ def _compose(m: Morphology, value: np.ndarray, balls: dict[int, np.ndarray], roo
         elif j.type == JointType.PRISMATIC:
             slide = value[:, ji, None] * np.asarray(j.axis, dtype=float)
             local = transform_multiply(local, np.concatenate([slide, np.tile([0.0, 0.0, 0.0, 1.0], (n, 1))], axis=-1))
-        elif ji in balls:
-            local = transform_multiply(local, np.concatenate([np.zeros((n, 3)), balls[ji]], axis=-1))
+        elif ji in balls:  # a ball turns about the joint's origin: only the rotation changes
+            local = np.concatenate([local[:, :3], quat_multiply(local[:, 3:], balls[ji])], axis=-1)
         poses[:, ji + 1] = transform_multiply(poses[:, parent[ji + 1]], local)
     return poses
