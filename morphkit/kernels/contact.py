@@ -5,7 +5,8 @@ and a horizontal ground plane ``z = ground_height``:
 
 - **height** of each foot above the ground, $h = p_z - z_g$ [m];
 - **penetration depth** $\\max(0, -h)$ [m] (differentiable: $\\partial/\\partial p_z = -1$ below ground);
-- **contact flags** over a motion: $h < h_\\text{thr}$ and speed $\\lVert v \\rVert < v_\\text{thr}$;
+- **contact flags** over a motion: $h < h_\\text{thr}$ and horizontal speed
+  $\\lVert (v_x, v_y) \\rVert < v_\\text{thr}$;
 - **sliding speed** over a motion: the horizontal speed $\\lVert (v_x, v_y) \\rVert$ [m/s] where
   $h < h_\\text{thr}$, else 0 (differentiable w.r.t. the positions; the gate is not).
 

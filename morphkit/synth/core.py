@@ -408,7 +408,8 @@ class SynthResult(Sequence[Motion]):
         A path ending in ``.npz`` gets one file: every motion end to end, with ``clip_starts`` (first
         frame of each rollout) among the extra arrays — consumers that ignore it see jumps at clip
         boundaries. A path without a suffix (or an existing folder) is a folder with one
-        ``<name>.npz`` per motion and a ``manifest.json`` listing them (``info`` goes into it); files an
+        ``<name>.npz`` per motion (the name through :func:`~morphkit.output_names.safe_stem`) and a
+        ``manifest.json`` listing them (``info`` goes into it); files an
         earlier save listed there are replaced or removed (:mod:`morphkit.synth.output`). Another
         suffix is a ``ConfigError``.
         """

@@ -3,7 +3,8 @@
 - **Where**: a path with a suffix is a file — ``.npz`` holds every rollout end to end; another suffix is
   refused (synthesis writes NPZ, where commands and contacts ride along; ``morphkit convert`` turns an
   NPZ motion into BVH or USD). A path without a suffix, ending in a separator, or naming an existing
-  folder is a folder with one ``<name>.npz`` per rollout.
+  folder is a folder with one ``<name>.npz`` per rollout (the name through
+  :func:`~morphkit.output_names.safe_stem`).
 - **Only this run's files**: a folder gets ``manifest.json`` (:mod:`morphkit.motion.manifest`), written
   as "not finished" before the first rollout, updated as rollouts are written and completed after the
   last; the files an earlier run listed there and this run does not write are deleted then. Readers of
