@@ -45,6 +45,7 @@ import numpy as np
 
 from morphkit.body.kinematics import BodyKinematics
 from morphkit.body.roles import hint_rank, name_hint
+from morphkit.body.wheels import find_wheels, wheel_carried_links
 from morphkit.graph import BaseType, EndEffector, EndEffectorRole, JointType, Morphology, ShapeType
 from morphkit.rotations import transform_multiply
 
@@ -664,6 +665,8 @@ def complete_anatomy(m: Morphology, *, frames: Sequence[Frame] = (), base_declar
         its :attr:`~morphkit.graph.EndEffector.reason`), maybe a fixed base and a found
         :attr:`~morphkit.graph.Morphology.rest_pose`, and :attr:`~morphkit.graph.Morphology.notes`.
     """
+    if m.wheels is None:
+        m = find_wheels(m)
     if m.end_effectors or all(j.type == JointType.FIXED for j in m.joints):
         return m  # named by the file, or one rigid body: nothing moves to decide on
     kin = BodyKinematics(m)
@@ -674,7 +677,8 @@ def complete_anatomy(m: Morphology, *, frames: Sequence[Frame] = (), base_declar
 def _complete(m: Morphology, kin: BodyKinematics, shapes: _Shapes, poses: np.ndarray, given: Sequence[Frame],
               base_declared: bool, reference: str) -> Morphology:
     tree = _Tree(m, poses, shapes.config)
-    ends = tree.ends()
+    on_wheels = wheel_carried_links(m)
+    ends = [e for e in tree.ends() if not on_wheels.issuperset(_end_links(tree, e))]
     frames = _frames_of(m, tree, ends, given)
     parts = []
     for e in ends:
