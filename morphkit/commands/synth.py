@@ -56,7 +56,7 @@ def run(args: argparse.Namespace) -> int:
     from morphkit.synth.ground import GroundStats
     from morphkit.synth.output import (
         SynthWriter,
-        available_memory_bytes,
+        available_memory,
         check_folder,
         check_output,
         estimate_output_bytes,
@@ -87,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
     held = per_frame * ((args.report or kind == "file") + (kind == "file"))  # a single file is a joined copy
     if args.report:
         held += 16 * C + 56 * L + 48 * E + 8 * S + 256  # the report's FK, points and distances
-    free = available_memory_bytes()
+    free = available_memory()
     if held and free is not None and held * args.frames > free:
         what = "--report measures every rollout at once" if args.report else "a single .npz file is assembled"
         raise ConfigError(f"--frames {args.frames}: {what} in memory, about {format_bytes(held * args.frames)}, and "

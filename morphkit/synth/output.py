@@ -39,6 +39,7 @@ from typing import Any
 
 import numpy as np
 
+from morphkit._memory import available_memory
 from morphkit.errors import ConfigError
 from morphkit.graph import Morphology
 from morphkit.motion.manifest import read_manifest, write_manifest
@@ -47,7 +48,7 @@ from morphkit.output_names import safe_stem
 from morphkit.synth.actions import ACTION_NAMES
 from morphkit.synth.locomotion_commands import COMMAND_NAMES
 
-__all__ = ["SynthWriter", "available_memory_bytes", "check_folder", "check_output", "estimate_output_bytes",
+__all__ = ["SynthWriter", "available_memory", "check_folder", "check_output", "estimate_output_bytes",
            "format_bytes", "output_kind"]
 
 _MOTION_SUFFIXES = (".npz", ".bvh", ".usd", ".usda", ".usdc", ".csv")
@@ -102,18 +103,6 @@ def estimate_output_bytes(m: Morphology, frames: int, count: int, legs: int, *, 
     if single_file:
         return frames * per_frame + per_file + 8 * count
     return frames * per_frame + count * per_file
-
-
-def available_memory_bytes() -> int | None:
-    """Memory available to a new allocation [bytes] (``MemAvailable`` on Linux; None where unknown)."""
-    try:
-        with open("/proc/meminfo", encoding="ascii") as f:
-            for line in f:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except OSError:
-        pass
-    return None
 
 
 def _existing_ancestor(p: Path) -> Path:

@@ -126,7 +126,7 @@ def test_a_billion_frames_are_refused_with_the_size_estimate(blob, tmp_path, cap
     assert est > 10**11  # the estimate itself is checked against written sizes below
     assert f"the motions would take about {output.format_bytes(est)} and only 50 GB are free" in err
     assert not (tmp_path / "big").exists()
-    monkeypatch.setattr(output, "available_memory_bytes", lambda: 8_000_000_000)
+    monkeypatch.setattr(output, "available_memory", lambda: 8_000_000_000)
     assert main(["synth", str(blob), "--frames", str(10**9), "--report", "--no-progress"]) == 2
     err = capsys.readouterr().err
     assert "in memory, about" in err and "only 8 GB is available" in err
