@@ -98,6 +98,7 @@ from morphkit.graph import (
 )
 from morphkit.graph.types import parse_enum
 from morphkit.io._source import relative_mesh_path, resolve_mesh_path
+from morphkit.io.usd_scope import Scope, find_articulation, unique_names
 from morphkit.rotations import quat_between_vectors
 
 __all__ = ["USD_SUFFIXES", "build_stage", "export_stage", "load_usd_mesh", "read_usd", "write_usd"]
@@ -469,10 +470,32 @@ class _Reader:
         self.mpu = float(UsdGeom.GetStageMetersPerUnit(stage))
         self.y_up = UsdGeom.GetStageUpAxis(stage) == UsdGeom.Tokens.y
         self.xform_cache = UsdGeom.XformCache()
+        self._layer_lines: dict[str, _PrimLines] = {}
 
     def loc(self, prim_or_path: Any) -> SourceLocation:
         path = prim_or_path.GetPath() if hasattr(prim_or_path, "GetPath") else prim_or_path
-        return SourceLocation(self.src, self.lines.line(path))
+        line = self.lines.line(path)
+        if line is None and hasattr(prim_or_path, "GetPrimStack"):
+            other = self._layer_loc(prim_or_path)
+            if other is not None:
+                return other
+        return SourceLocation(self.src, line)
+
+    def _layer_loc(self, prim: Any) -> SourceLocation | None:
+        """The file and line of the layer that defines ``prim`` when that is not the file read (a payload,
+        a reference, a sublayer)."""
+        from pxr import Sdf
+
+        stack = list(prim.GetPrimStack())
+        spec = next((s for s in stack if s.specifier == Sdf.SpecifierDef), stack[0] if stack else None)
+        if spec is None or spec.layer == self.stage.GetRootLayer():
+            return None
+        file = spec.layer.realPath or spec.layer.identifier
+        if not file or not os.path.isfile(file):
+            return None
+        if file not in self._layer_lines:
+            self._layer_lines[file] = _PrimLines(file)
+        return SourceLocation(file, self._layer_lines[file].line(spec.path))
 
     def error(self, message: str, prim: Any) -> DescriptionError:
         return DescriptionError(message, location=self.loc(prim))
@@ -499,38 +522,14 @@ class _Reader:
     def name_of(self, prim: Any) -> str:
         return self.custom(prim, "name", str) or prim.GetName()
 
-    # ---- scope ---------------------------------------------------------------------------
-    def articulation(self) -> tuple[Any | None, list[Any], list[Any]]:
-        """The articulation root prim (or None), its bodies and its joints."""
-        from pxr import UsdPhysics
+    def has_name(self, prim: Any) -> bool:
+        """Whether ``morphkit:name`` names the prim (such a name is kept as written)."""
+        return self.custom(prim, "name", str) is not None
 
-        prims = list(self.stage.Traverse())
-        roots = [p for p in prims if p.HasAPI(UsdPhysics.ArticulationRootAPI)]
-        default = self.stage.GetDefaultPrim()
-        if len(roots) > 1 and default:
-            under = [r for r in roots if r.GetPath().HasPrefix(default.GetPath())]
-            roots = under or roots
-        if len(roots) > 1:
-            paths = ", ".join(str(r.GetPath()) for r in roots)
-            raise self.error(f"several articulation roots ({paths}); morphkit reads one creature per file", roots[1])
-        joints_all = [p for p in prims if p.IsA(UsdPhysics.Joint)]
-        bodies_all = [p for p in prims if p.HasAPI(UsdPhysics.RigidBodyAPI)]
-        if not roots:
-            return None, bodies_all, joints_all
-        root = roots[0]
-        scope = root.GetParent() if root.IsA(UsdPhysics.Joint) and root.GetParent() else root
-        scope_path = scope.GetPath()
-        bodies = [p for p in bodies_all if p.GetPath().HasPrefix(scope_path)]
-        body_paths = {p.GetPath() for p in bodies}
-        joints = []
-        for jp in joints_all:
-            if jp.GetPath().HasPrefix(scope_path):
-                joints.append(jp)
-                continue
-            targets = [t for rel in ("physics:body0", "physics:body1") for t in jp.GetRelationship(rel).GetTargets()]
-            if any(t in body_paths for t in targets):
-                joints.append(jp)
-        return scope, bodies, joints
+    # ---- scope ---------------------------------------------------------------------------
+    def articulation(self) -> Scope:
+        """The articulation root prim (or None), the prim naming the creature, its bodies and its joints."""
+        return find_articulation(self.stage, self.src, self.error)
 
     # ---- geometry --------------------------------------------------------------------------
     def relative(self, prim: Any, ancestor: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -664,10 +663,14 @@ def read_usd(path: str | os.PathLike[str]) -> Morphology:
 def _read_stage(r: _Reader) -> Morphology:
     from pxr import UsdGeom, UsdPhysics
 
-    scope, bodies, joint_prims = r.articulation()
-    info = scope if scope is not None else (r.stage.GetDefaultPrim() or None)
-    stem = Path(r.src).stem
-    name = (r.custom(info, "name", str) or info.GetName()) if info is not None else stem
+    scope = r.articulation()
+    bodies, joint_prims = scope.bodies, scope.joints
+    # The morphkit: creature attributes sit on the articulation root (the default prim without one).
+    info = scope.root if scope.root is not None else scope.name_prim
+    named = scope.name_prim
+    name = (r.custom(info, "name", str) if info is not None else None) or (
+        r.name_of(named) if named is not None else Path(r.src).stem
+    )
     b = MorphologyBuilder(name, source=r.src)
 
     # Links: rigid bodies, then prims the joints name.
@@ -697,7 +700,20 @@ def _read_stage(r: _Reader) -> Morphology:
             "no articulation: no prim with PhysicsArticulationRootAPI, PhysicsRigidBodyAPI or physics joints",
             location=SourceLocation(r.src),
         )
-    link_name = {p: r.name_of(prim) for p, prim in link_prims.items()}
+    link_name = dict(
+        zip(
+            link_prims,
+            unique_names(list(link_prims.values()), r.name_of, r.has_name, "link", r.src),
+            strict=True,
+        )
+    )
+    joint_name = dict(
+        zip(
+            (jp.GetPath() for jp, *_ in parsed),
+            unique_names([jp for jp, *_ in parsed], r.name_of, r.has_name, "joint", r.src),
+            strict=True,
+        )
+    )
 
     # Base type: morphkit:base wins; else a fixed joint to the world means a fixed base.
     base_attr = r.custom(info, "base", str) if info is not None else None
@@ -761,7 +777,7 @@ def _read_stage(r: _Reader) -> Morphology:
     for jp, kind, b0, b1 in parsed:
         if b0 is None and kind == "fixed" and world_link is None:
             continue  # the world anchor of a fixed base
-        _add_joint(r, b, jp, kind, b0, b1, link_name, body_to_morph, world_link)
+        _add_joint(r, b, jp, joint_name[jp.GetPath()], kind, b0, b1, link_name, body_to_morph, world_link)
 
     if info is not None:
         wheel_joints = r.custom(info, "wheelJoints", list)
@@ -778,7 +794,8 @@ def _descendants(prim: Any, links: set[Any]) -> list[Any]:
     from pxr import Usd
 
     out = []
-    it = iter(Usd.PrimRange(prim))
+    # Through instance proxies: Isaac Sim instances its collision and visual prims.
+    it = iter(Usd.PrimRange(prim, Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)))
     next(it)  # the link prim itself
     for d in it:
         if d.GetPath() in links:
@@ -792,6 +809,7 @@ def _add_joint(
     r: _Reader,
     b: MorphologyBuilder,
     jp: Any,
+    name: str,
     kind: str,
     b0: Any | None,
     b1: Any,
@@ -800,7 +818,6 @@ def _add_joint(
     world_link: str | None,
 ) -> None:
     where = r.loc(jp)
-    name = r.name_of(jp)
     declared = r.custom(jp, "jointType", str)
     jtype = parse_enum(JointType, declared, what="joint type", location=where) if declared else None
     pose0 = r.local_pose(jp, 0)
