@@ -9,7 +9,18 @@ from collections.abc import Iterable, Sequence
 import numpy as np
 
 from morphkit.errors import GraphError, SourceLocation
-from morphkit.graph.elements import IDENTITY, EndEffector, Joint, Limit, Link, Mimic, Shape, Transform, Wheels
+from morphkit.graph.elements import (
+    IDENTITY,
+    WHEEL_DRIVES,
+    EndEffector,
+    Joint,
+    Limit,
+    Link,
+    Mimic,
+    Shape,
+    Transform,
+    Wheels,
+)
 from morphkit.graph.morphology import Morphology
 from morphkit.graph.types import BaseType, EndEffectorRole, JointType, ShapeType, parse_enum
 
@@ -253,15 +264,26 @@ class MorphologyBuilder:
         self._ees[name] = EndEffector(name, link, off, r, loc)  # type: ignore[arg-type]
         return len(self._ees) - 1
 
-    def set_wheels(self, joints: Sequence[str], radius: float, *, location: SourceLocation | None = None) -> None:
-        """Name the drive wheels of a wheeled base and their radius [m]."""
+    def set_wheels(self, joints: Sequence[str], radius: float, *, drive: str = "differential",
+                   steering: Sequence[str] = (), steered: Sequence[str] = (), max_steer: float | None = None,
+                   location: SourceLocation | None = None) -> None:
+        """Name the wheels of a wheeled base: rolling joints on fixed axles, their radius [m], the drive (one of
+        :data:`~morphkit.graph.elements.WHEEL_DRIVES`), steering or swivel joints and the rolling joints they
+        carry, and an Ackermann drive's largest steering angle [rad]."""
         loc = self._loc(location)
         (r,) = _finite([radius], "wheel radius", loc)
         if r <= 0:
             raise GraphError(f"wheel radius must be > 0, got {r}", location=loc)
-        if isinstance(joints, str) or not all(isinstance(j, str) for j in joints):
-            raise GraphError(f"wheels: joints must be a list of joint names, got {joints!r}", location=loc)
-        self._wheels = Wheels(tuple(joints), r)
+        for what, names in (("joints", joints), ("steering", steering), ("steered", steered)):
+            if isinstance(names, str) or not all(isinstance(j, str) for j in names):
+                raise GraphError(f"wheels: {what} must be a list of joint names, got {names!r}", location=loc)
+        if drive not in WHEEL_DRIVES:
+            raise GraphError(f"wheels: drive must be one of {', '.join(WHEEL_DRIVES)}, got {drive!r}", location=loc)
+        if max_steer is not None:
+            (max_steer,) = _finite([max_steer], "wheels max_steer", loc)
+            if not 0 < max_steer < math.pi / 2:
+                raise GraphError(f"wheels: max_steer must be in (0, pi/2) rad, got {max_steer}", location=loc)
+        self._wheels = Wheels(tuple(joints), r, drive, tuple(steering), tuple(steered), max_steer)
         self._wheels_location = loc
 
     # ---- build -----------------------------------------------------------------------------
@@ -402,9 +424,18 @@ class MorphologyBuilder:
                     f"wheels are only meaningful on a wheeled base (base is {self.base.name.lower()})",
                     location=self._wheels_location,
                 )
-            for w in self._wheels.joints:
+            wl = self._wheels
+            if len(set(wl.all_joints)) != len(wl.all_joints):
+                raise GraphError("wheels: a joint is named twice among joints, steering and steered",
+                                 location=self._wheels_location)
+            for w in wl.joints + wl.steered:
                 if w not in joint_names or self._joints[w].type != JointType.CONTINUOUS:
                     raise GraphError(f"wheel {w!r} must name a continuous joint", location=self._wheels_location)
+            for w in wl.steering:
+                if w not in joint_names or self._joints[w].type not in (JointType.REVOLUTE, JointType.CONTINUOUS):
+                    raise GraphError(f"steering joint {w!r} must name a revolute or continuous joint",
+                                     location=self._wheels_location)
+            for w in wl.all_joints:
                 if self._joints[w].mimic is not None:
                     raise GraphError(f"wheel {w!r} cannot also be a mimic joint", location=self._wheels_location)
         for name, value in self._rest_pose.items():

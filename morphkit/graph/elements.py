@@ -10,7 +10,7 @@ from morphkit.conventions import quat_from_rpy, rpy_from_quat
 from morphkit.errors import SourceLocation
 from morphkit.graph.types import EndEffectorRole, JointType, ShapeType
 
-__all__ = ["EndEffector", "Joint", "Limit", "Link", "Mimic", "Shape", "Transform", "Wheels"]
+__all__ = ["WHEEL_DRIVES", "EndEffector", "Joint", "Limit", "Link", "Mimic", "Shape", "Transform", "Wheels"]
 
 Vec3 = tuple[float, float, float]
 
@@ -126,10 +126,36 @@ class EndEffector:
     """Why a reader guessed this point, where the description did not name it (empty: declared)."""
 
 
+WHEEL_DRIVES = ("differential", "skid_steer", "ackermann", "holonomic")
+"""How a wheeled base may move: differential and skid-steer go forward and turn (no sideways motion; skid-steer
+slips its wheels sideways to turn), Ackermann goes forward and turns no tighter than its steering allows (no
+turning in place), holonomic (powered casters, omni or mecanum wheels) also moves sideways."""
+
+
 @dataclass(frozen=True)
 class Wheels:
-    """Drive wheels of a wheeled base: continuous joints turned by the base motion."""
+    """Wheels of a wheeled base: joints that the base's path turns, steers or swivels.
+
+    The root frame is the drive's reference point on the ground (the driven axle's middle for differential and
+    Ackermann drives, the wheels' centre otherwise); its planar path ``[x, y, yaw]`` decides every wheel angle.
+    """
 
     joints: tuple[str, ...]
+    """Continuous joints of wheels on fixed axles, turned by the base motion (no coordinates of their own)."""
     radius: float
     """Wheel radius [m]."""
+    drive: str = "differential"
+    """One of :data:`WHEEL_DRIVES`."""
+    steering: tuple[str, ...] = ()
+    """Vertical steering or caster swivel joints; their angles follow the base's path (they keep coordinates)."""
+    steered: tuple[str, ...] = ()
+    """Continuous joints of the wheels the steering joints carry; their angles follow the base's path too."""
+    max_steer: float | None = None
+    """Largest steering angle of an Ackermann drive's inner wheel [rad] (``None``: no steering limit)."""
+    reason: str = field(default="", compare=False)
+    """How the wheels were found (empty: declared by the description)."""
+
+    @property
+    def all_joints(self) -> tuple[str, ...]:
+        """Every wheel joint: rolling on fixed axles, steering, and rolling under steering."""
+        return self.joints + self.steering + self.steered

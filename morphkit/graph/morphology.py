@@ -190,7 +190,14 @@ class Morphology:
     # ---- coordinate and DoF layout ---------------------------------------------------------
     @cached_property
     def wheel_joints(self) -> frozenset[str]:
+        """Rolling joints on fixed axles: turned by the base's path, without coordinates of their own."""
         return frozenset(self.wheels.joints) if self.wheels is not None else frozenset()
+
+    @cached_property
+    def wheel_steering_joints(self) -> frozenset[str]:
+        """Steering and caster swivel joints and the rolling joints they carry: coordinates that synthesis sets from
+        the base's path, no limb's and no arm's."""
+        return frozenset(self.wheels.steering + self.wheels.steered) if self.wheels is not None else frozenset()
 
     def is_driven(self, joint: Joint) -> bool:
         """Whether a joint's value follows others (mimic joints and wheels)."""
