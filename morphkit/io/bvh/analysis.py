@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from morphkit.body.paws import PAW_RULE
 from morphkit.body.roles import BVH_ROLE_WORDS, BVH_WEAK_ROLE_WORDS, keyword_role
 from morphkit.graph import EndEffectorRole
 from morphkit.io.bvh.file import BvhFile, bvh_joint_positions, joint_frames, rest_positions
@@ -26,12 +27,6 @@ ROLE_KEYWORDS = BVH_ROLE_WORDS
 keyword table (:data:`morphkit.body.roles.PART_WORDS`)."""
 _WEAK = BVH_WEAK_ROLE_WORDS
 """Fallback keywords (the table's weak words), used only when no joint on the path to the root has a strong one."""
-
-_FRONT_PAW_FRACTION = 0.35
-"""A leg-long "hand" whose median height above the feet is below this fraction of the hips' is a paw."""
-_FRONT_PAW_LIMB_RATIO = 0.9
-"""A "hand" can be a front paw only if its limb is at least this fraction of the legs' mean length."""
-
 
 @dataclass(frozen=True)
 class PlannedEndEffector:
@@ -152,11 +147,11 @@ def _front_paws(bvh: BvhFile, chosen: list[PlannedEndEffector]) -> list[int]:
     branches = _branch_counts(bvh)
     leg = float(np.mean([_limb_length(bvh, c, branches) for c in feet]))
     # Bone lengths first: they do not depend on the clip, and they rule humans out.
-    long = [i for i in hands if _limb_length(bvh, chosen[i], branches) >= _FRONT_PAW_LIMB_RATIO * leg]
+    long = [i for i in hands if PAW_RULE.leg_long(_limb_length(bvh, chosen[i], branches), leg)]
     if not long:
         return []
     heights = _heights_over_hips(bvh, [chosen[i].column for i in long], [c.column for c in feet])
-    return [i for i, h in zip(long, heights, strict=True) if h < _FRONT_PAW_FRACTION]
+    return [i for i, h in zip(long, heights, strict=True) if PAW_RULE.rests(h, 1.0)]
 
 
 def _branch_counts(bvh: BvhFile) -> list[int]:

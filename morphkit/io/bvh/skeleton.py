@@ -101,7 +101,7 @@ def skeleton_from_bvh(
        Site at all (some exporters omit them) gets an end-effector at its tip joint (followed
        down while the limb does not branch), zero offset, named after that joint.
     3. With ``detect_front_paws``, a "hand" is a front foot (quadruped rigs call their front
-       paws hands) when both hold:
+       paws hands) by the front-paw rule descriptions are read by too (:mod:`morphkit.body.paws`), when both hold:
 
        - its limb is as long as a leg: the bone path from the end-effector up to the joint
          where the limb branches off the body is at least 90% of the legs' mean (the same path
@@ -109,7 +109,7 @@ def skeleton_from_bvh(
          Daz, Bandai Namco), the dog 1.24, the elephants 1.18, so a human's hands stay hands
          whatever the clip (crawling, a sun salutation);
        - the motion keeps it at the feet's height: its median height above the feet over the
-         clip is below 35% of the hips' (the joint where the feet's chains meet). The dog's
+         clip is at most 35% of the hips' (the joint where the feet's chains meet). The dog's
          paws give at most 0.21; the crab's claws, as long as its legs, are held up.
 
        A file without frames keeps its hands.
