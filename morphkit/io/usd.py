@@ -2,13 +2,21 @@
 
 Reading (:func:`read_usd`)
 --------------------------
-- **Which prims.** The articulation is the prim with ``PhysicsArticulationRootAPI`` (the one
-  under the default prim when there are several; more than one left is an error). Links are
-  the rigid bodies (``PhysicsRigidBodyAPI``) under it, plus any prim a joint names as
-  ``physics:body0``/``physics:body1``; joints are the ``Physics{Revolute,Prismatic,Spherical,
-  Fixed}Joint`` prims under it or attached to its bodies. Without an articulation root the
-  whole stage is read (it must hold one connected tree). Joints with
-  ``physics:excludeFromArticulation`` (loop closures) are skipped with a warning.
+- **Which prims.** The stage is read composed (sublayers, references, payloads) and through
+  instance proxies; :mod:`morphkit.io.usd_scope` finds the articulation. Its root is the prim
+  with ``PhysicsArticulationRootAPI`` (the one under the default prim when there are several;
+  more than one left is an error). On a rigid body (Isaac Sim's layout) the articulation is
+  every body reached from it through joints, wherever the joints sit (under their child link,
+  in a ``joints`` scope, in another layer); on an ancestor ``Xform`` it is the rigid bodies
+  under it, plus any prim a joint names as ``physics:body0``/``physics:body1``, and the
+  ``Physics{Revolute,Prismatic,Spherical,Fixed}Joint`` prims under it or attached to its
+  bodies. Without an articulation root the whole stage is read (it must hold one connected
+  tree). Joints with ``physics:excludeFromArticulation`` (loop closures) are skipped with a
+  warning, and so are a stage's joints and bodies the articulation does not reach; a loop a
+  joint closes without it is an error (two parents). A prim name the file repeats (the MuJoCo
+  USD converter's ``PhysicsFixedJoint`` on every foot) is prefixed with its parents' names
+  (``FL_foot_PhysicsFixedJoint``), with a warning. The creature is named by the articulation
+  root, or by the default prim when the root is a body inside it.
 - **Frames.** ``body0`` is the parent, ``body1`` the child. A joint's frame is
   ``(localPos0, localRot0)`` in ``body0`` and ``(localPos1, localRot1)`` in ``body1``; its axis
   token (X, Y or Z) is in that frame. morphkit's child link frame sits at the joint's pivot with
@@ -21,8 +29,9 @@ Reading (:func:`read_usd`)
   prismatic -> prismatic (limits in stage units); spherical -> spherical (cone limits are not
   kept); fixed -> fixed. A fixed joint with an empty ``body0`` attaches the root to the world:
   a fixed base. Any other joint to the world gets a ``world`` root link and a fixed base.
-- **Shapes.** Collision gprims under each link (all gprims if the stage marks none with
-  ``PhysicsCollisionAPI``), posed relative to the link: ``Cube`` -> box of extents
+- **Shapes.** Collision gprims under each link (``PhysicsCollisionAPI`` not switched off by
+  ``physics:collisionEnabled = false``); a link without any keeps all its gprims (its visuals),
+  posed relative to the link: ``Cube`` -> box of extents
   ``size × scale``; ``Sphere`` -> sphere; ``Capsule``/``Cylinder`` (``radius``, ``height``,
   ``axis``) -> capsule/cylinder along local z (rotated from the USD axis); ``Mesh`` -> mesh:
   the file in ``morphkit:meshPath`` when present (resolved against the USD file), otherwise the
@@ -32,7 +41,8 @@ Reading (:func:`read_usd`)
 - **Errors.** Unreadable or malformed files (garbage bytes, a syntax error: the line pxr
   reports), a joint without ``body1``, a target that does not exist, an unsupported joint or a
   bad ``morphkit:`` value raise :class:`~morphkit.errors.DescriptionError` naming the file and,
-  for ``.usda`` text, the line where the prim is defined.
+  for ``.usda`` text, the line where the prim is defined (the layer that defines it: a payload's
+  or a reference's own file when the prim comes from there).
 
 Writing (:func:`write_usd`)
 ---------------------------
@@ -661,7 +671,7 @@ def read_usd(path: str | os.PathLike[str]) -> Morphology:
 
 
 def _read_stage(r: _Reader) -> Morphology:
-    from pxr import UsdGeom, UsdPhysics
+    from pxr import UsdGeom
 
     scope = r.articulation()
     bodies, joint_prims = scope.bodies, scope.joints
@@ -740,10 +750,7 @@ def _read_stage(r: _Reader) -> Morphology:
             if p not in children:
                 body_to_morph[p] = _pose(quat_rotate(_Y_UP_TO_Z_UP, body_to_morph[p][:3]), _Y_UP_TO_Z_UP)
 
-    # Colliders only, when the stage marks any.
-    use_colliders = any(
-        prim.HasAPI(UsdPhysics.CollisionAPI) for lp in link_prims.values() for prim in _descendants(lp, set(link_prims))
-    )
+    link_paths = set(link_prims)
 
     if world_link is not None:
         b.add_link(world_link, location=SourceLocation(r.src))
@@ -751,11 +758,14 @@ def _read_stage(r: _Reader) -> Morphology:
         T = body_to_morph[p]
         shapes = []
         ees = []
-        for d in _descendants(prim, set(link_prims)):
+        below = _descendants(prim, link_paths)
+        # Its enabled colliders; its visual gprims where it has none (the URDF and MJCF readers' rule).
+        colliders = [d for d in below if d.IsA(UsdGeom.Gprim) and _is_collider(d)]
+        for d in below:
             if d.GetAttribute(_NS + "endEffectorRole"):
                 ees.append(d)
             elif d.IsA(UsdGeom.Gprim):
-                if use_colliders and not d.HasAPI(UsdPhysics.CollisionAPI):
+                if colliders and not _is_collider(d):
                     continue
                 s = r.shape(d, prim)
                 if s is None:
@@ -787,6 +797,15 @@ def _read_stage(r: _Reader) -> Morphology:
                 raise r.error(f"{_NS}wheelJoints needs {_NS}wheelRadius", info)
             b.set_wheels(wheel_joints, radius, location=r.loc(info))
     return complete_anatomy(b.build(), base_declared=base_attr is not None or bool(world_joints))
+
+
+def _is_collider(prim: Any) -> bool:
+    """``PhysicsCollisionAPI`` applied and not switched off (Isaac Sim marks visual meshes
+    ``physics:collisionEnabled = false``)."""
+    from pxr import UsdPhysics
+
+    enabled = prim.GetAttribute("physics:collisionEnabled").Get()
+    return bool(prim.HasAPI(UsdPhysics.CollisionAPI) and enabled is not False)
 
 
 def _descendants(prim: Any, links: set[Any]) -> list[Any]:

