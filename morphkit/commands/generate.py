@@ -1,4 +1,5 @@
-"""``morphkit generate --legs N [--arm] [--tail] [--neck] --out FILE``: a random creature of a family."""
+"""``morphkit generate [--family NAME | --legs N [--arm] [--tail] [--neck] ...] --out FILE``: a random creature of a
+family."""
 
 from __future__ import annotations
 
@@ -9,11 +10,22 @@ from morphkit.commands import _args
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
+    from morphkit.synth.creatures import FAMILIES
+
     p = sub.add_parser("generate", help="write a random creature of a family (legs, arm, tail, neck) to try things on")
-    p.add_argument("--legs", type=int, default=4, choices=(2, 4, 6), help="leg count (default 4)")
+    p.add_argument("--family", choices=sorted(FAMILIES),
+                   help="a named body plan: hopper (a biped with a heavy tail resting behind, short arms, long feet), "
+                        "grazer (four legs, a long neck reaching the ground, a tail), octopod (eight legs); "
+                        "the flags below add to it")
+    p.add_argument("--legs", type=int, choices=(2, 4, 6, 8), help="leg count (default 4, or the family's)")
     p.add_argument("--arm", action="store_true", help="an arm on the front of the body, ending in a hand")
     p.add_argument("--tail", action="store_true", help="a two-segment tail")
     p.add_argument("--neck", action="store_true", help="a neck and a head")
+    p.add_argument("--short-arms", action="store_true", help="a pair of short two-joint arms at the front, with hands")
+    p.add_argument("--heavy-tail", action="store_true",
+                   help="a thick three-segment tail whose tip rests just above the ground behind")
+    p.add_argument("--long-neck", action="store_true", help="a three-joint neck whose head reaches the ground")
+    p.add_argument("--long-feet", action="store_true", help="an ankle and a long flat foot on each leg")
     p.add_argument("--size", type=_args.float_in(0.01, 100.0), default=1.0,
                    help="scale of every length, 0.01 to 100 (1: a body about 0.6 m long)")
     p.add_argument("--seed", type=_args.seed, default=0, help="seed of the proportions (same seed, same creature)")
@@ -27,7 +39,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from morphkit.errors import ConfigError
     from morphkit.io import WRITE_SUFFIXES, write_morphology
-    from morphkit.synth.creatures import CreatureFamily, random_creature
+    from morphkit.synth.creatures import FAMILIES, CreatureFamily, random_creature
 
     suffix = Path(args.out).suffix.lower()
     if suffix not in WRITE_SUFFIXES:
@@ -35,7 +47,11 @@ def run(args: argparse.Namespace) -> int:
                           f"supported: {', '.join(dict.fromkeys(WRITE_SUFFIXES))}")
     if Path(args.out).exists():
         raise ConfigError(f"{args.out}: exists; generate writes a new file (remove it or name another)")
-    family = CreatureFamily(legs=args.legs, arm=args.arm, tail=args.tail, neck=args.neck, size=args.size)
+    base = FAMILIES[args.family] if args.family else CreatureFamily()
+    family = CreatureFamily(
+        legs=args.legs if args.legs is not None else base.legs, size=args.size,
+        **{k: getattr(base, k) or getattr(args, k) for k in ("arm", "tail", "neck", "short_arms", "heavy_tail",
+                                                             "long_neck", "long_feet")})
     m = random_creature(family, args.seed, labelled=not args.unlabelled)
     if args.unlabelled and suffix in (".yaml", ".yml"):
         # YAML writes `end_effectors: {}` for "none, decided"; unlabelled means "left to the reader's guess"

@@ -4,9 +4,15 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from morphkit.commands import _args
+
+if TYPE_CHECKING:
+    from morphkit.motion import Motion
+    from morphkit.retarget.retargeter import Retargeter
 
 FORMATS = (".npz", ".bvh", ".usda", ".usd", ".usdc", ".csv")
 DEFAULT_NKN_TARGET = "short_legs"
@@ -96,7 +102,34 @@ def run(args: argparse.Namespace) -> int:
                 print(path)
             if r.clamp.coordinates:
                 print(f"  {r.motion.name}: {r.clamp}")
+    warn_off_data(model, [r.motion for r in results])
     return 0
+
+
+def warn_off_data(model: Retargeter, motions: Sequence[Motion]) -> None:
+    """Warn on stderr of each clip whose motion lies outside the creature's data (a per-clip distance above the
+    largest the data's own clips reach: :func:`morphkit.evaluation.table.outside_clips`); never silent: a run that
+    cannot be checked says so."""
+    import sys
+
+    from morphkit.evaluation.table import outside_clips, reference_data
+    from morphkit.retarget.training_data import character_motions
+
+    pairing, creature = model.pairing, model.creature
+    if creature is None:
+        return
+    if pairing is None:
+        print("note: this run has no Ψ pairing: its clips were not checked against the creature's data",
+              file=sys.stderr)
+        return
+    reference = reference_data(character_motions(creature, model.data, progress=False), pairing)
+    outside = outside_clips(motions, reference, pairing)
+    threshold = reference.envelope.threshold if reference.envelope is not None else float("nan")
+    for name, d in outside:
+        print(f"warning: clip {name!r} lies outside {creature.name}'s data: distance {d:.2f} > "
+              f"{threshold:.2f} (the largest its own clips reach); look at it before using it", file=sys.stderr)
+    print(f"{len(motions) - len(outside)} of {len(motions)} clips inside {creature.name}'s data "
+          f"({reference.envelope.describe() if reference.envelope is not None else 'no envelope'})")
 
 
 def output_stems(paths: list[Path], out: Path) -> list[Path]:

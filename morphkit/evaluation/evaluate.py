@@ -23,7 +23,14 @@ from dataclasses import dataclass, field
 
 from morphkit.errors import ConfigError, MorphkitError, MotionFormatError
 from morphkit.evaluation.methods import Method
-from morphkit.evaluation.table import TableRow, dataset_row, evaluate_clips, pooled_skating, reference_data
+from morphkit.evaluation.table import (
+    TableRow,
+    dataset_row,
+    evaluate_clips,
+    off_data_warnings,
+    pooled_skating,
+    reference_data,
+)
 from morphkit.graph import Morphology
 from morphkit.metrics import UnrealisticFrames, unrealistic_frame_ratio
 from morphkit.motion import Motion, Pairing, ee_distributions, map_end_effectors, measured_body_length
@@ -209,6 +216,8 @@ def evaluate_methods(
             results.append(MethodResult(shown_as, row, causes, shown[:keep]))
             log(f"[{i + 1}/{len(methods)}] {shown_as.name} (seed {method.seed}, {method.stage}): DIV {row.div:.3f}, "
                 f"FID {row.fid:.3f}, L_fea {row.feature_loss:.3f}, UFR {100 * row.ufr:.2f}%, follow {row.follow:.2f}")
+            for line in off_data_warnings(row):  # never silent: a clip that left the creature's motion
+                log(f"warning: {line}")
     return Evaluation(ref, list(clips), dataset, dataset_ufr.cause_ratios(), results, failed,
                       source_skating=pooled_skating(clips))
 

@@ -8,6 +8,9 @@ set's own row, and the table as markdown and CSV.
   set (:func:`morphkit.metrics.diversity`, :func:`morphkit.metrics.fid`).
 * L_fea is Eq. 9 per frame, averaged over all frames of all clips.
 * UFR pools every frame of every clip (:func:`morphkit.metrics.unrealistic_frame_ratio`).
+* ``off data``: the share of clips whose Ψ lies outside the creature's data (:func:`morphkit.metrics.data_envelope`:
+  a clip's mean Mahalanobis distance to the data's Ψ Gaussian above the largest the data's own 60-frame segments
+  reach); the clips are named in :attr:`TableRow.off_data_clips`, and the commands warn of each.
 """
 
 from __future__ import annotations
@@ -21,8 +24,10 @@ import numpy as np
 from morphkit.graph import BaseType, EndEffectorRole
 from morphkit.metrics import (
     UFR_SETTINGS,
+    DataEnvelope,
     FootContactFigures,
     UnrealisticFrames,
+    data_envelope,
     diversity,
     feature_loss,
     fid,
@@ -40,8 +45,8 @@ from morphkit.motion import GROUND_MOTION_FEATURES, ROOT_FEATURE_DIM, Motion, Pa
 from morphkit.retarget.tables import write_table_files
 
 __all__ = ["EXTRA_COLUMNS", "PERCENT_FIGURES", "ReferenceData", "TableRow", "dataset_row", "evaluate_clips",
-           "follow_figures", "follow_series", "format_table", "moves_over_ground", "pooled_skating", "reference_data",
-           "write_table"]
+           "follow_figures", "follow_series", "format_table", "moves_over_ground", "off_data_warnings",
+           "outside_clips", "pooled_skating", "reference_data", "write_table"]
 
 
 @dataclass(frozen=True)
@@ -101,6 +106,13 @@ class TableRow:
     """Where the creature goes that the human does not: mean over clips of the distance between the two roots' mean
     heading-frame (forward, sideways) velocities [body lengths/s]. A creature that walks backwards at 0.1 body
     lengths/s while the human stands scores 0.1; a correlation does not see it (it ignores a constant)."""
+    off_data: float | None = None
+    """Share of clips whose motion lies outside the creature's data (:func:`outside_clips`); the Dataset row: its own
+    clips' share (0 by the threshold's construction)."""
+    off_data_clips: tuple[tuple[str, float], ...] = ()
+    """``(clip name, distance)`` of each clip outside the data (not a column: the commands warn of each)."""
+    off_data_threshold: float | None = None
+    """The data's own largest per-segment distance the clips were compared with."""
 
     def as_dict(self) -> dict[str, object]:
         out: dict[str, object] = {"method": self.name, "DIV": self.div, "FID": self.fid, "L_fea": self.feature_loss,
@@ -110,7 +122,7 @@ class TableRow:
 
 
 EXTRA_COLUMNS = (
-    ("fid_all", "FID (all data)"), ("div_all", "DIV (all data)"), ("follow", "follow"),
+    ("off_data", "off data"), ("fid_all", "FID (all data)"), ("div_all", "DIV (all data)"), ("follow", "follow"),
     ("follow_hand", "follow hand"), ("follow_reach", "follow reach"), ("follow_forward", "follow forward"),
     ("follow_yaw", "follow yaw"), ("turn_gain", "turn gain"), ("drift", "drift"),
     ("ufr_medium", "UFR medium"), ("ufr_loose", "UFR loose"), ("foot_sliding", "sliding/foot"),
@@ -130,14 +142,43 @@ class ReferenceData:
     """Longest run of frames with no foot in contact in the data set (the floating limit)."""
     roles: dict[str, str]
     """Role name of each creature end-effector (``foot``, ``hand``, ``tool``, ``head``)."""
+    envelope: DataEnvelope | None = None
+    """The data's Ψ Gaussian and its own clips' largest distance (:func:`~morphkit.metrics.data_envelope`)."""
 
 
 def reference_data(character: Sequence[Motion], pairing: Pairing) -> ReferenceData:
-    """Ψ, longest flight and end-effector roles of the creature's data set."""
-    psi = np.concatenate([pairing.creature_psi(m) for m in character], axis=0)
+    """Ψ, longest flight, end-effector roles and envelope of the creature's data set."""
+    per_clip = [pairing.creature_psi(m) for m in character]
+    psi = np.concatenate(per_clip, axis=0)
     flight = max((longest_flight(m) for m in character), default=0)
     m = character[0].morphology
-    return ReferenceData(psi, int(flight), {e.name: e.role.name.lower() for e in m.end_effectors})
+    return ReferenceData(psi, int(flight), {e.name: e.role.name.lower() for e in m.end_effectors},
+                         data_envelope(per_clip, segment=ENVELOPE_SEGMENT))
+
+
+ENVELOPE_SEGMENT = 60
+"""Frames per data segment the off-data threshold is measured on (ours: 2 s at the data's 30 fps, the length of a
+short evaluation clip)."""
+
+
+def outside_clips(retargeted: Sequence[Motion], reference: ReferenceData, pairing: Pairing) -> list[tuple[str, float]]:
+    """``(name, distance)`` of each clip whose Ψ lies outside the creature's data (:meth:`DataEnvelope.outside`)."""
+    env = reference.envelope
+    if env is None:
+        return []
+    out = []
+    for m in retargeted:
+        d = env.distance(pairing.creature_psi(m))
+        if d > env.threshold:
+            out.append((m.name, d))
+    return out
+
+
+def off_data_warnings(row: TableRow) -> list[str]:
+    """One line per clip of ``row`` outside the creature's data (empty when none is)."""
+    return [f"{row.name}: clip {name!r} lies outside the creature's data: distance {d:.2f} > "
+            f"{row.off_data_threshold:.2f} (the largest its own clips reach); look at it before using it"
+            for name, d in row.off_data_clips]
 
 
 def _matched(reference: ReferenceData, psi_h: np.ndarray, seed: int) -> np.ndarray:
@@ -156,8 +197,10 @@ def dataset_row(character: Sequence[Motion], pairing: Pairing, *, seed: int = 0,
         div = float(diversity(_matched(ref, psi_h, seed), rng=seed))
     contact = _contact_figures(character, ref)
     ufr = UnrealisticFrames.concatenate([unrealistic_frame_ratio(m) for m in character])
+    outside = outside_clips(character, ref, pairing)
     return TableRow("Dataset", div, 0.0, None, float(ufr.ratio), int(ref.psi.shape[0]), fid_all=0.0, div_all=div_all,
-                    **contact)
+                    off_data=len(outside) / max(len(character), 1), off_data_clips=tuple(outside),
+                    off_data_threshold=None if ref.envelope is None else ref.envelope.threshold, **contact)
 
 
 def _contact_figures(motions: Sequence[Motion], ref: ReferenceData) -> dict[str, float]:
@@ -273,8 +316,11 @@ def evaluate_clips(
     psi_h = np.concatenate([pairing.human_psi(h) for h in humans], axis=0)
     ufr = UnrealisticFrames.concatenate([unrealistic_frame_ratio(m) for m in retargeted])
     div = float(diversity(psi_r, rng=seed))
+    outside = outside_clips(retargeted, ref, pairing)
     return TableRow(name, div, float(fid(_matched(ref, psi_h, seed), psi_r)), float(feature_loss(psi_h, psi_r)),
                     float(ufr.ratio), int(psi_r.shape[0]), fid_all=float(fid(ref.psi, psi_r)), div_all=div,
+                    off_data=len(outside) / max(len(retargeted), 1), off_data_clips=tuple(outside),
+                    off_data_threshold=None if ref.envelope is None else ref.envelope.threshold,
                     **_contact_figures(retargeted, ref), **follow_figures(humans, retargeted, pairing, ref.roles))
 
 
@@ -301,7 +347,8 @@ def format_table(rows: Sequence[TableRow]) -> str:
     return "\n".join(lines)
 
 
-PERCENT_FIGURES = frozenset({"ufr_medium", "ufr_loose", "foot_sliding", "foot_penetration", "skating", "floating"})
+PERCENT_FIGURES = frozenset({"off_data", "ufr_medium", "ufr_loose", "foot_sliding", "foot_penetration", "skating",
+                             "floating"})
 """Extra figures that are fractions (shown as percentages)."""
 
 

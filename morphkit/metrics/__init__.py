@@ -26,6 +26,8 @@ metric                             what it measures
                                    slope through the origin); 1 is best
 :func:`reachable_gain`             the follow gain of a copy bounded at a rate (the human's yaw
                                    rate against the creature data's fastest turn): its scale
+:func:`data_envelope`              a per-clip distance to the creature data's Ψ Gaussian and the data's
+                                   own largest (:class:`DataEnvelope`): a clip outside the data, flagged
 :func:`matched_reference`          the creature's Ψ rows resampled so that root speed and yaw rate
                                    (:func:`motion_content`) match the evaluated clips'
                                    (:func:`matched_indices`): a content-matched reference for FID, DIV
@@ -53,6 +55,8 @@ from morphkit.metrics._distribution import diversity as diversity
 from morphkit.metrics._distribution import fid as fid
 from morphkit.metrics._distribution import frechet_distance as frechet_distance
 from morphkit.metrics._distribution import gaussian_statistics as gaussian_statistics
+from morphkit.metrics._envelope import DataEnvelope as DataEnvelope
+from morphkit.metrics._envelope import data_envelope as data_envelope
 from morphkit.metrics._feature_loss import feature_loss as feature_loss
 from morphkit.metrics._follow import CONSTANT_SERIES_RTOL as CONSTANT_SERIES_RTOL
 from morphkit.metrics._follow import FollowScore as FollowScore
@@ -75,12 +79,14 @@ __all__ = [
     "UFR_MEDIUM",
     "UFR_SETTINGS",
     "UFR_STRICT",
+    "DataEnvelope",
     "FollowScore",
     "FootContactFigures",
     "MatchedSample",
     "PhysDiffFigures",
     "UnrealisticFrameThresholds",
     "UnrealisticFrames",
+    "data_envelope",
     "diversity",
     "feature_loss",
     "fid",

@@ -126,6 +126,15 @@ class RetargetConfig:
     validation_share: float = 0.0
     """Share of the human clips held out to choose G's epoch by L_fea; ours, 0: the last step's G, as the paper
     (docs/experiments/validation-share.md)."""
+    choose_inside_data: bool = False
+    """Choose G's epoch among those whose held-out output lies inside the creature's data (matched FID at most
+    ``inside_fid``, DIV within ``inside_div_band`` of the data's), by the lowest L_fea; when none does, the epoch of the
+    lowest matched FID. Ours, False: the lowest L_fea alone; ``quick`` and ``default`` set it
+    (docs/experiments/inside-the-data.md)."""
+    inside_fid: float = 3.0
+    """Largest matched FID of an epoch inside the data (ours: issue 65's target)."""
+    inside_div_band: tuple[float, float] = (0.5, 2.0)
+    """DIV of an epoch inside the data, as multiples of the data's matched DIV (ours: issue 65's target)."""
     window: int = 32
     """Human frames per training rollout (ours)."""
     tbptt: int = 8
@@ -203,7 +212,8 @@ PRESETS: dict[str, AceConfig] = {
                         yaw_rate=3.0),
         prior=replace(_QUICK_PRIOR, epochs=8, steps_per_epoch=60, batch_size=64),
         retarget=replace(_QUICK_RET, epochs=8, steps_per_epoch=30, batch_size=32, window=24, generator_average=0.95,
-                         lr_generator=2e-4, ground_motion_weight=4.0, hand_weight=2.0),
+                         lr_generator=2e-4, ground_motion_weight=4.0, hand_weight=2.0, validation_share=0.05,
+                         choose_inside_data=True),
     ),
     # Quality runs: prior + one retargeter ≤ 20 min on 2 cores. Hanging arms, G's average and mirrored clips:
     # docs/experiments/generator-average.md; ground motion ×2: ground-motion-weight.md; 40 epochs, the epoch chosen
@@ -212,7 +222,7 @@ PRESETS: dict[str, AceConfig] = {
         data=DataConfig(character_frames=60_000, arm_hang_share=0.3, human_mirror=True, yaw_rate=3.0),
         prior=replace(_DEFAULT_PRIOR, epochs=16, steps_per_epoch=100, batch_size=128),
         retarget=replace(_DEFAULT_RET, epochs=40, steps_per_epoch=40, batch_size=64, generator_average=0.95,
-                         ground_motion_weight=2.0, validation_share=0.05),
+                         ground_motion_weight=2.0, validation_share=0.05, choose_inside_data=True),
     ),
     # The paper's sizes (§6.4, §7.1).
     "paper": AceConfig(prior=PriorConfig(lr=1e-4, lr_final=1e-7), retarget=RetargetConfig(w_gp=0.1)),

@@ -23,7 +23,7 @@ from torch.optim.swa_utils import AveragedModel, get_ema_multi_avg_fn
 
 from morphkit.errors import ConfigError, RunError, SourceLocation
 from morphkit.graph import Morphology
-from morphkit.metrics import feature_loss
+from morphkit.metrics import diversity, feature_loss, fid, matched_reference
 from morphkit.motion import (
     EndEffectorMapping,
     Motion,
@@ -71,6 +71,7 @@ from morphkit.retarget.training_run import Run
 __all__ = [
     "AceData",
     "BestGenerator",
+    "EpochScore",
     "Validation",
     "disc_logits",
     "feature_weights",
@@ -315,7 +316,8 @@ def train_retargeter(
             run.track(**{AVERAGE_STATE: average})
         best = validation = None
         if held_out is not None:
-            validation = Validation.build(held_out, starts, rc.window, fmap, dev, seed=cfg.seed)
+            validation = Validation.build(held_out, starts, rc.window, fmap, dev, seed=cfg.seed,
+                                          character_states=data.character_states)
             best = BestGenerator()
             run.track(**{BEST_STATE: best})
         for epoch in run.epochs(rc.epochs):
@@ -352,14 +354,23 @@ def train_retargeter(
                 run.log(**row, **figures, ee_fk_gap=gap.mean())
             if validation is not None and best is not None:
                 retargeting = gen if average is None else average.module
-                score = validation.feature_loss(retargeting, prior)
-                best.offer(score, retargeting, epoch)
-                run.log(validation_feature_loss=score, best_epoch=best.epoch)
+                score = validation.score(retargeting, prior)
+                best.offer(score.feature_loss, retargeting, epoch,
+                           rank=score.rank(validation, rc) if rc.choose_inside_data else None)
+                run.log(validation_feature_loss=score.feature_loss, validation_fid=score.fid,
+                        validation_div=score.div, best_epoch=best.epoch)
+                log(f"epoch {epoch + 1}: held-out L_fea {score.feature_loss:.3f}, matched FID {score.fid:.3f}, "
+                    f"DIV {score.div:.3f} (the data's DIV {validation.data_div:.3f}, FID of the data against itself "
+                    f"{validation.data_fid:.3f}){'' if score.inside(validation, rc) else ' - outside the data'}")
     final = gen if average is None else average.module
     if best is not None and best.weights:
         final.load_state_dict(best.weights)
         log(f"G chosen on {len(held_out or [])} held-out human clips: epoch {best.epoch + 1} of {rc.epochs} "
-            f"(L_fea {best.loss:.3f})")
+            f"(L_fea {best.loss:.3f}{'' if best.rank is None else f', matched FID {best.rank[2]:.3f}'})")
+        if rc.choose_inside_data and validation is not None and best.rank is not None and best.rank[0] > 0:
+            log(f"warning: no epoch's held-out output lay inside {data.creature.name}'s data (matched FID <= "
+                f"{rc.inside_fid:g}, DIV within {rc.inside_div_band[0]:g}-{rc.inside_div_band[1]:g}x the data's "
+                f"{validation.data_div:.3f}): the epoch of the lowest matched FID retargets; look at its clips")
     final.eval()
     return final
 
@@ -375,19 +386,53 @@ class Validation:
     start: torch.Tensor
     """Normalised character start states [N, Sr]."""
     features: FeatureMap
+    reference: np.ndarray | None = None
+    """Ψ of the character's data frames resampled to the held-out humans' root speed and yaw rate
+    (:func:`~morphkit.metrics.matched_reference`), [N·T, D]: what the matched FID and DIV compare with."""
+    data_div: float = float("nan")
+    """DIV of :attr:`reference` (the data's own spread)."""
+    data_fid: float = float("nan")
+    """FID between :attr:`reference` and a second draw of it: the data's FID against itself, the floor."""
+    seed: int = 0
 
     WINDOWS = 256
     """Windows scored (ours: the validation clips' windows drawn at random, at most this many)."""
 
     @staticmethod
     def build(per_clip: Sequence[np.ndarray], starts: StateWindows, window: int, fmap: FeatureMap,
-              device: torch.device, *, seed: int) -> Validation:
+              device: torch.device, *, seed: int, character_states: Sequence[np.ndarray] | None = None) -> Validation:
+        """The held-out windows; with ``character_states`` (raw, per clip) also the matched reference the FID and
+        DIV of :meth:`score` compare with."""
         windows = StateWindows.build(per_clip, window, fmap.human_stats)
         draw = torch.Generator().manual_seed(seed)
         n = min(Validation.WINDOWS, len(windows))
         human = windows.windows(torch.randperm(len(windows), generator=draw)[:n], device)
         start = starts.windows(torch.randint(len(starts), (n,), generator=draw), device)[:, 0]
-        return Validation(human, start, fmap)
+        if character_states is None:
+            return Validation(human, start, fmap, seed=seed)
+        data_psi = np.asarray(fmap.pairing.creature_psi_of_states(np.concatenate(list(character_states), axis=0),
+                                                                   fmap.creature_layout))
+        human_psi = fmap.human_psi(human).detach().cpu().numpy().reshape(-1, data_psi.shape[1])
+        reference = matched_reference(data_psi, human_psi, seed=seed)[0]
+        again = matched_reference(data_psi, human_psi, seed=seed + 1)[0]
+        return Validation(human, start, fmap, reference, float(diversity(reference, rng=seed)),
+                          float(fid(reference, again)), seed)
+
+    @torch.no_grad()
+    def score(self, generator: torch.nn.Module, prior: torch.nn.Module) -> EpochScore:
+        """L_fea (Eq. 9, unweighted), and with a :attr:`reference` the matched FID and DIV, of ``generator``'s
+        rollouts over the windows."""
+        _, fake = rollout(generator, prior, self.human, self.start)
+        fmap = self.features
+        fixed, _ = fmap.creature_with_fk(fake)
+        psi = fmap.psi_of_fixed(fixed)
+        loss = float(feature_loss(fmap.human_psi(self.human), psi))
+        if self.reference is None:
+            return EpochScore(loss, float("nan"), float("nan"))
+        rows = psi.detach().cpu().numpy().reshape(-1, psi.shape[-1])
+        if not np.isfinite(rows).all():
+            return EpochScore(loss, float("inf"), float("nan"))
+        return EpochScore(loss, float(fid(self.reference, rows)), float(diversity(rows, rng=self.seed)))
 
     @torch.no_grad()
     def feature_loss(self, generator: torch.nn.Module, prior: torch.nn.Module) -> float:
@@ -398,25 +443,61 @@ class Validation:
         return float(feature_loss(fmap.human_psi(self.human), fmap.psi_of_fixed(fixed)))
 
 
+@dataclass(frozen=True)
+class EpochScore:
+    """G's figures on the held-out windows after one epoch (:meth:`Validation.score`)."""
+
+    feature_loss: float
+    """L_fea (Eq. 9)."""
+    fid: float
+    """Matched FID against the character's data (NaN without a reference)."""
+    div: float
+    """DIV of the output (NaN without a reference)."""
+
+    def inside(self, validation: Validation, rc: RetargetConfig) -> bool:
+        """Whether the output lies inside the data: matched FID at most ``rc.inside_fid``, DIV within
+        ``rc.inside_div_band`` × the data's (no reference: True, nothing to say otherwise)."""
+        if validation.reference is None:
+            return True
+        lo, hi = rc.inside_div_band
+        return bool(self.fid <= rc.inside_fid and lo * validation.data_div <= self.div <= hi * validation.data_div)
+
+    def rank(self, validation: Validation, rc: RetargetConfig) -> tuple[float, float, float]:
+        """Order of the epochs (lower first): inside the data before outside; inside by L_fea, outside by FID."""
+        if self.inside(validation, rc):
+            return (0.0, self.feature_loss, self.fid)
+        return (1.0, self.fid, self.fid)
+
+
 class BestGenerator:
-    """G's weights at the epoch with the lowest validation feature loss so far (a checkpointed state)."""
+    """G's weights at the best epoch so far (a checkpointed state): the lowest validation feature loss, or the lowest
+    ``rank`` where one is given (:meth:`EpochScore.rank`)."""
 
     def __init__(self) -> None:
         self.loss = float("inf")
         self.epoch = -1
         self.weights: dict[str, torch.Tensor] = {}
+        self.rank: tuple[float, ...] | None = None
 
-    def offer(self, loss: float, generator: torch.nn.Module, epoch: int) -> None:
-        """Keep ``generator``'s weights if ``loss`` is the lowest yet (ties keep the earlier epoch)."""
-        if loss < self.loss:
-            self.loss, self.epoch = loss, epoch
+    def offer(self, loss: float, generator: torch.nn.Module, epoch: int, *,
+              rank: tuple[float, ...] | None = None) -> None:
+        """Keep ``generator``'s weights if ``rank`` (default ``(loss,)``) is the lowest yet (ties keep the earlier
+        epoch)."""
+        key = (loss,) if rank is None else tuple(rank)
+        current = (self.loss,) if self.rank is None or rank is None else self.rank
+        if self.epoch < 0 or key < current:
+            self.loss, self.epoch, self.rank = loss, epoch, None if rank is None else key
             self.weights = {k: v.detach().clone() for k, v in generator.state_dict().items()}
 
     def state_dict(self) -> dict[str, Any]:
-        return {"loss": self.loss, "epoch": self.epoch, "weights": self.weights}
+        out: dict[str, Any] = {"loss": self.loss, "epoch": self.epoch, "weights": self.weights}
+        if self.rank is not None:
+            out["rank"] = list(self.rank)
+        return out
 
     def load_state_dict(self, state: dict[str, Any]) -> None:
         self.loss, self.epoch, self.weights = float(state["loss"]), int(state["epoch"]), dict(state["weights"])
+        self.rank = tuple(float(v) for v in state["rank"]) if state.get("rank") is not None else None
 
 
 def generator_average(gen: torch.nn.Module, decay: float) -> AveragedModel | None:
