@@ -3,9 +3,8 @@
 Reading (:func:`read_usd`)
 --------------------------
 - **Which prims.** The stage is read composed (sublayers, references, payloads) and through
-  instance proxies; :mod:`morphkit.io.usd_scope` finds the articulation. Its root is the prim
-  with ``PhysicsArticulationRootAPI`` (the one under the default prim when there are several;
-  more than one left is an error). On a rigid body (Isaac Sim's layout) the articulation is
+  instance proxies. The articulation's root is the prim with ``PhysicsArticulationRootAPI``
+  (the one under the default prim when there are several; more than one left is an error). On a rigid body (Isaac Sim's layout) the articulation is
   every body reached from it through joints, wherever the joints sit (under their child link,
   in a ``joints`` scope, in another layer); on an ancestor ``Xform`` it is the rigid bodies
   under it, plus any prim a joint names as ``physics:body0``/``physics:body1``, and the
@@ -108,7 +107,7 @@ from morphkit.graph import (
 )
 from morphkit.graph.types import parse_enum
 from morphkit.io._source import relative_mesh_path, resolve_mesh_path
-from morphkit.io.usd_scope import Scope, find_articulation, unique_names
+from morphkit.io._usd_scope import Scope, find_articulation, unique_names
 from morphkit.rotations import quat_between_vectors
 
 __all__ = ["USD_SUFFIXES", "build_stage", "export_stage", "load_usd_mesh", "read_usd", "write_usd"]

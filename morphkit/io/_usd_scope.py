@@ -1,4 +1,4 @@
-"""Which prims of a USD stage form the articulation morphkit reads, and their unique names.
+"""Which prims of a USD stage form the articulation morphkit reads, and their unique names (private).
 
 Used by :mod:`morphkit.io.usd`; ``pxr`` is imported inside functions only.
 
