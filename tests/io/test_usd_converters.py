@@ -22,7 +22,7 @@ from morphkit.conventions import quat_rotate
 from morphkit.errors import DescriptionError, GraphError
 from morphkit.graph import BaseType, JointType, ShapeType
 from morphkit.graph.kinematics import link_poses
-from morphkit.io.usd import read_usd
+from morphkit.io.usd import load_usd_mesh, read_usd
 
 pxr = pytest.importorskip("pxr")
 # The notes each read gives (renames, joints left out) are asserted where they matter, not printed.
@@ -39,6 +39,7 @@ GQ_VERSION = "1.1.8"
 HIP = {"l": (0.2, 0.1, 0.0), "r": (0.2, -0.1, 0.0)}  # hip pivots in the base frame [m]
 HIP_DROP = 0.05  # localPos1 of the hips: the thigh prim sits 5 cm below its pivot
 THIGH, SHIN, FOOT_RADIUS = 0.35, 0.25, 0.02  # pivot-to-pivot lengths [m]
+TRIANGLE = [(0.0, 0.0, 0.0), (0.01, 0.0, 0.0), (0.0, 0.0, -0.02)]
 
 
 def _quat(axis: tuple[float, float, float], degrees: float) -> pxr.Gf.Quatf:
@@ -79,6 +80,12 @@ def _leg_layer(path: Path) -> None:
     _body(stage, "/leg/foot", (0, 0, -THIGH + HIP_DROP - SHIN))
     # The thigh has no collider: its visual capsule is its shape (the URDF and MJCF readers' rule).
     UsdGeom.Capsule.Define(stage, "/leg/thigh/look").CreateHeightAttr(0.3)
+    # The shin's collider: an inline mesh (one triangle), read through the instanced leg's proxy too.
+    tri = UsdGeom.Mesh.Define(stage, "/leg/shin/plate")
+    tri.CreatePointsAttr(TRIANGLE)
+    tri.CreateFaceVertexCountsAttr([3])
+    tri.CreateFaceVertexIndicesAttr([0, 1, 2])
+    UsdPhysics.CollisionAPI.Apply(tri.GetPrim())
     sphere = UsdGeom.Sphere.Define(stage, "/leg/foot/ball")
     sphere.CreateRadiusAttr(FOOT_RADIUS)
     UsdPhysics.CollisionAPI.Apply(sphere.GetPrim())
@@ -176,6 +183,9 @@ def test_joints_wherever_the_converters_put_them_read_to_the_closed_form(tmp_pat
     assert [s.radius for s in m.link("leg_r_foot").shapes] == pytest.approx([FOOT_RADIUS])
     assert [s.type for s in m.link("base").shapes] == [ShapeType.BOX]
     assert [s.type for s in m.link("leg_r_thigh").shapes] == [ShapeType.CAPSULE]
+    mesh = m.link("leg_r_shin").shapes[0].mesh
+    assert mesh.endswith("#/robot/leg_r/shin/plate")
+    np.testing.assert_allclose(load_usd_mesh(mesh)[0], TRIANGLE, atol=1e-7)
 
     rng = np.random.default_rng(1)
     for _ in range(10):
