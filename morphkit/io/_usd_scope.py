@@ -97,7 +97,7 @@ def find_articulation(stage: Any, where: str, error: Callable[[str, Any], Except
             warnings.warn(
                 f"{where}: {len(unreached)} rigid bod{'y' if len(unreached) == 1 else 'ies'} under {model} "
                 f"that no joint connects to the articulation root {root.GetPath()}, left out: {_listing(unreached)}",
-                stacklevel=4,
+                stacklevel=5,
             )
     else:
         # The root on a joint (a fixed base) means its parent; on an Xform, everything under it.
@@ -113,7 +113,7 @@ def find_articulation(stage: Any, where: str, error: Callable[[str, Any], Except
         warnings.warn(
             f"{where}: {len(left)} joint{'' if len(left) == 1 else 's'} not connected to the articulation "
             f"{scope.root.GetPath()}, left out: {_listing(left)}",
-            stacklevel=4,
+            stacklevel=5,
         )
     return scope
 

