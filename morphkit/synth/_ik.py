@@ -241,8 +241,42 @@ def _redundant_last_joint(model: KinematicModel, m: Morphology, mov: list[int], 
     return (3 if above is None else _rank(above)) == (3 if whole is None else _rank(whole))
 
 
+def _shape_lowest_z(shape: Shape, foot_quat: np.ndarray) -> float | None:
+    """Height [m] of a primitive shape's lowest point relative to its link's origin, the link turned by
+    ``foot_quat`` (xyzw); None for a shape without one here (a mesh)."""
+    centre = quat_rotate(foot_quat, np.asarray(shape.origin.xyz, dtype=float))
+    turn = quat_multiply(foot_quat, np.asarray(shape.origin.quat, dtype=float))
+    if shape.type == ShapeType.SPHERE:
+        return float(centre[2] - shape.radius)
+    if shape.type == ShapeType.CAPSULE:
+        tip = quat_rotate(turn, np.array([0.0, 0.0, 0.5 * shape.length]))
+        return float(centre[2] - abs(tip[2]) - shape.radius)
+    if shape.type == ShapeType.BOX:
+        corners = 0.5 * np.array(list(itertools.product((-1.0, 1.0), repeat=3))) * np.asarray(shape.size, dtype=float)
+        return float(centre[2] + quat_rotate(np.broadcast_to(turn, (8, 4)), corners)[:, 2].min())
+    return None
+
+
+def _is_sole_of_several_shapes(m: Morphology, ee: EndEffector) -> bool:
+    """Whether ``ee``'s point lies on a sole made of several shapes of its link: two or more of them reach down
+    to the point's height at rest (within a tenth of the smallest such shape's size, at least 1 mm), the G1's
+    four sole spheres. Such a foot is flat, whatever shape holds the point: it does not roll on one ball."""
+    foot = m.rest_link_poses()[m.link_index(ee.link), 3:]
+    point_z = float(quat_rotate(foot, np.asarray(ee.offset, dtype=float))[2])
+    low = 0
+    for shape in m.link(ee.link).shapes:
+        z = _shape_lowest_z(shape, foot)
+        size = shape.radius if shape.type in (ShapeType.SPHERE, ShapeType.CAPSULE) else float(min(shape.size))
+        if z is not None and abs(z - point_z) <= max(1e-3, 0.1 * size):
+            low += 1
+    return low >= 2
+
+
 def _round_shapes_holding(m: Morphology, ee: EndEffector) -> list[Shape]:
-    """The spheres and capsules of ``ee``'s link whose surface holds its point (a toe ball, a paw)."""
+    """The spheres and capsules of ``ee``'s link whose surface holds its point (a toe ball, a paw); none where the
+    point lies on a sole of several shapes (:func:`_is_sole_of_several_shapes`)."""
+    if _is_sole_of_several_shapes(m, ee):
+        return []
     offset = np.asarray(ee.offset, dtype=float)
     found: list[Shape] = []
     for shape in m.link(ee.link).shapes:

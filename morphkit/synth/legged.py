@@ -74,7 +74,7 @@ from morphkit.graph import JointType, Morphology
 from morphkit.kernels import eval_fk
 from morphkit.kernels.contact import eval_self_collision_distance, self_collision_pairs
 from morphkit.kernels.ik import eval_ee_jacobian
-from morphkit.rotations import quat_from_rpy, quat_multiply, quat_rotate, wrap_angle
+from morphkit.rotations import quat_from_rpy, quat_from_yaw, quat_multiply, quat_rotate, wrap_angle, yaw_from_quat
 from morphkit.synth._ik import LimbSolver
 from morphkit.synth._util import rotate2, smoothstep
 from morphkit.synth.analysis import BodyPlan
@@ -259,6 +259,9 @@ class LegRig:
     """Mount-to-IK-point chain length per leg [NL] [m] (upright bipeds)."""
     max_extension: float = 1.0
     """Upright bipeds: the largest mount-to-IK-point distance as a fraction of ``leg_length``."""
+    ankle_xyz: np.ndarray | None = None
+    """Upright bipeds: the vector from each leg's IK point to the point its ``leg_length`` ends at, level foot
+    heading +x [NL, 3] [m]: the ankle of a leg that holds its sole level (:func:`_ankle_points`), else zero."""
     fixed_axes: np.ndarray | None = None
     """[NL, 2] bool: directions (fore-aft, sideways) along which a leg's joints cannot move its foot on the
     ground (:func:`ground_mobility`); None when every leg moves both ways."""
@@ -403,11 +406,16 @@ def _prebend(m: Morphology, solver: LimbSolver, q: np.ndarray, plan: BodyPlan) -
         tip = _ee_point(model, X, ee)
         pts = [mount] + [X[j + 1, :3] for j in mov[1:]] + [tip]
         chain = sum(np.linalg.norm(b - a) for a, b in itertools.pairwise(pts))
+        bend = mov[1:]
         if np.linalg.norm(tip - mount) < 0.97 * chain:
-            continue
+            if li not in solver.tilt_leg:
+                continue
+            # a foot held level (ankle hinges in the solve): a sole point ahead of the ankle (the G1's toe) and hip
+            # offsets make a straight leg look bent by its chain, so ask its joints, and bend only the knee
+            bend = _straight_knees(model, m, q, mov, mount)
         v = tip - mount
         upright = np.hypot(v[0], v[1]) < abs(v[2])
-        for ji in mov[1:]:
+        for ji in bend:
             if ji in solver.held_joints:  # out of the IK: it stays at rest
                 continue
             j = m.joints[ji]
@@ -439,6 +447,29 @@ def _prebend(m: Morphology, solver: LimbSolver, q: np.ndarray, plan: BodyPlan) -
     return q
 
 
+def _straight_knees(model, m: Morphology, q: np.ndarray, mov: list[int], mount: np.ndarray) -> list[int]:
+    """The joints of a leg of 1-DoF joints ``mov`` at which it is straight at ``q`` [C]: knees that sit where
+    turning them either way shortens the mount-to-ankle distance (``mount`` [3] in the root frame, the ankle the
+    last joint's child) — to second order only, the singular pose DLS cannot bend out of."""
+    ankle = model.link_index(m.joints[mov[-1]].child)
+
+    def dist(qq: np.ndarray) -> np.ndarray:
+        X = eval_fk(model, qq, device="cpu").numpy()[:, ankle, :3]
+        return np.linalg.norm(X - q[:3] - mount, axis=-1)
+
+    h = 0.05
+    knees = []
+    for ji in mov:
+        s = m.joint_q_start[ji]
+        qs = np.repeat(q[None], 3, axis=0)
+        qs[1, s] -= h
+        qs[2, s] += h
+        d0, lo, hi = dist(qs)
+        if abs(hi - lo) / (2 * h) < 0.01 * d0 and (hi + lo - 2 * d0) / h**2 < -0.1 * d0:
+            knees.append(ji)
+    return knees
+
+
 def is_upright_biped(plan: BodyPlan) -> bool:
     """Two legs that hang nearly straight and vertical from their mounts at rest (a person's legs).
 
@@ -452,6 +483,20 @@ def is_upright_biped(plan: BodyPlan) -> bool:
         if v[2] >= 0 or np.hypot(v[0], v[1]) > 0.25 * abs(v[2]) or np.linalg.norm(v) < 0.95 * leg.reach:
             return False
     return True
+
+
+def _ankle_points(m: Morphology, solver: LimbSolver, plan: BodyPlan) -> np.ndarray:
+    """Per leg [NL, 3]: the vector from its IK point to its ankle (the last moving joint's child) at rest, root
+    frame, for legs whose IK holds the foot level with every ankle hinge in the solve (the foot point is then
+    on the sole, beside and below the ankle); zero for the others, whose IK point is their ankle or foot."""
+    rest = m.rest_link_poses()
+    out = np.zeros((len(plan.legs), 3))
+    for li in set(solver.tilt_leg.tolist()):
+        leg = plan.legs[li]
+        mov = [m.joint_index(n) for n in leg.joints
+               if m.joint(n).type != JointType.FIXED and m.joint(n).mimic is None]
+        out[li] = rest[m.link_index(m.joints[mov[-1]].child), :3] - np.asarray(leg.tip_rest)
+    return out
 
 
 def _leg_lengths(m: Morphology, solver: LimbSolver, plan: BodyPlan, ik_rest: np.ndarray) -> np.ndarray:
@@ -703,6 +748,7 @@ class _StanceSearch:
         self.q0 = _prebend(m, solver, self.q_rest, plan)
         # IK points at rest (foot, or ankle for levelled feet) and their chains' reach
         self.ank = solver.ankle_offsets(np.zeros((1, NL)))[0]  # foot - ik point at rest (level foot)
+        self.ankle_xyz = _ankle_points(m, solver, plan)
         self.h_rest = plan.body_height
         self.eff = self._effective_reach()
 
@@ -773,7 +819,8 @@ class _StanceSearch:
         cfg, plan = self.cfg, self.plan
         # stand tall: the step region is still calibrated at the lower height h (the root dips to
         # where every stance foot is reachable, see upright_root_height), the stance is upright
-        ik_rest = self.feet_rest - self.ank
+        # legs that hold their foot level stretch to the ankle, not to the sole point beside and below it
+        ik_rest = self.feet_rest - self.ank + self.ankle_xyz
         lengths = _leg_lengths(self.m, self.solver, plan, ik_rest)
         mounts = np.array([leg.mount_rest for leg in plan.legs])
         hh = self.h_rest
@@ -781,7 +828,7 @@ class _StanceSearch:
             dxy = np.hypot(*(ik_rest[li, :2] - mounts[li, :2]))
             lim = cfg.upright_extension * lengths[li]
             if dxy < lim:
-                hh = min(hh, float(np.sqrt(lim**2 - dxy**2) - mounts[li, 2] - self.ank[li, 2]))
+                hh = min(hh, float(np.sqrt(lim**2 - dxy**2) - mounts[li, 2] - self.ank[li, 2] + self.ankle_xyz[li, 2]))
         if hh > h:
             q_up, err_up = self.nominal(hh)
             if err_up.max() <= cfg.stance_residual:
@@ -968,6 +1015,7 @@ def calibrate_legs(m: Morphology, plan: BodyPlan, solver: LimbSolver, cfg: LegCo
         mount_xyz=mounts if upright else None,
         leg_length=lengths if upright else None,
         max_extension=float(cfg.upright_max_extension) if upright else 1.0,
+        ankle_xyz=search.ankle_xyz if upright else None,
         fixed_axes=fixed if fixed.any() else None,
         hinge_knees=_hinge_knees(m, solver, plan, q_stand) if upright else (),
         warnings=tuple(warnings),
@@ -1067,6 +1115,11 @@ def upright_root_height(rig: LegRig, ik_points: np.ndarray, root_xy: np.ndarray,
     """
     assert rig.mount_xyz is not None and rig.leg_length is not None
     R, T, NL, _ = ik_points.shape
+    if rig.ankle_xyz is not None and np.any(rig.ankle_xyz):
+        # the ankle of a level sole: its offset turned with the body's heading (a planted foot's own heading
+        # differs by what the body turned since touchdown, a few millimetres at a sole's size)
+        heading = quat_from_yaw(yaw_from_quat(rot))
+        ik_points = ik_points + quat_rotate(heading[:, :, None, :], np.broadcast_to(rig.ankle_xyz, (R, T, NL, 3)))
     mount = quat_rotate(rot[:, :, None, :], np.broadcast_to(rig.mount_xyz, (R, T, NL, 3)))  # [R, T, NL, 3]
     d = np.linalg.norm(ik_points[..., :2] - root_xy[:, :, None, :] - mount[..., :2], axis=-1)
     lim = rig.max_extension * rig.leg_length

@@ -11,7 +11,9 @@ Figures (the ``morphkit synth --report --json`` keys first):
   link shape (:func:`~morphkit.kernels.contact.eval_shape_ground_distance`). A foot's own shapes (on its
   link, the links fixed to it, and below) count only beyond how far they reach below the foot point at rest (Spot's foot
   sphere is centred on its foot point); wheels roll on the ground and are not counted.
-  ``foot_penetration_mm`` is the feet's points alone, ``deepest_link`` names where the deepest was.
+  ``foot_penetration_mm`` is the feet alone: their points and every shape of each foot (a sole of several
+  spheres, as the G1's, is all of it on the ground, not its toe sphere alone); ``deepest_link`` names where the
+  deepest shape was, unless a foot's point was as deep.
 - ``self_collision_frac``: fraction of frames where any candidate shape pair overlaps by more than
   ``collision_tolerance`` (:func:`~morphkit.kernels.contact.eval_self_collision_distance`; pairs from
   :func:`~morphkit.kernels.contact.self_collision_pairs` with ``rest_margin``: shapes that touch at
@@ -74,16 +76,18 @@ def _groups(motions: Sequence[Motion]) -> dict[int, list[int]]:
     return groups
 
 
-def _ground_allowance(m, model, feet: np.ndarray) -> np.ndarray:
+def _ground_allowance(m, model, feet: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Per shape [S]: how far below the ground [m] it may reach without penetrating: a foot's own shapes
     (on the foot's rigid body — its link and the links fixed to it, as a URDF toe fixed to its calf — and below)
-    as far below the foot point as at rest, wheels without limit, others 0."""
+    as far below the foot point as at rest, wheels without limit, others 0; and which shapes are a foot's own
+    [S] (bool): on the foot's link and below it."""
     from morphkit.kernels import eval_end_effectors, eval_fk
     from morphkit.kernels.contact import eval_shape_ground_distance, rigid_bodies
 
     allow = np.zeros(model.shape_count)
+    own = np.zeros(model.shape_count, dtype=bool)
     if not model.shape_count:
-        return allow
+        return allow, own
     shape_link = np.asarray(model.shape_link)
     for name in m.wheel_joints:
         allow[shape_link == m.link_index(m.joint(name).child)] = np.inf
@@ -102,7 +106,14 @@ def _ground_allowance(m, model, feet: np.ndarray) -> np.ndarray:
                     below.add(j.child)
             on = np.isin(shape_link, [m.link_index(n) for n in below])
             allow[on] = np.maximum(allow[on], np.maximum(ee_z[e] - low[on], 0.0))
-    return allow
+            # the foot itself: its link and what hangs below it (not a shin it is fixed to, nor a body)
+            foot = {model.link_names[int(model.ee_link[e])]}
+            for j in m.joints:
+                if j.parent in foot:
+                    foot.add(j.child)
+            own |= np.isin(shape_link, [m.link_index(n) for n in foot])
+    own &= np.isfinite(allow)  # a wheel rolls on the ground: no foot's sole
+    return allow, own
 
 
 def limit_advice(m: Morphology, leg: Limb, held: Collection[str] = ()) -> str:
@@ -143,7 +154,7 @@ class _KinematicTally:
         self.m, self.model, self.feet = m, model, feet
         self.height_threshold, self.collision_tolerance = height_threshold, collision_tolerance
         self.pairs = self_collision_pairs(model, rest_margin=rest_margin)
-        self.allow = _ground_allowance(m, model, feet)
+        self.allow, self.foot_shapes = _ground_allowance(m, model, feet)
         self.others = np.array([e for e in range(model.ee_count) if e not in set(feet.tolist())], dtype=np.int64)
         self.deepest = 0.0
         self.deepest_link: str | None = None
@@ -157,6 +168,9 @@ class _KinematicTally:
         self.leg_slides: list[np.ndarray] = []
         """Per group: sliding speed [N*T, F] [m/s], NaN out of contact."""
         self.pen_max = 0.0
+        """Deepest foot [m]: its point, or any of its own shapes (a sole of several spheres is all of it the foot)."""
+        self.point_pen_max = 0.0
+        """Deepest foot point [m]."""
         self.pen_sum = 0.0
         self.pen_n = 0
         self.coll_frames = 0
@@ -197,7 +211,8 @@ class _KinematicTally:
         self.slide_n += int(contact.sum())
         self.slides.append(sl[contact])
         pen = eval_penetration_depth(pos, feet=feet).numpy()
-        self.pen_max = max(self.pen_max, float(pen.max()))
+        self.point_pen_max = max(self.point_pen_max, float(pen.max()))
+        self.pen_max = max(self.pen_max, self.point_pen_max)
         self.pen_sum += float(pen.sum())
         self.pen_n += pen.size
         fpos = pos.numpy()[..., feet, :2]
@@ -216,6 +231,8 @@ class _KinematicTally:
         if model.shape_count:
             d = eval_shape_ground_distance(model, X).numpy()  # [N, T, S]
             below = np.maximum(-(d + self.allow), 0.0).max(axis=(0, 1))
+            if self.foot_shapes.any():
+                self.pen_max = max(self.pen_max, float(below[self.foot_shapes].max()))
             for sh in range(model.shape_count):
                 name = model.link_names[int(model.shape_link[sh])]
                 depth[name] = max(depth.get(name, 0.0), float(below[sh]))
@@ -245,7 +262,7 @@ class _KinematicTally:
             if slide_n else 0.0,
             "penetration_mean_mm": round(1000.0 * self.pen_sum / pen_n, 4) if pen_n else 0.0,
             "foot_penetration_mm": round(1000.0 * self.pen_max, 4),
-            "deepest_link": self.deepest_link if self.deepest > self.pen_max + 1e-6 else None,
+            "deepest_link": self.deepest_link if self.deepest > self.point_pen_max + 1e-6 else None,
         }
 
 
