@@ -19,6 +19,8 @@ steering joint, an unlimited one a caster swivel. The drive follows from the arr
 
 The root becomes the drive's reference point on the ground (:func:`drive_centre`): a new root link there
 carries the file's root, so that the base's planar coordinates ``[x, y, yaw]`` move the drive without slip.
+:func:`drive_of` says what the wheels allow (:class:`Drive`): sideways motion or not, the tightest turn, and the
+top speed — the wheels' velocity limit × radius where the description gives one, else one track width per second.
 """
 
 from __future__ import annotations
@@ -33,7 +35,10 @@ import numpy as np
 from morphkit.body.kinematics import BodyKinematics
 from morphkit.graph import BaseType, Joint, JointType, Link, Morphology, ShapeType, Transform, Wheels
 
-__all__ = ["FoundWheel", "drive_centre", "find_wheels", "found_wheels", "wheel_carried_links"]
+__all__ = ["Drive", "FoundWheel", "drive_centre", "drive_of", "find_wheels", "found_wheels", "wheel_carried_links"]
+
+_DEFAULT_MAX_STEER = math.radians(35.0)
+"""An Ackermann drive's steering limit [rad] where the description gives none (a typical car's inner wheel)."""
 
 _HORIZONTAL = 0.26
 """Largest |z| of a spin axis (unit, root frame) that still rolls the base: 15°."""
@@ -217,7 +222,8 @@ def found_wheels(m: Morphology) -> tuple[list[FoundWheel], float]:
         return [], 0.0
     shaped = [c[2][2] - c[4][0] for c in cands if c[4] is not None]
     low = _lowest(m, P)
-    ground = min(shaped) if shaped else (low if low is not None else 0.0)
+    # the ground is under the body's lowest point: a wheel must reach it, not merely be the lowest round thing
+    ground = min([*shaped, *([low] if low is not None else [])], default=0.0)
     wheels: list[FoundWheel] = []
     for ji, j, centre, axis, best in cands:
         r, how = best if best is not None else (float(centre[2] - ground), "axle height")
@@ -352,7 +358,7 @@ def find_wheels(m: Morphology) -> Morphology:
     reason = (f"{drive}: {why}{f', {balls} ball casters' if balls else ''}; radius {radius:.4g} m "
               f"(from {', '.join(how)}), track {track:.3g} m"
               + (f", steering up to {max_steer:.3g} rad" if max_steer is not None else ""))
-    notes = [f"wheels: {reason}"]
+    notes = []
     if frozen:
         notes.append(f"wheels: {', '.join(sorted(frozen))} fixed in the file, turned here")
     if moved:
@@ -360,11 +366,100 @@ def find_wheels(m: Morphology) -> Morphology:
                      f"({cx:+.3f}, {cy:+.3f}, {ground:+.3f}) m in {m.root}")
     else:
         notes.append(f"base: wheeled — it drives on its wheels, root {root} on the ground at the drive's centre")
+    radii = tuple(w.radius for w in steered)
     wheels = Wheels(tuple(w.joint for w in fixed), radius, drive, steering, tuple(w.joint for w in steered),
-                    max_steer, reason)
+                    radii if any(abs(r - radius) > 1e-9 for r in radii) else (), max_steer, reason)
     kept_notes = tuple(n for n in m.notes if not n.startswith("base: fixed"))
     return replace(m, base=BaseType.WHEELED, root=root, links=links, joints=joints, wheels=wheels,
                    notes=kept_notes + tuple(notes))
+
+
+@dataclass(frozen=True)
+class Drive:
+    """What a wheeled base's wheels allow (root frame; the root is the drive's reference point on the ground)."""
+
+    kind: str
+    """One of :data:`~morphkit.graph.elements.WHEEL_DRIVES`."""
+    top_speed: float
+    """Fastest rim speed of any wheel [m/s]: the base's top speed straight ahead."""
+    rule: str
+    """Where :attr:`top_speed` comes from."""
+    half_track: float
+    """Half the lateral spread of the fixed-axle wheels [m] (their rim speed while turning)."""
+    reach: float
+    """Largest horizontal distance of a wheel from the root [m] (a holonomic base's rim speed while turning)."""
+    min_turn_radius: float
+    """Tightest turn of the root [m] (Ackermann: its inner wheel at the steering limit; 0: turns on the spot)."""
+    track: float = 0.0
+    """Lateral spread of the fixed-axle wheels' centres [m] (of all wheels where none is on a fixed axle)."""
+
+    def clamp(self, cmd: np.ndarray) -> np.ndarray:
+        """Heading-frame velocity commands ``[..., 3]`` (forward, lateral [m/s], yaw rate [rad/s]) scaled and
+        clipped into what the wheels allow (a copy): no sideways motion but on a holonomic base, no turn tighter
+        than :attr:`min_turn_radius`, no wheel faster than :attr:`top_speed`."""
+        out = np.array(cmd, dtype=float, copy=True)
+        v, w = out[..., 0], out[..., 2]
+        if self.kind != "holonomic":
+            out[..., 1] = 0.0
+        if self.kind == "ackermann":
+            # a hair inside the limit: a path measured by chords between frames turns a little tighter than its arcs
+            cap = np.abs(v) / (self.min_turn_radius * 1.001)
+            w = out[..., 2] = np.clip(w, -cap, cap)
+        planar = np.hypot(out[..., 0], out[..., 1])
+        arm = self.reach if self.kind == "holonomic" else self.half_track
+        rim = planar + np.abs(w) * arm
+        k = np.minimum(1.0, self.top_speed / np.maximum(rim, 1e-12))
+        return out * k[..., None]
+
+    def clamp_path(self, command: np.ndarray) -> np.ndarray:
+        """:meth:`clamp` of each frame of commands ``[..., T, 3]``, and for an Ackermann drive no yaw rate on the
+        frames either side of a reversal: the root path between two frames (their mean yaw rate and speed) then
+        keeps within :attr:`min_turn_radius` too."""
+        out = self.clamp(command)
+        if self.kind == "ackermann" and out.shape[-2] > 1:
+            flip = np.signbit(out[..., 1:, 0]) != np.signbit(out[..., :-1, 0])
+            near = np.zeros(out.shape[:-1], dtype=bool)
+            near[..., 1:] |= flip
+            near[..., :-1] |= flip
+            out[..., 2] = np.where(near, 0.0, out[..., 2])
+        return out
+
+    def summary(self) -> dict[str, float | str]:
+        return {"drive": self.kind, "top_speed_m_s": round(self.top_speed, 4), "top_speed_rule": self.rule,
+                "min_turn_radius_m": round(self.min_turn_radius, 4)}
+
+
+def drive_of(m: Morphology) -> Drive | None:
+    """The drive of a wheeled base that names its wheels (``None`` for other bases)."""
+    wl = m.wheels
+    if m.base != BaseType.WHEELED or wl is None:
+        return None
+    kin = BodyKinematics(m)
+    P = kin.poses(kin.rest[None])[0]
+    pos = {n: P[m.joint_index(n) + 1][:3, 3] for n in wl.all_joints}
+    rolling = [pos[n] for n in wl.joints + wl.steered]
+    fixed = [pos[n] for n in wl.joints] or rolling
+    half_track = 0.5 * (max(p[1] for p in fixed) - min(p[1] for p in fixed)) if fixed else 0.0
+    reach = max((float(np.hypot(p[0], p[1])) for p in rolling), default=0.0)
+    spread = (max(p[1] for p in rolling) - min(p[1] for p in rolling)) if rolling else 0.0
+    track = 2.0 * half_track if wl.joints else spread
+    limits = [m.joint(n).limit.velocity for n in wl.joints + wl.steered  # type: ignore[union-attr]
+              if m.joint(n).limit is not None and m.joint(n).limit.velocity]  # type: ignore[union-attr]
+    if limits:
+        top = min(limits) * wl.radius
+        rule = f"wheels' velocity limit {min(limits):.4g} rad/s × radius {wl.radius:.4g} m"
+    elif track > 0:
+        top, rule = track, f"one track width per second ({track:.3g} m; the description gives no wheel velocity limit)"
+    else:
+        top, rule = 20.0 * wl.radius, f"20 wheel radii per second ({wl.radius:.4g} m; no track, no velocity limit)"
+    min_turn = 0.0
+    if wl.drive == "ackermann":
+        steer = [pos[n] for n in wl.steering] or [pos[n] for n in wl.steered]
+        base = float(np.mean([p[0] for p in steer])) if steer else 0.0
+        steer_half = 0.5 * (max(p[1] for p in steer) - min(p[1] for p in steer)) if steer else 0.0
+        delta = wl.max_steer if wl.max_steer is not None else _DEFAULT_MAX_STEER
+        min_turn = abs(base) / math.tan(delta) + steer_half  # the inner wheel turns hardest
+    return Drive(wl.drive, float(top), rule, float(half_track), float(reach), float(min_turn), float(track))
 
 
 def wheel_carried_links(m: Morphology) -> frozenset[int]:

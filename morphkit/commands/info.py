@@ -48,12 +48,27 @@ def summary(m: Morphology) -> dict[str, Any]:
             for e in m.end_effectors
         ],
         "rest_pose": {k: round(v, 6) for k, v in m.rest_pose},
+        "wheels": _wheels(m),
         "notes": list(m.notes),
         "warnings": anatomy_warnings(m),
         "characteristic_length": round(m.characteristic_length, 6),
         "body_length": round(m.body_length, 6),
         "body_length_rule": m.body_length_rule.name.lower(),
     }
+
+
+def _wheels(m: Morphology) -> dict[str, Any] | None:
+    """The wheels, their drive and what it allows (None: no wheels named or found)."""
+    from morphkit.body.wheels import drive_of
+
+    wl, d = m.wheels, drive_of(m)
+    if wl is None or d is None:
+        return None
+    return {"drive": wl.drive, "joints": list(wl.joints), "steering": list(wl.steering), "steered": list(wl.steered),
+            "radius": round(wl.radius, 6), "track": round(d.track, 6), "max_steer": wl.max_steer,
+            "top_speed": round(d.top_speed, 4), "top_speed_rule": d.rule,
+            "min_turn_radius": round(d.min_turn_radius, 4), "sideways": wl.drive == "holonomic",
+            "reason": wl.reason or "declared by the description"}
 
 
 def _text(s: dict[str, Any]) -> str:
@@ -70,6 +85,16 @@ def _text(s: dict[str, Any]) -> str:
     ]
     if s["driven_joints"]:
         lines.append(f"  driven joints         {', '.join(s['driven_joints'])}")
+    if (w := s["wheels"]) is not None:
+        turn = (f"turns no tighter than {w['min_turn_radius']:.3g} m" if w["min_turn_radius"] > 0
+                else "turns on the spot")
+        lines += [
+            f"  drive                 {w['drive']}: {'moves sideways' if w['sideways'] else 'no sideways motion'}, "
+            f"{turn}, top speed {w['top_speed']:.3g} m/s ({w['top_speed_rule']})",
+            f"  wheels                {', '.join(w['joints'] + w['steered']) or 'none'}; radius {w['radius']:.4g} m, "
+            f"track {w['track']:.3g} m" + (f"; steering {', '.join(w['steering'])}" if w["steering"] else ""),
+            f"    why: {w['reason']}",
+        ]
     lines += [f"  end-effectors         {len(s['end_effectors'])}: {ees}"]
     lines += [f"    {e['name']}: {e['reason']}" for e in s["end_effectors"] if e["guessed"]]
     lines += [f"  {n}" for n in s["notes"]]

@@ -265,11 +265,11 @@ class MorphologyBuilder:
         return len(self._ees) - 1
 
     def set_wheels(self, joints: Sequence[str], radius: float, *, drive: str = "differential",
-                   steering: Sequence[str] = (), steered: Sequence[str] = (), max_steer: float | None = None,
-                   location: SourceLocation | None = None) -> None:
+                   steering: Sequence[str] = (), steered: Sequence[str] = (), steered_radii: Sequence[float] = (),
+                   max_steer: float | None = None, location: SourceLocation | None = None) -> None:
         """Name the wheels of a wheeled base: rolling joints on fixed axles, their radius [m], the drive (one of
         :data:`~morphkit.graph.elements.WHEEL_DRIVES`), steering or swivel joints and the rolling joints they
-        carry, and an Ackermann drive's largest steering angle [rad]."""
+        carry and their radii [m], and an Ackermann drive's largest steering angle [rad]."""
         loc = self._loc(location)
         (r,) = _finite([radius], "wheel radius", loc)
         if r <= 0:
@@ -277,13 +277,18 @@ class MorphologyBuilder:
         for what, names in (("joints", joints), ("steering", steering), ("steered", steered)):
             if isinstance(names, str) or not all(isinstance(j, str) for j in names):
                 raise GraphError(f"wheels: {what} must be a list of joint names, got {names!r}", location=loc)
+        radii = _finite(list(steered_radii), "wheels steered_radii", loc) if len(steered_radii) else []
+        if radii and (len(radii) != len(steered) or min(radii) <= 0):
+            raise GraphError(f"wheels: steered_radii must give one radius > 0 per steered wheel, got {list(radii)}",
+                             location=loc)
         if drive not in WHEEL_DRIVES:
             raise GraphError(f"wheels: drive must be one of {', '.join(WHEEL_DRIVES)}, got {drive!r}", location=loc)
         if max_steer is not None:
             (max_steer,) = _finite([max_steer], "wheels max_steer", loc)
             if not 0 < max_steer < math.pi / 2:
                 raise GraphError(f"wheels: max_steer must be in (0, pi/2) rad, got {max_steer}", location=loc)
-        self._wheels = Wheels(tuple(joints), r, drive, tuple(steering), tuple(steered), max_steer)
+        self._wheels = Wheels(tuple(joints), r, drive, tuple(steering), tuple(steered),
+                              tuple(float(v) for v in radii), max_steer)
         self._wheels_location = loc
 
     # ---- build -----------------------------------------------------------------------------

@@ -150,6 +150,8 @@ class Wheels:
     """Vertical steering or caster swivel joints; their angles follow the base's path (they keep coordinates)."""
     steered: tuple[str, ...] = ()
     """Continuous joints of the wheels the steering joints carry; their angles follow the base's path too."""
+    steered_radii: tuple[float, ...] = ()
+    """Radius of each steered wheel [m] (empty: all :attr:`radius`)."""
     max_steer: float | None = None
     """Largest steering angle of an Ackermann drive's inner wheel [rad] (``None``: no steering limit)."""
     reason: str = field(default="", compare=False)

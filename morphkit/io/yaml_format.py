@@ -23,7 +23,9 @@ The format (``shared/DESIGN.md``, "YAML creature format")::
         mimic: {joint: other, multiplier: 1.0, offset: 0.0}
     end_effectors:
       fl_foot: {link: fl_lower, offset: [0, 0, -0.32], role: foot}   # foot | hand | head | tool
-    wheels: {joints: [wheel_l, wheel_r], radius: 0.1}    # wheeled base only
+    wheels: {joints: [wheel_l, wheel_r], radius: 0.1}    # wheeled base only; optional drive (differential |
+                                    # skid_steer | ackermann | holonomic), steering and steered joint lists,
+                                    # steered_radii, max_steer [rad]
 
 Shapes: ``sphere`` (radius), ``capsule`` and ``cylinder`` (radius, length along local z),
 ``box`` (size: full extents), ``mesh`` (file, optional scale); each with an optional
@@ -76,6 +78,7 @@ _LIMIT_KEYS = ("lower", "upper", "velocity", "effort")
 _MIMIC_KEYS = ("joint", "multiplier", "offset")
 _EE_KEYS = ("link", "offset", "role")
 _WHEEL_KEYS = ("joints", "radius")
+_WHEEL_OPTIONAL = ("drive", "steering", "steered", "steered_radii", "max_steer")
 _ORIGIN_KEYS = ("xyz", "rpy", "quat")
 _SHAPE_KEYS: dict[ShapeType, tuple[tuple[str, ...], tuple[str, ...]]] = {
     # shape type: (required keys, optional keys), besides "type" and "origin"
@@ -277,11 +280,26 @@ class DocumentReader:
         if "wheels" in top:
             line = self.line_of(top, "wheels")
             m = self.mapping(top["wheels"], "wheels", line)
-            self.keys(m, "wheels", _WHEEL_KEYS, _WHEEL_KEYS, line=line)
-            jl = self.sequence(m["joints"], "wheels joints", self.line_of(m, "joints"))
-            names = [self.name(v, "wheels joint", jl.item_lines[i]) for i, v in enumerate(jl)]
+            self.keys(m, "wheels", _WHEEL_KEYS + _WHEEL_OPTIONAL, _WHEEL_KEYS, line=line)
+
+            def joint_list(key: str) -> list[str]:
+                if key not in m:
+                    return []
+                jl = self.sequence(m[key], f"wheels {key}", self.line_of(m, key))
+                return [self.name(v, f"wheels {key} joint", jl.item_lines[i]) for i, v in enumerate(jl)]
+
             radius = self.number(m["radius"], "wheels radius", self.line_of(m, "radius"))
-            b.set_wheels(names, radius, location=self.loc(line))
+            kw: dict[str, Any] = {}
+            if "drive" in m:
+                kw["drive"] = self.name(m["drive"], "wheels drive", self.line_of(m, "drive"))
+            if "steered_radii" in m:
+                rl = self.sequence(m["steered_radii"], "wheels steered_radii", self.line_of(m, "steered_radii"))
+                kw["steered_radii"] = [self.number(v, "wheels steered radius", rl.item_lines[i])
+                                       for i, v in enumerate(rl)]
+            if "max_steer" in m:
+                kw["max_steer"] = self.number(m["max_steer"], "wheels max_steer", self.line_of(m, "max_steer"))
+            b.set_wheels(joint_list("joints"), radius, steering=joint_list("steering"), steered=joint_list("steered"),
+                         location=self.loc(line), **kw)
         if "rest_pose" in top:
             line = self.line_of(top, "rest_pose")
             rp = self.mapping(top["rest_pose"], "rest_pose", line)
@@ -484,7 +502,16 @@ def dump_yaml(m: Morphology, *, target: str | os.PathLike[str] | None = None) ->
         )
     if m.wheels is not None:
         names = ", ".join(_str(n) for n in m.wheels.joints)
-        out.append(f"wheels: {{joints: [{names}], radius: {_num(m.wheels.radius)}}}")
+        wl = m.wheels
+        extra = "" if wl.drive == "differential" else f", drive: {wl.drive}"
+        for key, joints in (("steering", wl.steering), ("steered", wl.steered)):
+            if joints:
+                extra += f", {key}: [{', '.join(_str(n) for n in joints)}]"
+        if wl.steered_radii:
+            extra += f", steered_radii: [{', '.join(_num(r) for r in wl.steered_radii)}]"
+        if wl.max_steer is not None:
+            extra += f", max_steer: {_num(wl.max_steer)}"
+        out.append(f"wheels: {{joints: [{names}], radius: {_num(wl.radius)}{extra}}}")
     if m.rest_pose:
         out.append("rest_pose:  # 1-DoF joint values at rest [rad or m]; others rest at 0")
         out += [f"  {_str(n)}: {_num(v)}" for n, v in m.rest_pose]

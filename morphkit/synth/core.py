@@ -72,7 +72,16 @@ from morphkit.synth.locomotion_commands import (
     draw_commands,
     integrate_root,
 )
-from morphkit.synth.wheeled import Locomotion, base_coordinates, glide_height, lateral_allowed, locomotion_of
+from morphkit.synth.wheeled import (
+    Drive,
+    Locomotion,
+    base_coordinates,
+    drive_of,
+    glide_height,
+    lateral_allowed,
+    locomotion_of,
+    steer_wheels,
+)
 
 __all__ = [
     "SynthConfig",
@@ -141,6 +150,8 @@ class SynthRig:
         default_factory=lambda: (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0)))
     """The upper body's 1-DoF coordinates (arms and the other joints, not legs and not those carrying a leg:
     indices in ``q``) and their lower and upper limits (:func:`~morphkit.synth.ground.lift_coordinates`)."""
+    drive: Drive | None = None
+    """What a wheeled base's wheels allow (None: no wheels named)."""
 
     def summary(self) -> dict[str, Any]:
         """Calibration figures for reports (JSON-friendly)."""
@@ -178,6 +189,8 @@ class SynthRig:
             out["upper_body_pool"] = self.arms.stats
         if self.actions is not None:
             out["actions"] = self.actions.stats
+        if self.drive is not None:
+            out.update(self.drive.summary())
         return out
 
     def max_speed(self, direction: np.ndarray) -> float:
@@ -212,6 +225,8 @@ def prepare(m: Morphology, *, fps: float = 30.0, config: SynthConfig | None = No
                         body_height=plan.body_height, leg_reach=plan.leg_reach)
     # the upper body's lowest points (its shapes and arm tips), kept above the ground every frame
     others, carrying = other_joints(m, plan)
+    # steering and caster joints follow the root path (steer_wheels), not a walk of their own
+    others = [j for j in others if m.joints[j].name not in m.wheel_steering_joints]
     lifting = [m.joint_index(n) for arm in plan.arms for n in arm.joints] + [j for j in others if j not in carrying]
     upper: set[str] = set()
     for ji in lifting:
@@ -275,6 +290,13 @@ def prepare(m: Morphology, *, fps: float = 30.0, config: SynthConfig | None = No
         top = legs.top_speed
         forward = (max(forward[0], -top((-1.0, 0.0), config.legs)), min(forward[1], top((1.0, 0.0), config.legs)))
         lateral = (max(lateral[0], -top((0.0, -1.0), config.legs)), min(lateral[1], top((0.0, 1.0), config.legs)))
+    drive = drive_of(m) if loco == Locomotion.WHEELED else None
+    if drive is not None:
+        # the paper's ranges as fractions of its top forward speed, times the wheels' top speed
+        top, ref = drive.top_speed, cc.forward_speed[1]
+        forward = (cc.forward_speed[0] / ref * top, top)
+        lateral = tuple(v / ref * top for v in lat)
+        clamp = drive.clamp
     limits = CommandLimits(
         forward=forward,  # type: ignore[arg-type]
         lateral=lateral,  # type: ignore[arg-type]
@@ -290,7 +312,7 @@ def prepare(m: Morphology, *, fps: float = 30.0, config: SynthConfig | None = No
     arm_pairs = _arm_body_pairs(m, plan, solver, [a for a in range(len(plan.arms)) if a not in held],
                                 config.arms.collision_rest_margin)
     rig = SynthRig(m, plan, loco, solver, legs, arms, q_stance, limits, float(scale), fps, config, actions, ground,
-                   arm_pairs, upper_coordinates)
+                   arm_pairs, upper_coordinates, drive)
     _rig_cache.append((m, fps, config, rig))
     del _rig_cache[:-4]
     return rig
@@ -478,6 +500,10 @@ class _BatchRollout:
             limit_speed(cmds.command, busy, vmax, cfg.actions.max_yaw_rate)
             limit_speed(cmds.target, busy, vmax, cfg.actions.max_yaw_rate)
             cmds.settled &= (busy == 0.0) | (busy == 1.0)
+        if rig.drive is not None:
+            # ramps between two allowed targets may pass through a turn the drive cannot make (an Ackermann
+            # reversing): every frame's command is clipped, not only the targets
+            cmds.command[..., :3] = rig.drive.clamp_path(cmds.command[..., :3])
         self.path_xy, self.path_yaw = integrate_root(cmds.command, fps, yaw0)
 
     def _plan_feet(self) -> None:
@@ -704,6 +730,8 @@ class _BatchRollout:
     def results(self) -> dict[str, np.ndarray]:
         """Per-frame arrays [R, T, ...]: ``q``, commands, contacts, gaits, actions; the ground lift's statistics."""
         cmds, acts, frames = self.cmds, self.acts, self.frames
+        if self.m.wheel_steering_joints:
+            steer_wheels(self.m, self.out_q, self.fps)
         return {
             "q": self.out_q,
             "command": cmds.command[:, :frames],
