@@ -38,11 +38,10 @@ import warnings
 from collections.abc import Sequence
 from enum import IntEnum
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
-from lxml import etree
 
 from morphkit._atomic import atomic_write_text
 from morphkit.body.anatomy import complete_anatomy
@@ -61,33 +60,40 @@ from morphkit.graph import (
     Transform,
 )
 from morphkit.graph.types import parse_enum
-from morphkit.io._source import read_text, relative_mesh_path, resolve_mesh_path, warn_wheeled_without_wheels
+from morphkit.io._source import (
+    mesh_warnings,
+    parse_xml,
+    read_text,
+    relative_mesh_path,
+    resolve_mesh_path,
+    warn_wheeled_without_wheels,
+)
+from morphkit.io.srdf import Srdf, find_srdf, read_srdf, reference_values, srdf_hints
 
 __all__ = ["dump_urdf", "parse_urdf", "read_urdf", "write_urdf"]
 
 _URDF_JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
 _WORLD = "world"
-_ENTITY_DECL = re.compile(r"<!ENTITY", re.IGNORECASE)
 _NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
 """A URDF number (what urdfdom accepts; Python's float() also takes '1_000', 'infinity', 'nan')."""
-_XML_DECL = re.compile(r"^(\ufeff?\s*<\?xml[^>]*?)\s+encoding\s*=\s*(['\"])[^'\"]*\2")
 
 
-def _parser() -> etree.XMLParser:
-    # Hardened: no entity substitution, no DTD loading, no network, no huge trees.
-    return etree.XMLParser(
-        resolve_entities=False,
-        no_network=True,
-        load_dtd=False,
-        huge_tree=False,
-        remove_comments=True,
-        remove_pis=True,
-    )
+_XACRO = re.compile(r"\$\((\w+)((?:\s+[^\s()]+)*)\s*\)")
+"""A xacro substitution left in a file (``$(arg name)``, ``$(optenv VAR default)``, ``$(find pkg)``)."""
 
 
 class _Reader:
-    def __init__(self, source: str | None) -> None:
+    def __init__(self, source: str | None, srdf: Srdf | None = None) -> None:
         self.source = source
+        self.srdf = srdf
+        self.xacro_args: dict[str, str] = {}
+        self.xacro_used: list[tuple[Any, str]] = []
+        """(element, 'what became what') of each xacro leftover read, for the one warning."""
+        self.scale4: Any = None
+        """The first mesh whose scale had four numbers (the fourth dropped)."""
+        self.state: dict[str, float] = {}
+        """The SRDF's reference state (joint values) that joint limits must hold."""
+        self.widened: list[tuple[Any, str]] = []
 
     def loc(self, el: Any) -> SourceLocation:
         line = el.sourceline if el is not None else None
@@ -97,8 +103,39 @@ class _Reader:
         return DescriptionError(message, location=self.loc(el))
 
     # -- attribute readers
-    def attr(self, el: Any, name: str, what: str, *, default: str | None = None) -> str:
+    def get(self, el: Any, name: str) -> str | None:
+        """Attribute ``name`` of ``el``, with xacro leftovers replaced (:meth:`xacro`)."""
         value = el.get(name)
+        return value if value is None or "$(" not in value else self.xacro(value, el)
+
+    def xacro(self, value: str, el: Any) -> str:
+        """``value`` with the xacro substitutions an unexpanded (or half-expanded) file left in it taken as xacro
+        would with no arguments given: ``$(arg x)`` its ``<xacro:arg name="x" default=...>``, ``$(optenv VAR d)``
+        its default ``d``, ``$(find pkg)`` ``package://pkg``.
+
+        Raises:
+            DescriptionError: a substitution whose value is not known here (an ``$(arg)`` without a default,
+                ``$(env VAR)``, an ``$(optenv)`` without a default, ``$(eval ...)``), at its line.
+        """
+        def one(match: re.Match[str]) -> str:
+            verb, args = match.group(1), match.group(2).split()
+            if verb == "arg" and len(args) == 1 and args[0] in self.xacro_args:
+                out = self.xacro_args[args[0]]
+            elif verb == "optenv" and len(args) >= 2:
+                out = " ".join(args[1:])
+            elif verb == "find" and len(args) == 1:
+                out = f"package://{args[0]}"
+            else:
+                why = {"arg": "an argument without a <xacro:arg ... default=> in the file",
+                       "optenv": "an environment variable without a default"}.get(verb, "not known without xacro")
+                raise self.error(f"xacro leftover {match.group(0)!r}: {why}; expand the file with xacro first", el)
+            self.xacro_used.append((el, f"{match.group(0)} as {out!r}"))
+            return out
+
+        return _XACRO.sub(one, value)
+
+    def attr(self, el: Any, name: str, what: str, *, default: str | None = None) -> str:
+        value = self.get(el, name)
         if value is None:
             if default is not None:
                 return default
@@ -112,7 +149,7 @@ class _Reader:
         return value
 
     def floats(self, el: Any, attr: str, n: int, what: str, *, default: Sequence[float] | None = None) -> tuple:
-        text = el.get(attr)
+        text = self.get(el, attr)
         if text is None:
             if default is not None:
                 return tuple(float(v) for v in default)
@@ -178,7 +215,12 @@ class _Reader:
         if g.tag == "mesh":
             raw = self.name(g, "filename", gwhat)
             mesh = resolve_mesh_path(raw, self.source, loc=self.loc(g))
-            scale = self.floats(g, "scale", 3, gwhat, default=(1, 1, 1))
+            if len((self.get(g, "scale") or "").split()) == 4:
+                # Some exporters write a homogeneous fourth number; urdfdom and Pinocchio read the first three.
+                scale = self.floats(g, "scale", 4, gwhat)[:3]
+                self.scale4 = self.scale4 if self.scale4 is not None else g
+            else:
+                scale = self.floats(g, "scale", 3, gwhat, default=(1, 1, 1))
             return Shape(ShapeType.MESH, origin, mesh=mesh, scale=scale)
         raise self.error(
             f"{what}: unknown geometry <{g.tag}>; expected one of: box, sphere, cylinder, capsule, mesh", g
@@ -195,27 +237,19 @@ class _Reader:
         link_names = [self.name(el, "name", "link") for el in links]
         joint_els = [(self.name(el, "name", "joint"), el) for el in joints]
 
-        # A `world` link whose only role is to anchor the root (fixed/floating/planar joint) is the base.
-        world_base: BaseType | None = None
-        world_joint: Any = None
-        if _WORLD in link_names:
-            from_world = [(n, el) for n, el in joint_els if self._end(el, "parent", n) == _WORLD]
-            into_world = [el for n, el in joint_els if self._end(el, "child", n) == _WORLD]
-            if len(from_world) == 1 and not into_world:
-                jname, jel = from_world[0]
-                jtype = self.attr(jel, "type", f"joint {jname!r}").strip()
-                base_of = {"fixed": BaseType.FIXED, "floating": BaseType.FLOATING, "planar": BaseType.PLANAR}
-                if jtype in base_of:
-                    world_base, world_joint = base_of[jtype], jel
-                    origin = self.origin(jel, f"joint {jname!r}")
-                    if not origin.is_identity(1e-12):
-                        warnings.warn(
-                            f"{self.loc(jel)}: origin of world joint {jname!r} is ignored "
-                            "(morphkit places the base by its coordinates)",
-                            stacklevel=3,
-                        )
+        if not links:
+            raise self.error("the <robot> holds no <link>: nothing to read (a xacro file's unexpanded output?)", root)
+        for el in root.iter():
+            # <xacro:arg name= default=> left in the file: the value $(arg name) takes (xacro's, with no arguments)
+            if isinstance(el.tag, str) and el.tag.endswith("}arg") and "xacro" in el.tag and el.get("name") \
+                    and el.get("default") is not None:
+                self.xacro_args.setdefault(el.get("name"), el.get("default"))
+        anchor, world_base, world_joint = self.anchor(link_names, joint_els)
         for link_name, el in zip(link_names, links, strict=True):
-            if world_joint is not None and link_name == _WORLD:
+            if link_name == anchor:
+                if link_name != _WORLD and (el.findall("collision") or el.findall("visual")):
+                    warnings.warn(f"{self.loc(el)}: link {link_name!r} is read as the world (its joint is the base): "
+                                  "its shapes are left out", stacklevel=3)
                 continue
             what = f"link {link_name!r}"
             b.add_link(link_name, location=self.loc(el))
@@ -223,7 +257,16 @@ class _Reader:
             for h in holders:
                 b.add_shape(link_name, self.shape(h, what), location=self.loc(h))
 
+        if self.srdf is not None:
+            self.state = reference_values(self.srdf, [n for n, _ in joint_els])
         mimics = {jname: self.mimic(el, f"joint {jname!r}") for jname, el in joint_els if el is not world_joint}
+        for jname, el in joint_els:
+            mimic = mimics.get(jname)
+            if mimic is not None and mimic.joint not in mimics:
+                # Pinocchio reads such a file (it reads no mimic); a joint that follows nothing moves on its own.
+                warnings.warn(f"{self.loc(el)}: joint {jname!r} mimics unknown joint {mimic.joint!r}: read as a joint "
+                              "of its own", stacklevel=3)
+                mimics[jname] = None
         for jname, el in joint_els:
             if el is world_joint:
                 continue
@@ -248,10 +291,71 @@ class _Reader:
         if rest:
             b.set_rest_pose({self.name(el, "joint", "rest_pose"): self.number(el, "value", "rest_pose") for el in rest},
                             location=self.loc(rest[0]))
+        declared = base_el is not None or world_base is not None
+        reference, frames = "q = 0", []
+        if self.srdf is not None:
+            skip = [self.name(world_joint, "name", "joint")] if world_joint is not None else []
+            hints = srdf_hints(self.srdf, b.build(), skip_joints=skip)
+            if not rest and hints.reference is not None:
+                b.set_rest_pose(hints.rest, location=self.srdf.loc(hints.rest_line))
+                reference = hints.reference
+            for pair in hints.excludes:
+                b.exclude_collision(*pair)
+            frames = hints.frames
+            if not declared and hints.base is not None:
+                b.set_base(hints.base)
+                declared = True
         m = warn_wheeled_without_wheels(
             b.build(), self.loc(base_el) if base_el is not None else None, how='<wheels joints="..." radius="R"/>'
         )
-        return complete_anatomy(m, base_declared=base_el is not None or world_base is not None)
+        self.warn_leftovers()
+        return complete_anatomy(m, frames=frames, base_declared=declared, reference=reference)
+
+    def warn_leftovers(self) -> None:
+        """One warning each for the file's xacro leftovers and four-number mesh scales."""
+        if self.xacro_used:
+            el, first = self.xacro_used[0]
+            more = f" ({len(self.xacro_used)} substitutions in all)" if len(self.xacro_used) > 1 else ""
+            warnings.warn(f"{self.loc(el)}: xacro leftover read as xacro would with no arguments: {first}{more}; "
+                          "expand the file with xacro to choose other values", stacklevel=4)
+        if self.widened:
+            state = self.srdf.reference_state() if self.srdf is not None else None
+            warnings.warn(f"{self.loc(self.widened[0][0])}: the limits of {len(self.widened)} joint(s) are widened to "
+                          f"hold SRDF state {state.name if state else ''!r}: "
+                          f"{'; '.join(w for _, w in self.widened)}", stacklevel=4)
+        if self.scale4 is not None:
+            warnings.warn(f"{self.loc(self.scale4)}: mesh scale {self.scale4.get('scale')!r} has four numbers: read as "
+                          "its first three (as urdfdom does)", stacklevel=4)
+
+    def anchor(self, link_names: list[str], joint_els: list[tuple[str, Any]]) -> tuple[str | None, BaseType | None,
+                                                                                         Any]:
+        """The link that stands for the world, the base its joint gives and that joint; Nones where there is none.
+
+        A ``world`` link whose one joint (fixed, floating or planar) carries the root; or a root link (no parent)
+        whose one joint is floating or planar (Pinocchio reads that joint as the free flyer): its child is the
+        root, the base floats (or moves in the plane).
+        """
+        base_of = {"fixed": BaseType.FIXED, "floating": BaseType.FLOATING, "planar": BaseType.PLANAR}
+        children = {self._end(el, "child", n) for n, el in joint_els}
+        roots = [n for n in link_names if n not in children]
+        candidates = [_WORLD] if _WORLD in link_names else []
+        if len(roots) == 1 and roots[0] != _WORLD:
+            candidates.append(roots[0])
+        for candidate in candidates:
+            from_it = [(n, el) for n, el in joint_els if self._end(el, "parent", n) == candidate]
+            if len(from_it) != 1 or candidate in children:
+                continue
+            jname, jel = from_it[0]
+            jtype = self.attr(jel, "type", f"joint {jname!r}").strip()
+            if jtype not in base_of or (candidate != _WORLD and jtype == "fixed"):
+                continue
+            origin = self.origin(jel, f"joint {jname!r}")
+            if not origin.is_identity(1e-12):
+                kind = "world" if candidate == _WORLD else jtype
+                warnings.warn(f"{self.loc(jel)}: origin of {kind} joint {jname!r} is ignored (morphkit places the "
+                              "base by its coordinates)", stacklevel=4)
+            return candidate, base_of[jtype], jel
+        return None, None, None
 
     def _end(self, el: Any, tag: str, jname: str) -> str | None:
         sub = el.find(tag)
@@ -271,7 +375,8 @@ class _Reader:
         jtype_text = self.attr(el, "type", what).strip()
         if jtype_text in ("floating", "planar"):
             raise self.error(
-                f"{what}: a {jtype_text} joint is only supported from the '{_WORLD}' link (as the base); "
+                f"{what}: a {jtype_text} joint is only supported from the '{_WORLD}' link or the root link (as the "
+                "base); "
                 "morphkit joints are fixed, revolute, continuous, prismatic or spherical",
                 el,
             )
@@ -297,6 +402,12 @@ class _Reader:
                 upper = self.number(lim, "upper", lw, default=0.0)
                 if lower > upper:
                     raise self.error(f"{what}: limit lower {lower} > upper {upper}", lim)
+                v = self.state.get(jname)
+                if v is not None and mimic is None and not any(lower <= v + k * math.tau <= upper for k in (-1, 0, 1)):
+                    # Pinocchio takes an SRDF state as it is written, limits or not (simple_humanoid's half_sitting
+                    # bends the left knee past its URDF limit); the rest pose must lie within the limits.
+                    self.widened.append((lim, f"{jname} [{lower:g}, {upper:g}] to hold {v:g}"))
+                    lower, upper = min(lower, v), max(upper, v)
                 kw["limit"] = Limit(lower, upper, velocity, effort)
         elif jtype in (JointType.REVOLUTE, JointType.PRISMATIC):
             hint = " (use type continuous for an unlimited revolute joint)" if jtype == JointType.REVOLUTE else ""
@@ -333,56 +444,47 @@ def _driven_by(jname: str, mimics: dict[str, Mimic | None], loc: SourceLocation)
     return Mimic(target, a, b)
 
 
-def _parse_xml(text: str, source: str | None) -> Any:
-    """Parse URDF text with the hardened parser; refuse entity declarations outright."""
-    where = SourceLocation(source)
-    m = _ENTITY_DECL.search(text)
-    if m is not None:
-        raise DescriptionError(
-            "refusing an XML document that declares entities (<!ENTITY ...>): entity expansion and "
-            "external entities are not allowed in URDF files",
-            location=where.at_line(text.count("\n", 0, m.start()) + 1),
-        )
-    # lxml refuses str input that carries an encoding declaration; we hand it UTF-8 bytes instead.
-    data = _XML_DECL.sub(r"\1", text, count=1).encode("utf-8", errors="replace")
-    try:
-        root = etree.fromstring(data, _parser())
-    except etree.XMLSyntaxError as exc:
-        line = exc.lineno if isinstance(exc.lineno, int) and exc.lineno > 0 else None
-        msg = exc.msg or str(exc)
-        raise DescriptionError(f"malformed XML: {msg}", location=where.at_line(line)) from exc
-    except (etree.LxmlError, ValueError, LookupError) as exc:
-        raise DescriptionError(f"malformed XML: {exc}", location=where) from exc
-    if root is None:
-        raise DescriptionError("empty XML document", location=where)
-    dtd = root.getroottree().docinfo.internalDTD
-    if dtd is not None and any(True for _ in dtd.iterentities()):
-        raise DescriptionError("refusing an XML document that declares entities", location=where)
-    for el in root.iter():
-        if not isinstance(el.tag, str):  # entity references, or anything else that is not an element
-            raise DescriptionError(
-                "refusing XML entity references in a URDF file", location=where.at_line(el.sourceline)
-            )
-    return root
-
-
-def parse_urdf(text: str, *, source: str | None = None) -> Morphology:
+def parse_urdf(text: str, *, source: str | None = None,
+               srdf: str | os.PathLike[str] | Literal[False] | None = None) -> Morphology:
     """Build a :class:`Morphology` from URDF text (with morphkit's extension elements).
 
     Args:
         text: The URDF document.
         source: Path the text came from (for error locations and mesh paths).
+        srdf: The SRDF to read with it (:mod:`morphkit.io.srdf`: rest pose, collision excludes, end-effector
+            hints, base): ``None`` finds it beside ``source`` (:func:`~morphkit.io.srdf.find_srdf`), a path names
+            it, ``False`` reads none.
 
     Raises:
         DescriptionError: malformed XML, declared entities, missing/bad attributes, unsupported joints.
         GraphError: structural problems (cycle, two parents, missing link, ...), located at the element.
     """
-    return _Reader(source).read(_parse_xml(text, source))
+    root = parse_xml(text, source)
+    with mesh_warnings(source):
+        return _Reader(source, _srdf_for(source, srdf, root.get("name"))).read(root)
 
 
-def read_urdf(path: str | os.PathLike[str]) -> Morphology:
-    """Read a URDF file (see :func:`parse_urdf`)."""
-    return parse_urdf(read_text(path, what="URDF"), source=str(path))
+def read_urdf(path: str | os.PathLike[str], *, srdf: str | os.PathLike[str] | Literal[False] | None = None
+              ) -> Morphology:
+    """Read a URDF file, with its SRDF where one is beside it (see :func:`parse_urdf`)."""
+    return parse_urdf(read_text(path, what="URDF"), source=str(path), srdf=srdf)
+
+
+def _srdf_for(source: str | None, srdf: str | os.PathLike[str] | Literal[False] | None, robot: str | None
+              ) -> Srdf | None:
+    """The SRDF read with the URDF ``source`` (see :func:`parse_urdf`)."""
+    if srdf is False:
+        return None
+    if srdf is not None:
+        return read_srdf(srdf)
+    found = find_srdf(source, robot=robot or "") if source else None
+    if found is None:
+        return None
+    try:
+        return read_srdf(found)
+    except DescriptionError as exc:
+        raise DescriptionError(f"{exc.message} (the SRDF found beside {source}; read it with srdf=False to leave it "
+                               "out)", location=exc.location) from exc
 
 
 # ---- the writer ------------------------------------------------------------------------------
