@@ -312,6 +312,24 @@ def _grid_texture(size: int = 64, line: int = 2) -> np.ndarray:
     return tile
 
 
+def _warn_unmeshed(unmeshed: Sequence[tuple[Any, list[str], bool]]) -> None:
+    """One warning for the links drawn without some of their meshes: the link's own message where there is one,
+    a summary where there are several (a URDF from another machine names hundreds of absent paths)."""
+    if not unmeshed:
+        return
+    link, failed, kept = unmeshed[0]
+    where = f"{link.location}: " if link.location is not None else ""
+    if len(unmeshed) == 1:
+        instead = "its other shapes" if kept else "a stand-in (bones to its joints)"
+        warnings.warn(f"{where}link {link.name!r}: {'; '.join(failed)}; drawn with {instead}", stacklevel=3)
+        return
+    count = sum(len(f) for _, f, _ in unmeshed)
+    stand_ins = sum(1 for *_, k in unmeshed if not k)
+    instead = "their other shapes" + (f", {stand_ins} as stand-ins (bones to their joints)" if stand_ins else "")
+    warnings.warn(f"{where}{count} meshes not found or unreadable on {len(unmeshed)} links, e.g. link {link.name!r}: "
+                  f"{failed[0]}; drawn with {instead}", stacklevel=3)
+
+
 class CreatureScene:
     """pyrender scene of one creature, posed by link transforms.
 
@@ -337,6 +355,7 @@ class CreatureScene:
         # grows with the primitive count. Local AABB corners are kept for framing.
         self._link_nodes: list[tuple[int, Any]] = []
         corners: list[tuple[int, np.ndarray]] = []
+        unmeshed: list[tuple[Any, list[str], bool]] = []
         for i, link in enumerate(m.links):
             meshes, failed = [], []
             for shape in link.shapes:
@@ -345,9 +364,7 @@ class CreatureScene:
                 except DescriptionError as exc:  # a missing or unreadable mesh: draw what there is, say so
                     failed.append(exc.message)
             if failed:
-                where = f"{link.location}: " if link.location is not None else ""
-                instead = "its other shapes" if meshes else "a stand-in (bones to its joints)"
-                warnings.warn(f"{where}link {link.name!r}: {'; '.join(failed)}; drawn with {instead}", stacklevel=2)
+                unmeshed.append((link, failed, bool(meshes)))
             if not meshes:  # a stand-in (BVH skeletons): a ball at the origin, bones to its joints and points
                 meshes = [trimesh.creation.icosphere(subdivisions=1, radius=0.0325 * length),
                           *_bone_trimeshes(_joint_and_effector_points(m, i), 0.025 * length)]
@@ -363,6 +380,7 @@ class CreatureScene:
             node = self.scene.add(mesh, name=f"link:{link.name}")
             self._link_nodes.append((i, node))
             corners.append((i, trimesh.bounds.corners(merged.bounds)))
+        _warn_unmeshed(unmeshed)
 
         # End-effector markers: small spheres (a cube for tools) coloured by role, drawn on top of
         # the geometry so a foot inside its foot sphere or a head point inside the skull still shows.
