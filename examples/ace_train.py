@@ -88,11 +88,27 @@ def run(args: argparse.Namespace) -> int:
                                    model.pairing, seed=cfg.seed))
     table = write_table(rows, out / "metrics")
     print(table)
+    _shipped_beside_data(rows, f"{model.label}+{args.contacts}" if args.contacts != "none" else model.label)
     print(f"the source humans' own skating ratio on these clips: {100 * pooled_skating(humans):.2f} %")
     print(f"retargeted clips: {out / 'clips'}")
     _videos(results[: 1 if args.smoke else args.videos], out / "videos", sheet=args.smoke)
     print(f"done in {time.perf_counter() - started:.0f} s: {out}")
     return 0
+
+
+def _shipped_beside_data(rows, shipped: str) -> None:
+    """The shipped row's FID and DIV beside the data's own spread, and a warning for each clip outside the data."""
+    from morphkit.evaluation.table import off_data_warnings
+
+    data = rows[0]
+    row = next(r for r in rows if r.name == shipped)
+    ratio = row.div / data.div if data.div else float("nan")
+    print(f"shipped ({shipped}): matched FID {row.fid:.3f} (the data against itself: 0), DIV {row.div:.3f} against "
+          f"the data's {data.div:.3f} ({ratio:.2f}x); {100 * (row.off_data or 0.0):.0f} % of its clips outside "
+          "the data")
+    for r in rows[1:]:
+        for line in off_data_warnings(r):
+            print(f"warning: {line}", file=sys.stderr)
 
 
 def _warn_unrealistic_data(creature, cfg) -> None:

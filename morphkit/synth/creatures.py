@@ -55,7 +55,7 @@ class CreatureFamily:
 
     def __post_init__(self) -> None:
         if self.legs not in (2, 4, 6, 8):
-            raise ConfigError(f"a generated creature has 2, 4, 6 or 8 legs, not {self.legs}")
+            raise ConfigError(f"a generated creature has 2, 4 or 6 legs (or 8), not {self.legs}")
         if not (math.isfinite(self.size) and 0.05 <= self.size <= 20.0):
             raise ConfigError(f"creature size must be within [0.05, 20], got {self.size}")
 

@@ -167,6 +167,10 @@ class AceConfig:
     kl_only_mapping: bool = False
     """Map end-effectors by KL alone (the paper's Eq. 11); default (ours): KL among end-effectors of a compatible
     role (foot → foot, hand/tool → hand), since KL alone mapped a quadruped's feet to a human's hands."""
+    pair_tails: bool = False
+    """Map a tail's end-effector (a tool named like a tail, or on the midline behind the body at rest) to a human
+    end-effector as KL would (a hand, within roles); ours, False: §6.1's Ψ has foot, hand and head blocks and a tail
+    is none of them, so it is left out of Ψ, to the prior and D (docs/experiments/inside-the-data.md)."""
     active_hand: bool = True
     """A lone hand or tool follows whichever human hand moves (ours, :data:`~morphkit.motion.ACTIVE_HAND`); False:
     the one KL prefers, which misses a human waving with the other hand."""

@@ -88,6 +88,7 @@ __all__ = [
     "prior_foot_term",
     "sampling_probability",
     "spread_ground_motion_factor",
+    "tail_end_effectors",
     "train_ace",
     "train_prior",
     "train_retargeter",
@@ -148,6 +149,10 @@ def prepare(
     h_states = [human_state_from_motion(m) for m in human]
     c_len, h_len = measured_body_length(creature, character), measured_body_length(human_m, human)
     c_dist = ee_distributions(character, length=c_len, max_frames_per_clip=300)
+    tails = [] if cfg.pair_tails else [t for t in tail_end_effectors(creature) if t not in (mapping_override or {})]
+    if tails and len(tails) < len(c_dist):
+        c_dist = {k: v for k, v in c_dist.items() if k not in tails}
+        log(f"left out of Ψ (a tail is not a hand; pair_tails): {', '.join(tails)}")
     h_dist = ee_distributions(human, length=h_len, max_frames_per_clip=300)
     roles = None if cfg.kl_only_mapping else ({e.name: e.role for e in creature.end_effectors},
                                               {e.name: e.role for e in human_m.end_effectors})
@@ -165,6 +170,18 @@ def prepare(
                     None if human_data is None else os.fspath(human_data), human_m.name).save(run)
     log("end-effector mapping (KL, Eq. 11): " + ", ".join(f"{c} -> {h}" for c, h in mapping.mapping.items()))
     return AceData(creature, character, human, c_states, h_states, fmap, mapping)
+
+
+def tail_end_effectors(m: Morphology) -> list[str]:
+    """The creature's tool end-effectors that are tails: named like a tail (:func:`morphkit.body.roles.name_hint`
+    ``skip``) or at rest on the midline (within 2 % of the body's size) behind the root."""
+    from morphkit.body.roles import name_hint
+    from morphkit.graph import EndEffectorRole
+
+    points = m.rest_points()[m.link_count:]
+    size = max(float(np.abs(m.rest_points()).max()), 1e-6)
+    return [e.name for e, p in zip(m.end_effectors, points, strict=True) if e.role == EndEffectorRole.TOOL and (
+        "skip" in (name_hint(e.name), name_hint(e.link)) or (p[0] < 0.0 and abs(p[1]) < 0.02 * size))]
 
 
 def _start_states(states: Sequence[np.ndarray], fmap: FeatureMap, seed: int) -> tuple[np.ndarray, np.ndarray]:
