@@ -145,8 +145,11 @@ def parse_srdf(text: str, *, source: str | None = None) -> Srdf:
         elif el.tag == "disable_collisions":
             pairs.append((_attr(el, "link1", source), _attr(el, "link2", source), el.sourceline))
         elif el.tag == "virtual_joint":
-            virtual.append((_attr(el, "name", source), _attr(el, "type", source), _attr(el, "child_link", source),
-                            el.sourceline))
+            vtype = _attr(el, "type", source)
+            if vtype not in _BASES:
+                raise DescriptionError(f"SRDF virtual joint type {vtype!r}; expected one of: {', '.join(_BASES)}",
+                                       location=SourceLocation(source, el.sourceline))
+            virtual.append((_attr(el, "name", source), vtype, _attr(el, "child_link", source), el.sourceline))
     return Srdf(source, tuple(states), tuple(points), tuple(pairs), tuple(virtual))
 
 
@@ -295,12 +298,9 @@ def srdf_hints(srdf: Srdf, m: Morphology, *, skip_joints: Sequence[str] = ()) ->
         link = child_of[p.link] if p.link not in links and p.link in child_of else known(p.link, links, p.line)
         if link is not None:
             out.frames.append(Frame(p.name, link, p.offset))
-    for _name, vtype, child, line in srdf.virtual_joints:
-        if vtype in _BASES and child == m.root:
+    for _name, vtype, child, _line in srdf.virtual_joints:
+        if child == m.root:
             out.base = _BASES[vtype]
-        elif vtype not in _BASES:
-            raise DescriptionError(f"SRDF virtual joint type {vtype!r}; expected one of: {', '.join(_BASES)}",
-                                   location=srdf.loc(line))
     if not srdf.virtual_joints and srdf.points and not any(name_hint(p.name) == "foot" for p in srdf.points):
         # MoveIt assumes a fixed root where no virtual joint is given; Pinocchio's collections leave it out for
         # legged robots too, but those name their feet (example-robot-data loads baxter and alex fixed).

@@ -83,9 +83,11 @@ _XACRO = re.compile(r"\$\((\w+)((?:\s+[^\s()]+)*)\s*\)")
 
 
 class _Reader:
-    def __init__(self, source: str | None, srdf: Srdf | None = None) -> None:
+    def __init__(self, source: str | None, srdf: Srdf | None = None, srdf_note: str = "") -> None:
         self.source = source
         self.srdf = srdf
+        self.srdf_note = srdf_note
+        """Said after an error in an SRDF the user did not name (how to leave it out)."""
         self.xacro_args: dict[str, str] = {}
         self.xacro_used: list[tuple[Any, str]] = []
         """(element, 'what became what') of each xacro leftover read, for the one warning."""
@@ -295,7 +297,10 @@ class _Reader:
         reference, frames = "q = 0", []
         if self.srdf is not None:
             skip = [self.name(world_joint, "name", "joint")] if world_joint is not None else []
-            hints = srdf_hints(self.srdf, b.build(), skip_joints=skip)
+            try:
+                hints = srdf_hints(self.srdf, b.build(), skip_joints=skip)
+            except DescriptionError as exc:
+                raise DescriptionError(exc.message + self.srdf_note, location=exc.location) from exc
             if not rest and hints.reference is not None:
                 b.set_rest_pose(hints.rest, location=self.srdf.loc(hints.rest_line))
                 reference = hints.reference
@@ -460,8 +465,9 @@ def parse_urdf(text: str, *, source: str | None = None,
         GraphError: structural problems (cycle, two parents, missing link, ...), located at the element.
     """
     root = parse_xml(text, source)
+    note = f" (the SRDF found beside {source}; read it with srdf=False to leave it out)" if srdf is None else ""
     with mesh_warnings(source):
-        return _Reader(source, _srdf_for(source, srdf, root.get("name"))).read(root)
+        return _Reader(source, _srdf_for(source, srdf, root.get("name"), note), note).read(root)
 
 
 def read_urdf(path: str | os.PathLike[str], *, srdf: str | os.PathLike[str] | Literal[False] | None = None
@@ -470,8 +476,8 @@ def read_urdf(path: str | os.PathLike[str], *, srdf: str | os.PathLike[str] | Li
     return parse_urdf(read_text(path, what="URDF"), source=str(path), srdf=srdf)
 
 
-def _srdf_for(source: str | None, srdf: str | os.PathLike[str] | Literal[False] | None, robot: str | None
-              ) -> Srdf | None:
+def _srdf_for(source: str | None, srdf: str | os.PathLike[str] | Literal[False] | None, robot: str | None,
+              note: str) -> Srdf | None:
     """The SRDF read with the URDF ``source`` (see :func:`parse_urdf`)."""
     if srdf is False:
         return None
@@ -483,8 +489,7 @@ def _srdf_for(source: str | None, srdf: str | os.PathLike[str] | Literal[False] 
     try:
         return read_srdf(found)
     except DescriptionError as exc:
-        raise DescriptionError(f"{exc.message} (the SRDF found beside {source}; read it with srdf=False to leave it "
-                               "out)", location=exc.location) from exc
+        raise DescriptionError(exc.message + note, location=exc.location) from exc
 
 
 # ---- the writer ------------------------------------------------------------------------------
