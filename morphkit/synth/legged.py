@@ -573,6 +573,48 @@ def _hinge_knees(m: Morphology, solver: LimbSolver, plan: BodyPlan, q: np.ndarra
     return tuple(out)
 
 
+def _level_foot_knees(m: Morphology, solver: LimbSolver, plan: BodyPlan, q: np.ndarray
+                      ) -> tuple[tuple[int, float, float], ...]:
+    """Knees of legs whose IK holds the foot level with every ankle hinge in the solve, at stance pose ``q`` [C]:
+    ``(q index, straight angle, sign)`` as :func:`_hinge_knees`'s, upright or not.
+
+    The knee is the revolute joint that changes the mount-to-ankle distance most at stance; its straight angle is
+    where that distance is largest (sampled over its range, the other joints as at stance). The warm start's
+    constant-velocity step extrapolates a knee that straightens at touchdown past straight, where the six-hinge
+    leg is singular and one DLS step threw the G1's shin up to its hip's limit."""
+    model = solver.model
+    lower, upper = model.coordinate_lower, model.coordinate_upper
+    out = []
+    for li in sorted(set(solver.tilt_leg.tolist())):
+        leg = plan.legs[li]
+        mov = [m.joint_index(n) for n in leg.joints
+               if m.joint(n).type == JointType.REVOLUTE and m.joint(n).mimic is None]
+        if len(mov) < 2:
+            continue
+        ankle = model.link_index(m.joints[mov[-1]].child)
+        mount = q[:3] + quat_rotate(q[3:7], np.asarray(leg.mount_rest))
+
+        def dist(qs: np.ndarray, ankle: int = ankle, mount: np.ndarray = mount) -> np.ndarray:
+            return np.linalg.norm(eval_fk(model, qs, device="cpu").numpy()[:, ankle, :3] - mount, axis=-1)
+
+        slopes = []
+        for ji in mov[1:]:
+            s = m.joint_q_start[ji]
+            qs = np.repeat(q[None], 2, axis=0)
+            qs[0, s] -= 1e-4
+            qs[1, s] += 1e-4
+            d = dist(qs)
+            slopes.append(abs(float(d[1] - d[0])) / 2e-4)
+        s = m.joint_q_start[mov[1 + int(np.argmax(slopes))]]
+        grid = np.linspace(max(lower[s], q[s] - np.pi), min(upper[s], q[s] + np.pi), 721)
+        qs = np.repeat(q[None], len(grid), axis=0)
+        qs[:, s] = grid
+        straight = float(grid[int(np.argmax(dist(qs)))])
+        if abs(q[s] - straight) > 1e-3:
+            out.append((int(s), straight, float(np.sign(q[s] - straight))))
+    return tuple(out)
+
+
 def keep_hinge_knees_bent(q: np.ndarray, knees: tuple[tuple[int, float, float], ...], margin: float,
                           lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
     """Keep revolute knees of poses ``q`` [B, C] bent at least ``margin`` [rad] from straight, in place.
@@ -1017,7 +1059,8 @@ def calibrate_legs(m: Morphology, plan: BodyPlan, solver: LimbSolver, cfg: LegCo
         max_extension=float(cfg.upright_max_extension) if upright else 1.0,
         ankle_xyz=search.ankle_xyz if upright else None,
         fixed_axes=fixed if fixed.any() else None,
-        hinge_knees=_hinge_knees(m, solver, plan, q_stand) if upright else (),
+        hinge_knees=(_hinge_knees(m, solver, plan, q_stand) if upright else ()) + _level_foot_knees(m, solver, plan,
+                                                                                                   q_stand),
         warnings=tuple(warnings),
     )
 
