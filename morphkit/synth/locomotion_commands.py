@@ -10,8 +10,10 @@ Default ranges follow the ACE paper (§7.1): linear −1.5 … 5 m/s and angular
 speeds and accelerations scale with the creature's size, ``scale = leg_reach / 0.769`` (0.769 m is
 Spot's leg reach from :func:`~morphkit.synth.analysis.analyse`, the creature the paper's
 ranges were tuned on); creatures without legs keep the paper's ranges (``scale = 1``), as the
-paper does for Stretch. Legged creatures cannot always step that fast (at 30 fps Spot's legs
-manage about 2.6 m/s): the forward and lateral ranges are shrunk to the creature's top speeds
+paper does for Stretch, but for a wheeled base that names its wheels: its ranges are the paper's as fractions of
+its top forward speed (5 m/s), times its wheels' top speed, and every frame's command is clipped into what its
+drive allows (:class:`~morphkit.synth.wheeled.Drive`). Legged creatures cannot always step that fast (at 30 fps
+Spot's legs manage about 2.6 m/s): the forward and lateral ranges are shrunk to the creature's top speeds
 (``fit_range_to_creature``), and a feasibility clamp (:mod:`morphkit.synth.legged`) scales
 down any drawn target that still exceeds them, e.g. fast running combined with turning. Where dynamic
 similarity bounds a legged creature's speed lower than its legs could step (Froude number

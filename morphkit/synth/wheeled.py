@@ -30,8 +30,8 @@ from morphkit.graph import BaseType, JointType, Morphology
 from morphkit.rotations import quat_from_yaw
 from morphkit.synth.analysis import BodyPlan
 
-__all__ = ["Drive", "Locomotion", "base_coordinates", "drive_of", "glide_height", "locomotion_of", "rolled_angle",
-           "steer_wheels"]
+__all__ = ["Drive", "Locomotion", "base_coordinates", "drivable", "drive_of", "glide_height", "locomotion_of",
+           "rolled_angle", "steer_wheels"]
 
 
 
@@ -190,3 +190,32 @@ def base_coordinates(m: Morphology, xy: np.ndarray, yaw: np.ndarray, z: np.ndarr
     if m.base in (BaseType.PLANAR, BaseType.WHEELED):
         return np.stack([xy[:, 0], xy[:, 1], yaw], axis=1)
     return np.zeros((R, 0))
+
+
+def drivable(m: Morphology, q: np.ndarray, fps: float) -> np.ndarray:
+    """A motion ``q`` [T, C] of a wheeled base made drivable (a copy): its root path re-integrated from the first
+    frame after each step's heading-frame velocity (the chord at the step's mid heading) is clipped into what the
+    wheels allow (:meth:`Drive.clamp_path`: no sideways motion but on a holonomic base, no turn tighter than the
+    steering allows, no wheel over the top speed), then the steering, caster and steered-wheel angles set from it
+    (:func:`steer_wheels`). A path the drive can follow comes back unchanged (to rounding); other bases' motions
+    come back as they are. For exports of retargeted motions (contacts, robot commands), which are not born of
+    the drive's commands."""
+    d = drive_of(m)
+    out = np.array(q, dtype=float, copy=True)
+    if d is None or len(out) < 2:
+        return out
+    yaw = np.unwrap(out[:, 2])
+    dxy = np.diff(out[:, :2], axis=0)
+    dpsi = np.diff(yaw)
+    mid = yaw[:-1] + 0.5 * dpsi
+    c, s = np.cos(mid), np.sin(mid)
+    step = np.stack([c * dxy[:, 0] + s * dxy[:, 1], -s * dxy[:, 0] + c * dxy[:, 1], dpsi], axis=1) * fps
+    step = d.clamp_path(step) / fps
+    yaw_new = yaw[0] + np.concatenate([[0.0], np.cumsum(step[:, 2])])
+    mid = yaw_new[:-1] + 0.5 * step[:, 2]
+    c, s = np.cos(mid), np.sin(mid)
+    world = np.stack([c * step[:, 0] - s * step[:, 1], s * step[:, 0] + c * step[:, 1]], axis=1)
+    out[:, :2] = out[0, :2] + np.concatenate([np.zeros((1, 2)), np.cumsum(world, axis=0)])
+    out[:, 2] = yaw_new
+    steer_wheels(m, out, fps)
+    return out

@@ -11,7 +11,7 @@ import pytest
 from morphkit.body.anatomy import complete_anatomy
 from morphkit.body.kinematics import BodyKinematics
 from morphkit.body.wheels import drive_of
-from morphkit.synth.wheeled import rolled_angle, steer_wheels
+from morphkit.synth.wheeled import drivable, rolled_angle, steer_wheels
 from morphkit.synth.wheeled_bodies import wheeled_body
 
 RADIUS, TRACK, WHEELBASE, STEER, FPS = 0.09, 0.46, 0.55, 0.45, 30.0
@@ -150,6 +150,25 @@ def test_trailing_caster_follows_behind() -> None:
     steer_wheels(m, q, FPS)
     angle = q[5:, m.joint_q_start[m.joint_index("caster_back_swivel_joint")]]
     np.testing.assert_allclose(np.abs(angle), math.pi, atol=1e-9)
+
+
+def test_drivable_keeps_a_drivable_arc_and_removes_sideways_slide() -> None:
+    """An arc the Ackermann base can drive comes back as it was; a crab-walk of the differential base loses its
+    sideways part (it then only turns as the yaw did), and a holonomic base keeps it."""
+    ack = _body("ackermann")
+    d = drive_of(ack)
+    assert d is not None
+    arc = _motion(ack, _arc(1.5 * d.min_turn_radius, 0.2, 90))
+    np.testing.assert_allclose(drivable(ack, arc, FPS)[:, :3], arc[:, :3], atol=1e-9)
+    slide = np.zeros((60, 3))
+    slide[:, 0] = 0.1 * np.arange(60) / FPS
+    slide[:, 1] = 0.1 * np.arange(60) / FPS  # 45° off the heading
+    diff = _body("differential")
+    out = drivable(diff, _motion(diff, slide), FPS)
+    np.testing.assert_allclose(out[:, 1], 0.0, atol=1e-12)  # forward part kept, the sideways part gone
+    np.testing.assert_allclose(out[:, 0], slide[:, 0], atol=1e-12)
+    holo = _body("holonomic")
+    np.testing.assert_allclose(drivable(holo, _motion(holo, slide), FPS)[:, :3], slide, atol=1e-12)
 
 
 @pytest.mark.parametrize("drive", ["differential", "ackermann", "holonomic"])
