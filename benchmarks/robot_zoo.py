@@ -36,6 +36,8 @@ from typing import Any
 
 import numpy as np
 
+from morphkit.io.srdf import STATE_PREFERENCE  # the SRDF state the URDF reader takes as the rest pose, first found
+
 ERD_VERSION = "6.0.0"
 ROBOTS_SUBDIR = Path("cmeel.prefix/share/example-robot-data/robots")
 
@@ -46,9 +48,6 @@ JOINT_BOUND = math.pi
 SLIDING_MAX_CM_S = 1.0
 UNDER_MAX_MM = 5.0
 
-STATE_PREFERENCE = ("standing", "half_sitting", "standing_with_arm_home", "standing_with_arm_up",
-                    "straight_standing", "home", "default", "neutral")
-"""The SRDF ``group_state`` taken as the reference pose, first found."""
 STANDING_STATES = ("standing", "half_sitting", "standing_with_arm_home", "standing_with_arm_up", "straight_standing")
 """Reference states that are stances: only these judge the standing height."""
 

@@ -2,11 +2,21 @@
 
 Reading: links with ``<collision>`` geometry (``<visual>`` where a link has no collision),
 geometries ``box``, ``sphere``, ``cylinder`` (length along z, as in morphkit), ``mesh``
-(``package://`` and relative paths resolved against the file's folder; a missing mesh file
-warns, it does not fail) and morphkit's own ``<capsule radius= length=/>``; joints
+(``package://`` and relative paths resolved against the file's folder; missing mesh files
+warn once for the file, they do not fail) and morphkit's own ``<capsule radius= length=/>``; joints
 ``revolute``, ``continuous``, ``prismatic``, ``fixed`` with origin, axis (default ``1 0 0``),
-limit and mimic. A ``floating``, ``planar`` or ``fixed`` joint from a link named ``world`` sets
-the base type (floating, planar, fixed) instead of becoming a joint.
+limit and mimic. A ``floating``, ``planar`` or ``fixed`` joint from a link named ``world``, or a
+``floating`` or ``planar`` joint from the root link, sets the base type (floating, planar, fixed)
+instead of becoming a joint; its child is the root.
+
+An SRDF beside the file (:mod:`morphkit.io.srdf`; ``srdf=`` names another or ``False`` none) gives the
+rest pose (its reference ``group_state``), self-collision excludes, end-effector hints and the base.
+
+What other URDF tools accept, read the same way with one warning for the file: xacro leftovers
+whose value is known (``$(arg x)`` with a ``<xacro:arg name="x" default=...>`` in the file,
+``$(optenv VAR default)``, ``$(find pkg)`` as ``package://pkg``; others are an error at their line),
+a mesh ``scale`` of four numbers (the first three), ``package:///pkg/...``, a ``<mimic>`` of a joint
+the file lacks (a joint of its own, as Pinocchio reads it).
 
 Extension elements under ``<robot>`` (other URDF tools ignore unknown elements)::
 
