@@ -71,6 +71,8 @@ class FoundWheel:
     """Whether that joint has limits narrower than a turn (a steering joint, not a free swivel)."""
     frozen: tuple[str, ...]
     """Fixed joints of the file that this wheel needs to turn (the spin, maybe the swivel)."""
+    pivot: tuple[float, float, float] | None = None
+    """Where the swivel's axis is [m] (``None`` without a swivel)."""
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
@@ -229,7 +231,7 @@ def found_wheels(m: Morphology) -> tuple[list[FoundWheel], float]:
         r, how = best if best is not None else (float(centre[2] - ground), "axle height")
         if r <= 1e-3 or abs(centre[2] - r - ground) > max(0.15 * r, 0.005):
             continue
-        swivel, limited, frozen = None, False, [j.name] if j.type == JointType.FIXED else []
+        swivel, limited, frozen, pivot = None, False, [j.name] if j.type == JointType.FIXED else [], None
         li = m.link_parent[ji + 1]
         while li > 0:
             pj = m.joints[li - 1]
@@ -237,6 +239,7 @@ def found_wheels(m: Morphology) -> tuple[list[FoundWheel], float]:
                 a = P[li][:3, :3] @ _unit(np.asarray(pj.axis, dtype=float))
                 if _swivels(pj) and abs(a[2]) >= _VERTICAL:
                     swivel = pj.name
+                    pivot = tuple(float(v) for v in P[li][:3, 3])
                     limited = (pj.type == JointType.REVOLUTE and pj.limit is not None
                                and pj.limit.upper - pj.limit.lower < 2 * math.pi - 1e-6)
                     if pj.type == JointType.FIXED:
@@ -244,7 +247,7 @@ def found_wheels(m: Morphology) -> tuple[list[FoundWheel], float]:
                 break
             li = m.link_parent[li]
         wheels.append(FoundWheel(j.name, tuple(float(v) for v in centre), tuple(float(v) for v in axis),  # type: ignore[arg-type]
-                                 float(r), how, swivel, limited, tuple(frozen)))
+                                 float(r), how, swivel, limited, tuple(frozen), pivot))  # type: ignore[arg-type]
     # fixed-axle wheels need a partner across the base; a lone one is a roller of something else
     def partnered(w: FoundWheel) -> bool:
         return any(o is not w and o.centre[1] * w.centre[1] < 0
@@ -294,9 +297,9 @@ def _classify(m: Morphology, ws: list[FoundWheel]) -> tuple[str, list[FoundWheel
 
 def drive_centre(ws: list[FoundWheel], drive: str, fixed: list[FoundWheel]) -> tuple[float, float]:
     """The drive's reference point [m] (root frame x, y): the fixed axle's middle (differential, Ackermann), the
-    wheels' centre otherwise — the point whose path has no sideways slip."""
+    wheels' centre otherwise (a caster's by its swivel axis) — the point whose path has no sideways slip."""
     use = fixed if drive in ("differential", "ackermann") and fixed else ws
-    c = np.mean([w.centre[:2] for w in use], axis=0)
+    c = np.mean([(w.pivot or w.centre)[:2] for w in use], axis=0)
     return float(c[0]), float(c[1])
 
 

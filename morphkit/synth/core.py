@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from morphkit.body.wheels import Drive
 from morphkit.errors import ConfigError
 from morphkit.graph import JointType, Morphology
 from morphkit.kernels.contact import RecordedSelfCollision, SelfCollisionPairs, self_collision_pairs
@@ -73,7 +74,6 @@ from morphkit.synth.locomotion_commands import (
     integrate_root,
 )
 from morphkit.synth.wheeled import (
-    Drive,
     Locomotion,
     base_coordinates,
     drive_of,

@@ -12,7 +12,7 @@ Spot's leg reach from :func:`~morphkit.synth.analysis.analyse`, the creature the
 ranges were tuned on); creatures without legs keep the paper's ranges (``scale = 1``), as the
 paper does for Stretch, but for a wheeled base that names its wheels: its ranges are the paper's as fractions of
 its top forward speed (5 m/s), times its wheels' top speed, and every frame's command is clipped into what its
-drive allows (:class:`~morphkit.synth.wheeled.Drive`). Legged creatures cannot always step that fast (at 30 fps
+drive allows (:class:`~morphkit.body.wheels.Drive`). Legged creatures cannot always step that fast (at 30 fps
 Spot's legs manage about 2.6 m/s): the forward and lateral ranges are shrunk to the creature's top speeds
 (``fit_range_to_creature``), and a feasibility clamp (:mod:`morphkit.synth.legged`) scales
 down any drawn target that still exceeds them, e.g. fast running combined with turning. Where dynamic

@@ -2,19 +2,21 @@
 
 The paper (§7.1) assumes a wheeled robot "can walk with arbitrary speeds and directions using
 low-level controllers": the root follows the commanded forward speed and yaw rate, and sideways speed
-too where the base allows it. A wheeled base drives as its wheels allow (:class:`Drive`, from
-:attr:`Morphology.wheels <morphkit.graph.Morphology.wheels>`): differential and skid-steer bases never move
-sideways, an Ackermann base turns no tighter than its steering allows and never on the spot, a holonomic
-base (powered casters, omni wheels) moves sideways too. Every command is scaled into the wheels' top speed:
-the rim speed of the fastest wheel stays at most :attr:`Drive.top_speed`, which is the wheels' velocity
-limit × radius where the description gives one, else one track width per second (a Stretch: 0.34 m/s).
+too where the base allows it. A wheeled base drives as its wheels allow
+(:class:`~morphkit.body.wheels.Drive`, from :attr:`Morphology.wheels <morphkit.graph.Morphology.wheels>`):
+differential and skid-steer bases never move sideways, an Ackermann base turns no tighter than its steering
+allows and never on the spot, a holonomic base (powered casters, omni wheels) moves sideways too. Every command
+is scaled into the wheels' top speed: no wheel's rim moves faster than
+:attr:`~morphkit.body.wheels.Drive.top_speed`, the wheels' velocity limit × radius where the description gives
+one, else one track width per second (a Stretch: 0.34 m/s).
 
 Wheel joints on fixed axles have no coordinates of their own: the FK wheel-angle scan
 (:func:`~morphkit.kernels.eval_wheel_angles`, used by :meth:`Motion.link_poses`) turns them so
 they roll without slipping along the root path. Steering and caster joints, and the wheels they carry, keep
 their coordinates; :func:`steer_wheels` sets them from the root path (each wheel points along its centre's
-velocity and rolls the distance its centre travels). A floating base without legs glides with its lowest rest
-point on the ground; a fixed base stays put and only moves its arms and other joints.
+velocity and rolls the distance its centre travels), and :func:`drivable` makes any motion's root path one the
+wheels can drive. A floating base without legs glides with its lowest rest point on the ground; a fixed base
+stays put and only moves its arms and other joints.
 """
 
 from __future__ import annotations
@@ -25,13 +27,13 @@ from enum import Enum
 import numpy as np
 
 from morphkit.body.kinematics import BodyKinematics
-from morphkit.body.wheels import Drive, drive_of
+from morphkit.body.wheels import drive_of
 from morphkit.graph import BaseType, JointType, Morphology
 from morphkit.rotations import quat_from_yaw
 from morphkit.synth.analysis import BodyPlan
 
-__all__ = ["Drive", "Locomotion", "base_coordinates", "drivable", "drive_of", "glide_height", "locomotion_of",
-           "rolled_angle", "steer_wheels"]
+__all__ = ["Locomotion", "base_coordinates", "drivable", "glide_height", "locomotion_of", "rolled_angle",
+           "steer_wheels"]
 
 
 
@@ -193,13 +195,15 @@ def base_coordinates(m: Morphology, xy: np.ndarray, yaw: np.ndarray, z: np.ndarr
 
 
 def drivable(m: Morphology, q: np.ndarray, fps: float) -> np.ndarray:
-    """A motion ``q`` [T, C] of a wheeled base made drivable (a copy): its root path re-integrated from the first
-    frame after each step's heading-frame velocity (the chord at the step's mid heading) is clipped into what the
-    wheels allow (:meth:`Drive.clamp_path`: no sideways motion but on a holonomic base, no turn tighter than the
-    steering allows, no wheel over the top speed), then the steering, caster and steered-wheel angles set from it
-    (:func:`steer_wheels`). A path the drive can follow comes back unchanged (to rounding); other bases' motions
-    come back as they are. For exports of retargeted motions (contacts, robot commands), which are not born of
-    the drive's commands."""
+    """A motion ``q`` [T, C] of a wheeled base made drivable (a copy), for exports of motions not born of the
+    drive's commands (retargeted ones: contacts, robot commands).
+
+    Each step's heading-frame velocity (its chord at the step's mid heading) is clipped into what the wheels allow
+    (:meth:`~morphkit.body.wheels.Drive.clamp_path`: no sideways motion but on a holonomic base, no turn tighter
+    than the steering allows, no wheel over the top speed), the root path re-integrated from the first frame, and
+    the steering, caster and steered-wheel angles set from it (:func:`steer_wheels`). A path the drive can follow
+    comes back unchanged (to rounding); other bases' motions come back as they are.
+    """
     d = drive_of(m)
     out = np.array(q, dtype=float, copy=True)
     if d is None or len(out) < 2:
