@@ -276,13 +276,18 @@ def _classify(m: Morphology, ws: list[FoundWheel]) -> tuple[str, list[FoundWheel
     fixed = [w for w in ws if w.swivel is None]
     steered = [w for w in ws if w.swivel is not None]
     size = max(abs(w.centre[1]) for w in ws)
-    names = {w.joint for w in ws}
-    for j in m.joints:
-        if j.name in names:
-            shapes = m.link(j.child).shapes
-            if _OMNI_NAME.search(j.name) or _OMNI_NAME.search(j.child) or any(
-                    s.mesh and _OMNI_NAME.search(s.mesh) for s in shapes):
-                return "holonomic", ws, [], "omni / mecanum wheels (so named in the file): they roll any way"
+    for w in ws:
+        # the rollers of omni and mecanum wheels are not in the file: only names say so (a wheel's, or a mesh
+        # of the wheel or of what carries it, e.g. PAL's ``omni_base`` folder)
+        li = m.joint_index(w.joint) + 1
+        names = [w.joint]
+        while li >= 0:
+            names += [m.links[li].name, *(s.mesh for s in m.links[li].shapes if s.mesh)]
+            li = m.link_parent[li]
+        hit = next((n for n in names if _OMNI_NAME.search(n)), None)
+        if hit is not None:
+            word = next(part for part in re.split(r"[/\\]", hit) if _OMNI_NAME.search(part))
+            return "holonomic", ws, [], f"omni / mecanum wheels (named so in the file: {word!r})"
     if not fixed:
         return "holonomic", [], steered, f"every wheel swivels ({len({w.swivel for w in steered})} powered casters)"
     axles = _axles(fixed, 0.1 * size)

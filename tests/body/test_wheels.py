@@ -134,3 +134,22 @@ def test_frozen_vendor_wheels_turn() -> None:
     assert all(m.joint(n).type == JointType.CONTINUOUS for n in m.wheels.steering + m.wheels.steered)
     assert m.wheels.radius == pytest.approx(0.08)
     assert not [e for e in complete_anatomy(m).end_effectors if e.role == EndEffectorRole.FOOT]
+
+
+def _four_wheels(names: tuple[str, ...]) -> MorphologyBuilder:
+    b = MorphologyBuilder("four")
+    b.add_link("base", shapes=[Shape(ShapeType.BOX, size=(0.6, 0.4, 0.1), origin=Transform((0, 0, 0.1)))])
+    for name, (x, y) in zip(names, ((0.25, 0.25), (0.25, -0.25), (-0.25, 0.25), (-0.25, -0.25)), strict=True):
+        b.add_link(name, shapes=[Shape(ShapeType.CYLINDER, radius=0.07, length=0.05)])
+        b.add_joint(f"{name}_joint", JointType.CONTINUOUS, "base", name,
+                    origin=Transform.from_xyz_rpy((x, y, 0.07), (math.pi / 2, 0, 0)), axis=(0, 0, 1))
+    return b
+
+
+def test_mecanum_wheels_by_name_are_holonomic_else_skid_steer() -> None:
+    """Rollers are not in a file: four fixed wheels are skid-steer unless the file names them omni or mecanum."""
+    plain = find_wheels(_four_wheels(("w_fl", "w_fr", "w_rl", "w_rr")).build())
+    mecanum = find_wheels(_four_wheels(("mecanum_fl", "mecanum_fr", "mecanum_rl", "mecanum_rr")).build())
+    assert plain.wheels is not None and plain.wheels.drive == "skid_steer"
+    assert mecanum.wheels is not None and mecanum.wheels.drive == "holonomic"
+    assert len(mecanum.wheels.joints) == 4 and not mecanum.wheels.steering
