@@ -9,8 +9,9 @@ The choices that are ours:
 
 - **Distance**: the mean over a clip's frames of each frame's Mahalanobis distance to the Gaussian of the data's Ψ
   frames (FID's own model of the data: its mean and covariance), the covariance given a ridge of
-  :data:`RIDGE` × its mean variance so that a Ψ column the data never moves (a planar creature's roll) does not
-  divide by zero.
+  :data:`FLOOR` ² so that a Ψ column the data never moves (the roll and the feet's sideways place of a creature whose
+  legs only pitch) counts a deviation in tenths of a body length, not in its own vanishing spread: without it, a
+  kangaroo whose data never rolls had every retargeted clip flagged for a roll of a few degrees.
 - **Threshold**: the data's own clips cut into segments of ``segment`` frames (each clip's last, shorter piece is a
   segment too), the same distance of every segment, and their ``quantile`` (default 1: the largest). A clip's
   distance is a frame-weighted mean of its segments', so with the default no clip of the data is ever outside.
@@ -18,6 +19,7 @@ The choices that are ours:
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -27,10 +29,12 @@ import numpy as np
 from morphkit.errors import ConfigError
 from morphkit.metrics._distribution import as_matrix
 
-__all__ = ["RIDGE", "DataEnvelope", "data_envelope"]
+__all__ = ["FLOOR", "DataEnvelope", "data_envelope"]
 
-RIDGE = 1e-4
-"""Ridge added to the data's covariance, as a share of its mean variance (ours: a column the data holds still)."""
+FLOOR = 0.1
+"""Standard deviation added (as its square, a ridge) to the data's covariance, in Ψ's units (body lengths, body
+lengths/s, rad/s, quaternion components); ours: a deviation of a tenth of a body length is one unit where the data
+holds a column still."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -75,19 +79,23 @@ class DataEnvelope:
                 f"segments of {self.segment} frames")
 
 
-def data_envelope(psi_per_clip: Sequence[Any], *, segment: int = 60, quantile: float = 1.0) -> DataEnvelope:
+def data_envelope(psi_per_clip: Sequence[Any], *, segment: int = 60, quantile: float = 1.0,
+                  floor: float = FLOOR) -> DataEnvelope:
     """Fit the data's Ψ Gaussian and measure its own clips' spread (see the module docs).
 
     Args:
         psi_per_clip: Ψ of each of the data's clips, [T_i, D] (NumPy or torch).
         segment: Frames per segment the data's clips are cut into (>= 1).
         quantile: Quantile of the segments' distances taken as the threshold, in (0, 1].
+        floor: :data:`FLOOR`, > 0.
 
     Raises:
         ConfigError: no frames, clips of different widths, ``segment`` < 1 or ``quantile`` outside (0, 1].
     """
     if int(segment) != segment or segment < 1:
         raise ConfigError(f"data_envelope: segment must be a positive integer, got {segment!r}")
+    if not (math.isfinite(floor) and floor > 0.0):
+        raise ConfigError(f"data_envelope: floor must be a number above 0, got {floor!r}")
     if not 0.0 < quantile <= 1.0:
         raise ConfigError(f"data_envelope: quantile must lie in (0, 1], got {quantile!r}")
     clips = [as_matrix(p, "data_envelope: psi") for p in psi_per_clip]
@@ -99,8 +107,7 @@ def data_envelope(psi_per_clip: Sequence[Any], *, segment: int = 60, quantile: f
     x = np.concatenate(clips, axis=0)
     mean = x.mean(axis=0)
     cov = np.atleast_2d(np.cov(x, rowvar=False)) if x.shape[0] > 1 else np.zeros((x.shape[1], x.shape[1]))
-    scale = float(np.trace(cov)) / cov.shape[0]
-    cov = cov + (RIDGE * scale + 1e-12) * np.eye(cov.shape[0])
+    cov = cov + floor**2 * np.eye(cov.shape[0])
     whiten = np.linalg.inv(np.linalg.cholesky(cov))
     probe = DataEnvelope(mean, whiten, np.inf, quantile, int(segment), 0)
     per_segment = [probe.frame_distances(c[i:i + segment]).mean() for c in clips for i in range(0, len(c), segment)]

@@ -113,6 +113,11 @@ class RetargetConfig:
     discriminate_exported: bool = True
     """D judges the exported motion: the end-effectors of FK of the generated joints, G's adversarial gradient
     through FK (ours; False: the paper's D)."""
+    root_range_weight: float = 0.0
+    """Weight of G's root-range term (:func:`~morphkit.retarget.ace.losses.root_range_term`): the root's height and
+    orientation held within the character data's range; ours, 0: the paper's G; ``quick`` and ``default`` 10 (a
+    kangaroo whose short arms could not reach the human's hands stood its body up on its tail;
+    docs/experiments/inside-the-data.md)."""
     w_contact: float = 0.0
     """Weight of foot sliding [m/s] + 10 × penetration [m] of the FK'd motion in G's loss; beyond the paper, set by
     ``AceVariant`` (ACE+contact only)."""
@@ -217,7 +222,7 @@ PRESETS: dict[str, AceConfig] = {
         prior=replace(_QUICK_PRIOR, epochs=8, steps_per_epoch=60, batch_size=64),
         retarget=replace(_QUICK_RET, epochs=8, steps_per_epoch=30, batch_size=32, window=24, generator_average=0.95,
                          lr_generator=2e-4, ground_motion_weight=4.0, hand_weight=2.0, validation_share=0.05,
-                         choose_inside_data=True),
+                         choose_inside_data=True, root_range_weight=10.0),
     ),
     # Quality runs: prior + one retargeter ≤ 20 min on 2 cores. Hanging arms, G's average and mirrored clips:
     # docs/experiments/generator-average.md; ground motion ×2: ground-motion-weight.md; 40 epochs, the epoch chosen
@@ -226,7 +231,8 @@ PRESETS: dict[str, AceConfig] = {
         data=DataConfig(character_frames=60_000, arm_hang_share=0.3, human_mirror=True, yaw_rate=3.0),
         prior=replace(_DEFAULT_PRIOR, epochs=16, steps_per_epoch=100, batch_size=128),
         retarget=replace(_DEFAULT_RET, epochs=40, steps_per_epoch=40, batch_size=64, generator_average=0.95,
-                         ground_motion_weight=2.0, validation_share=0.05, choose_inside_data=True),
+                         ground_motion_weight=2.0, validation_share=0.05, choose_inside_data=True,
+                         root_range_weight=10.0),
     ),
     # The paper's sizes (§6.4, §7.1).
     "paper": AceConfig(prior=PriorConfig(lr=1e-4, lr_final=1e-7), retarget=RetargetConfig(w_gp=0.1)),

@@ -158,6 +158,9 @@ class GeneratorTerms:
     """Frame rate of the states [Hz]."""
     note: str | None = None
     """What the hand spread chose, for the run's log (``None``: off)."""
+    root_range: tuple[torch.Tensor, torch.Tensor] | None = None
+    """The data's range (:data:`ROOT_RANGE_QUANTILES`) of Ψ's root height and orientation columns
+    (:data:`ROOT_POSE_COLUMNS`), low and high [5] each, for :func:`root_range_term` (``None``: off)."""
 
     @property
     def plain(self) -> bool:
@@ -184,7 +187,32 @@ class GeneratorTerms:
         weights = feature_weights(creature, fmap.creature_ees, cfg, ground_motion_factor=root)
         if weights is not None:
             weights = weights.to(device)
-        return GeneratorTerms(cfg, fmap, tuple(hands), tuple(foot_indices(creature)), weights, human_scale, fps, note)
+        root_range = None
+        if cfg.root_range_weight > 0:
+            states = np.concatenate(list(character_states))
+            psi = np.asarray(fmap.pairing.creature_psi_of_states(states, fmap.creature_layout))
+            lo, hi = np.quantile(psi[:, ROOT_POSE_COLUMNS], ROOT_RANGE_QUANTILES, axis=0)
+            root_range = (torch.as_tensor(lo, dtype=torch.float32, device=device),
+                          torch.as_tensor(hi, dtype=torch.float32, device=device))
+        return GeneratorTerms(cfg, fmap, tuple(hands), tuple(foot_indices(creature)), weights, human_scale, fps, note,
+                              root_range)
+
+
+ROOT_POSE_COLUMNS = slice(0, 5)
+"""Ψ's root height and root orientation (heading-frame quaternion) columns."""
+ROOT_RANGE_QUANTILES = (0.005, 0.995)
+"""The quantiles of the character data's Ψ that bound :func:`root_range_term` (ours: the data's range, less its
+rarest 1 %)."""
+
+
+def root_range_term(psi_r: torch.Tensor, low: torch.Tensor, high: torch.Tensor) -> torch.Tensor:
+    """Mean over frames of the squared distance by which the root's height and orientation (Ψ columns
+    :data:`ROOT_POSE_COLUMNS`) leave the character data's range [``low``, ``high``]: 0 inside it. A body whose
+    hands or head cannot reach where the human's go is otherwise free to pitch its whole body up (a kangaroo standing
+    on its tail) or over, which its data never does."""
+    pose = psi_r[..., ROOT_POSE_COLUMNS]
+    out = F.relu(pose - high) + F.relu(low - pose)
+    return (out * out).sum(-1).mean()
 
 
 def generator_loss(terms: GeneratorTerms, human: torch.Tensor, fixed: torch.Tensor, fake: torch.Tensor,
@@ -217,8 +245,13 @@ def generator_loss(terms: GeneratorTerms, human: torch.Tensor, fixed: torch.Tens
     if cfg.w_contact > 0:
         g_contact = cfg.w_contact * contact_term(fmap, terms.feet, fixed, terms.fps)
     loss = g_adv + g_fea + g_contact
+    figures: Figures = {}
+    if terms.root_range is not None:  # beyond the paper (ours, off in the dataclass): a term of its own
+        g_range = cfg.root_range_weight * root_range_term(psi_r, *terms.root_range)
+        loss = loss + g_range
+        figures["loss_g_range"] = g_range.detach()
     return loss, {"loss_g": loss.detach(), "loss_g_adv": g_adv.detach(), "loss_g_fea": g_fea.detach(),
-                  "loss_g_contact": g_contact.detach(), "feature_loss": fea.detach()}
+                  "loss_g_contact": g_contact.detach(), "feature_loss": fea.detach(), **figures}
 
 
 def hand_blocks(creature: Morphology, ees: Sequence[str]) -> list[slice]:
