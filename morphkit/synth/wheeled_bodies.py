@@ -9,15 +9,18 @@ drive, radius and track are known:
 - ``skid_steer``: four wheels on two fixed axles;
 - ``ackermann``: two fixed rear wheels and two front wheels on limited steering hinges;
 - ``holonomic``: four powered casters (free vertical swivels, each carrying a wheel with trail).
+
+:func:`wheeled_robot` is the same body as a reader hands it over: wheels, drive and end-effectors found.
 """
 
 from __future__ import annotations
 
 import math
 
+from morphkit.body.anatomy import complete_anatomy
 from morphkit.graph import JointType, Limit, Morphology, MorphologyBuilder, Shape, ShapeType, Transform
 
-__all__ = ["WHEELED_DRIVES", "wheeled_body"]
+__all__ = ["WHEELED_DRIVES", "wheeled_body", "wheeled_robot"]
 
 WHEELED_DRIVES = ("differential", "skid_steer", "ackermann", "holonomic")
 
@@ -105,3 +108,9 @@ def wheeled_body(drive: str = "differential", *, arm: bool = False, radius: floa
         b.add_link("tool")
         b.add_joint("tool_joint", JointType.FIXED, prev, "tool", origin=Transform(at))
     return b.build()
+
+
+def wheeled_robot(drive: str = "differential", *, arm: bool = False, **kw: float | str | None) -> Morphology:
+    """:func:`wheeled_body` with its wheels, drive and end-effectors found, as a reader hands a vendor file over
+    (:func:`~morphkit.body.anatomy.complete_anatomy`); ``kw`` as :func:`wheeled_body` takes them."""
+    return complete_anatomy(wheeled_body(drive, arm=arm, **kw), base_declared=False)  # type: ignore[arg-type]
