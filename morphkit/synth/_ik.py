@@ -333,17 +333,32 @@ def _held_hinges(m: Morphology, mov: list[int], rest: np.ndarray, tip: np.ndarra
     return [hinges[i] for i in others if i != keep]
 
 
-def _poses_foot(model: KinematicModel, m: Morphology, mov: list[int], ee: EndEffector) -> bool:
-    """Whether a leg of 1-DoF joints sets its flat foot's whole pose (position and orientation: rank 6 at a
-    generic pose), as the six-hinge legs of humanoids do: its IK then holds the foot level itself. A round
-    foot (its point on a sphere or capsule) rolls on any orientation and is left to the position IK."""
-    if len(mov) < 6 or _round_shapes_holding(m, ee):
-        return False
+def _foot_pose_rank(model: KinematicModel, m: Morphology, mov: list[int], ee: EndEffector) -> int:
+    """How many of its flat foot's six pose coordinates a leg of 1-DoF joints sets (the rank at a generic pose);
+    0 for a ball-jointed leg, one of fewer than five joints, or a round foot (its point on a sphere or capsule),
+    which rolls on any orientation and is left to the position IK."""
+    if len(mov) < 5 or _round_shapes_holding(m, ee):
+        return 0
     q = _generic_pose(model, m, mov)
     # three points of the foot, not on one line, stand for its pose
     pts = np.asarray(ee.offset, dtype=np.float64) + np.array([[0.0, 0.0, 0.0], [0.1, 0.0, 0.0], [0.0, 0.1, 0.0]])
     J = _point_jacobian(m, q, mov, _link_point(model, model.link_index(ee.link), pts))
-    return J is not None and _rank(J) == 6
+    return 0 if J is None else _rank(J)
+
+
+def _poses_foot(model: KinematicModel, m: Morphology, mov: list[int], ee: EndEffector) -> bool:
+    """Whether a leg of 1-DoF joints sets its flat foot's whole pose (rank 6, :func:`_foot_pose_rank`), as the
+    six-hinge legs of humanoids do: its IK then holds the foot level itself."""
+    return len(mov) >= 6 and _foot_pose_rank(model, m, mov, ee) == 6
+
+
+def _five_hinge_sole(model: KinematicModel, m: Morphology, mov: list[int], ee: EndEffector) -> bool:
+    """Whether a leg of 1-DoF joints ending in one ankle hinge sets all but one coordinate of its flat foot's pose
+    (rank 5: a hip's yaw, roll and pitch, a knee and an ankle pitch) on a sole of several shapes. Its IK holds the
+    foot point and a point ahead of it (the foot's position, pitch and heading: five coordinates for five hinges);
+    the foot's roll is what its hip's roll makes it."""
+    return (len(mov) == 5 and m.joints[mov[-1]].child == ee.link and _is_sole_of_several_shapes(m, ee)
+            and _foot_pose_rank(model, m, mov, ee) == 5)
 
 
 class LimbSolver:
@@ -391,11 +406,13 @@ class LimbSolver:
             ee = m.end_effector(leg.end_effector)
             mov = _moving(m, leg.joints)
             ankle = None
-            poses_foot = _poses_foot(base_model, m, mov, ee)
+            five = _five_hinge_sole(base_model, m, mov, ee)
+            poses_foot = five or _poses_foot(base_model, m, mov, ee)
             if poses_foot:
-                # a point ahead of the sole and one beside it, held where the level foot has them
+                # a point ahead of the sole and one beside it (not for five hinges: the roll is not theirs to set),
+                # held where the level foot has them
                 foot = rest[m.link_index(ee.link), 3:]
-                for k, axis in enumerate(np.eye(3)[:2]):
+                for k, axis in enumerate(np.eye(3)[:1 if five else 2]):
                     level = 0.25 * leg.reach * axis
                     offset = np.asarray(ee.offset, dtype=float) + quat_rotate(quat_conjugate(foot), level)
                     extra.append(EndEffector(f"{_TILT_PREFIX}{k}_{leg.end_effector}", ee.link,
