@@ -153,3 +153,13 @@ def test_mecanum_wheels_by_name_are_holonomic_else_skid_steer() -> None:
     assert plain.wheels is not None and plain.wheels.drive == "skid_steer"
     assert mecanum.wheels is not None and mecanum.wheels.drive == "holonomic"
     assert len(mecanum.wheels.joints) == 4 and not mecanum.wheels.steering
+
+
+def test_yaml_wheels_with_an_unknown_drive_is_refused_at_its_line() -> None:
+    from morphkit.errors import MorphkitError
+
+    text = dump_yaml(_found("ackermann")).replace("drive: ackermann", "drive: tank")
+    line = next(i for i, s in enumerate(text.splitlines(), 1) if s.startswith("wheels:"))
+    with pytest.raises(MorphkitError, match="drive must be one of") as err:
+        parse_yaml(text, source="car.yaml")
+    assert err.value.location is not None and err.value.location.line == line
