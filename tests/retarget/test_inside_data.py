@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from types import SimpleNamespace
 
+import pytest
 import torch
 
 from morphkit.retarget.ace.config import RetargetConfig, preset
@@ -31,8 +32,11 @@ def test_an_epoch_inside_the_data_beats_a_lower_feature_loss_outside_it():
     again = BestGenerator()
     again.load_state_dict(best.state_dict())  # the rank survives the checkpoint, so a resumed run compares alike
     assert again.rank == best.rank and again.epoch == 3
-    # none inside: the epoch nearest the data (lowest matched FID), not the lowest L_fea
-    assert _offer([*scores[:1], EpochScore(0.9, 9.0, 1.0), EpochScore(0.6, 30.0, 1.0)], rc).epoch == 1
+    # none inside: the epoch nearest the data in units of its bounds, not the lowest L_fea: FID 9 is 3x the limit,
+    # DIV 0.45 is 1.11x below the band's lower edge (0.5), FID 30 is 10x
+    outside = [EpochScore(0.5, 9.0, 1.0), EpochScore(0.9, 2.0, 0.45), EpochScore(0.6, 30.0, 1.0)]
+    assert _offer(outside, rc).epoch == 1
+    assert outside[1].outside_by(SimpleNamespace(data_div=1.0), rc) == pytest.approx(0.5 / 0.45)
 
 
 def test_quick_and_default_choose_inside_the_data_and_hold_clips_out():

@@ -133,8 +133,8 @@ class RetargetConfig:
     (docs/experiments/validation-share.md)."""
     choose_inside_data: bool = False
     """Choose G's epoch among those whose held-out output lies inside the creature's data (matched FID at most
-    ``inside_fid``, DIV within ``inside_div_band`` of the data's), by the lowest L_fea; when none does, the epoch of the
-    lowest matched FID. Ours, False: the lowest L_fea alone; ``quick`` and ``default`` set it
+    ``inside_fid``, DIV within ``inside_div_band`` of the data's), by the lowest L_fea; when none does, the epoch
+    nearest the data in units of those bounds. Ours, False: the lowest L_fea alone; ``quick`` and ``default`` set it
     (docs/experiments/inside-the-data.md)."""
     inside_fid: float = 3.0
     """Largest matched FID of an epoch inside the data (ours: issue 65's target)."""

@@ -387,7 +387,8 @@ def train_retargeter(
         if rc.choose_inside_data and validation is not None and best.rank is not None and best.rank[0] > 0:
             log(f"warning: no epoch's held-out output lay inside {data.creature.name}'s data (matched FID <= "
                 f"{rc.inside_fid:g}, DIV within {rc.inside_div_band[0]:g}-{rc.inside_div_band[1]:g}x the data's "
-                f"{validation.data_div:.3f}): the epoch of the lowest matched FID retargets; look at its clips")
+                f"{validation.data_div:.3f}): the epoch nearest it retargets ({best.rank[1]:.2f}x its bounds); "
+                "look at its clips")
     final.eval()
     return final
 
@@ -480,10 +481,20 @@ class EpochScore:
         return bool(self.fid <= rc.inside_fid and lo * validation.data_div <= self.div <= hi * validation.data_div)
 
     def rank(self, validation: Validation, rc: RetargetConfig) -> tuple[float, float, float]:
-        """Order of the epochs (lower first): inside the data before outside; inside by L_fea, outside by FID."""
+        """Order of the epochs (lower first): inside the data before outside; inside by L_fea, outside by how far
+        outside (:meth:`outside_by`)."""
         if self.inside(validation, rc):
             return (0.0, self.feature_loss, self.fid)
-        return (1.0, self.fid, self.fid)
+        return (1.0, self.outside_by(validation, rc), self.fid)
+
+    def outside_by(self, validation: Validation, rc: RetargetConfig) -> float:
+        """How far outside the data, in units of the bounds: the largest of FID / ``inside_fid`` and DIV's ratio to
+        the nearer edge of ``inside_div_band`` × the data's DIV (1 on the boundary; NaN figures: infinity)."""
+        lo, hi = rc.inside_div_band
+        d = validation.data_div
+        if not (np.isfinite(self.fid) and np.isfinite(self.div)) or self.div <= 0:
+            return float("inf")
+        return float(max(self.fid / rc.inside_fid, lo * d / self.div, self.div / (hi * d)))
 
 
 class BestGenerator:
