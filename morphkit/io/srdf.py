@@ -222,7 +222,9 @@ class SrdfHints:
     excludes: list[tuple[str, str]] = field(default_factory=list)
     frames: list[Frame] = field(default_factory=list)
     base: BaseType | None = None
-    """The base a virtual joint on the root declares."""
+    """The base a virtual joint on the root declares (or MoveIt's fixed root where none is)."""
+    base_note: str = ""
+    """Why, for the morphology's notes."""
 
 
 def _turned(v: float, j: Any) -> float:
@@ -296,15 +298,19 @@ def srdf_hints(srdf: Srdf, m: Morphology, *, skip_joints: Sequence[str] = ()) ->
     for p in srdf.points:
         # A parent_link that names a joint means its child link (alex_nub_hands.srdf names the wrist joints).
         link = child_of[p.link] if p.link not in links and p.link in child_of else known(p.link, links, p.line)
-        if link is not None:
+        if link is not None and name_hint(p.name) not in (None, "skip"):
+            # A name that hints nothing ("end_effector") would hide the link's own (panda_hand_tcp's "tcp").
             out.frames.append(Frame(p.name, link, p.offset))
-    for _name, vtype, child, _line in srdf.virtual_joints:
+    for name, vtype, child, _line in srdf.virtual_joints:
         if child == m.root:
             out.base = _BASES[vtype]
+            out.base_note = f"base: {vtype} — the SRDF's virtual joint {name!r}"
     if not srdf.virtual_joints and srdf.points and not any(name_hint(p.name) == "foot" for p in srdf.points):
         # MoveIt assumes a fixed root where no virtual joint is given; Pinocchio's collections leave it out for
         # legged robots too, but those name their feet (example-robot-data loads baxter and alex fixed).
         out.base = BaseType.FIXED
+        out.base_note = "base: fixed — the SRDF names end-effectors, none a foot, and no virtual joint (MoveIt's " \
+                        "fixed root)"
     if unknown:
         names = list(dict.fromkeys(n for n, _ in unknown))
         shown = ", ".join(names[:_SHOWN]) + (f", ... ({len(names)} in all)" if len(names) > _SHOWN else "")
