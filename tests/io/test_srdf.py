@@ -257,3 +257,16 @@ def test_collection_robots_stand_at_their_srdf_state(urdf):
     want = {n: v[0] for n, v, _ in state.values if n in movable and v[0] != 0.0}
     assert dict(m.rest_pose) == pytest.approx(want)
     assert max(abs(v) for v in want.values()) <= math.pi
+
+
+def test_an_end_effector_name_that_hints_nothing_leaves_the_links_own(tmp_path):
+    """panda.srdf names its TCP ``end_effector``: the link's own name (``..._tcp``) still says where the tool is."""
+    urdf = _arm().replace("</robot>", '<link name="hand_tcp"/><joint name="tcp" type="fixed"><parent link="l3"/>'
+                          '<child link="hand_tcp"/><origin xyz="0 0 0.4"/></joint>\n</robot>')
+    srdf = '<robot name="arm"><end_effector name="end_effector" parent_link="hand_tcp" group="arm"/></robot>'
+    path = _package(tmp_path, urdf, srdf, stem="arm")
+    m, alone = read_urdf(path), read_urdf(path, srdf=False)
+    assert [(e.name, e.link, e.offset) for e in m.end_effectors] == \
+        [(e.name, e.link, e.offset) for e in alone.end_effectors] == [("hand_tcp", "hand_tcp", (0.0, 0.0, 0.0))]
+    assert m.notes[0] == "base: fixed — the SRDF names end-effectors, none a foot, and no virtual joint (MoveIt's " \
+                         "fixed root)"
