@@ -472,7 +472,8 @@ def drive_of(m: Morphology) -> Drive | None:
 
 def wheel_carried_links(m: Morphology) -> frozenset[int]:
     """Indices of the links a wheel joint carries (the wheel, a steered or swivelling wheel and anything fixed on
-    it): no limb ends there."""
+    it) and of the links that carry nothing but a wheel (a suspension arm between the base and its wheel): no limb
+    ends there."""
     wheel_joints = m.wheel_joints | m.wheel_steering_joints
     if not wheel_joints:
         return frozenset()
@@ -481,4 +482,14 @@ def wheel_carried_links(m: Morphology) -> frozenset[int]:
         child = ji + 1
         if j.name in wheel_joints or m.link_parent[child] in out:
             out.add(child)  # joints are in tree order: a parent is seen before its children
+    children: dict[int, int] = {}
+    for li in range(1, m.link_count):
+        children[m.link_parent[li]] = children.get(m.link_parent[li], 0) + 1
+    for ji, j in enumerate(m.joints):
+        if j.name not in wheel_joints or m.link_parent[ji + 1] in out:
+            continue
+        li = m.link_parent[ji + 1]
+        while li > 0 and children.get(li, 0) == 1 and li not in out:
+            out.add(li)  # carries this wheel only
+            li = m.link_parent[li]
     return frozenset(out)

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from morphkit.body.wheels import Drive
+from morphkit.body.wheels import Drive, wheel_carried_links
 from morphkit.errors import ConfigError
 from morphkit.graph import JointType, Morphology
 from morphkit.kernels.contact import RecordedSelfCollision, SelfCollisionPairs, self_collision_pairs
@@ -152,6 +152,8 @@ class SynthRig:
     indices in ``q``) and their lower and upper limits (:func:`~morphkit.synth.ground.lift_coordinates`)."""
     drive: Drive | None = None
     """What a wheeled base's wheels allow (None: no wheels named)."""
+    wheel_held: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    """Coordinates of the joints that carry only a wheel (suspensions), held at rest."""
 
     def summary(self) -> dict[str, Any]:
         """Calibration figures for reports (JSON-friendly)."""
@@ -225,8 +227,9 @@ def prepare(m: Morphology, *, fps: float = 30.0, config: SynthConfig | None = No
                         body_height=plan.body_height, leg_reach=plan.leg_reach)
     # the upper body's lowest points (its shapes and arm tips), kept above the ground every frame
     others, carrying = other_joints(m, plan)
-    # steering and caster joints follow the root path (steer_wheels), not a walk of their own
-    others = [j for j in others if m.joints[j].name not in m.wheel_steering_joints]
+    # steering and caster joints follow the root path (steer_wheels), suspensions stay at rest: no walk of their own
+    on_wheels = wheel_carried_links(m)
+    others = [j for j in others if j + 1 not in on_wheels]
     lifting = [m.joint_index(n) for arm in plan.arms for n in arm.joints] + [j for j in others if j not in carrying]
     upper: set[str] = set()
     for ji in lifting:
@@ -312,10 +315,18 @@ def prepare(m: Morphology, *, fps: float = 30.0, config: SynthConfig | None = No
     arm_pairs = _arm_body_pairs(m, plan, solver, [a for a in range(len(plan.arms)) if a not in held],
                                 config.arms.collision_rest_margin)
     rig = SynthRig(m, plan, loco, solver, legs, arms, q_stance, limits, float(scale), fps, config, actions, ground,
-                   arm_pairs, upper_coordinates, drive)
+                   arm_pairs, upper_coordinates, drive, _wheel_held(m))
     _rig_cache.append((m, fps, config, rig))
     del _rig_cache[:-4]
     return rig
+
+
+def _wheel_held(m: Morphology) -> np.ndarray:
+    """Coordinates [k] of 1-DoF joints that carry only a wheel and neither steer nor roll it (suspensions)."""
+    on_wheels = wheel_carried_links(m)
+    qs = m.joint_q_start
+    return np.array([qs[ji] for ji, j in enumerate(m.joints) if ji + 1 in on_wheels and qs[ji + 1] - qs[ji] == 1
+                     and j.name not in m.wheel_steering_joints], dtype=np.int64)
 
 
 def _arm_body_pairs(m: Morphology, plan: BodyPlan, solver: LimbSolver, arms: list[int],
@@ -730,7 +741,9 @@ class _BatchRollout:
     def results(self) -> dict[str, np.ndarray]:
         """Per-frame arrays [R, T, ...]: ``q``, commands, contacts, gaits, actions; the ground lift's statistics."""
         cmds, acts, frames = self.cmds, self.acts, self.frames
-        if self.m.wheel_steering_joints:
+        if self.m.wheel_steering_joints or self.rig.wheel_held.size:
+            # the upper-body walk may have moved what carries a wheel: suspensions back at rest, steering set
+            self.out_q[..., self.rig.wheel_held] = self.rig.q_stance[self.rig.wheel_held]
             steer_wheels(self.m, self.out_q, self.fps)
         return {
             "q": self.out_q,

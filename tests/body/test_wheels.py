@@ -163,3 +163,27 @@ def test_yaml_wheels_with_an_unknown_drive_is_refused_at_its_line() -> None:
     with pytest.raises(MorphkitError, match="drive must be one of") as err:
         parse_yaml(text, source="car.yaml")
     assert err.value.location is not None and err.value.location.line == line
+
+
+def suspended_body() -> MorphologyBuilder:
+    """Two wheels, each on a prismatic suspension under the base (as TIAGo's), and a ball caster at the back."""
+    b = MorphologyBuilder("suspended")
+    b.add_link("base", shapes=[Shape(ShapeType.BOX, size=(0.5, 0.3, 0.1), origin=Transform((0, 0, 0.15)))])
+    b.add_link("ball", shapes=[Shape(ShapeType.SPHERE, radius=0.03)])
+    b.add_joint("ball_mount", JointType.FIXED, "base", "ball", origin=Transform((-0.2, 0, 0.03)))
+    for side, y in (("l", 0.2), ("r", -0.2)):
+        b.add_link(f"susp_{side}")
+        b.add_joint(f"susp_{side}_joint", JointType.PRISMATIC, "base", f"susp_{side}", axis=(0, 0, 1),
+                    limit=Limit(-0.005, 0.005))
+        b.add_link(f"wheel_{side}", shapes=[Shape(ShapeType.CYLINDER, radius=0.08, length=0.03)])
+        b.add_joint(f"wheel_{side}_joint", JointType.CONTINUOUS, f"susp_{side}", f"wheel_{side}",
+                    origin=Transform.from_xyz_rpy((0, y, 0.08), (math.pi / 2, 0, 0)), axis=(0, 0, 1))
+    return b
+
+
+def test_a_suspension_that_carries_only_a_wheel_is_no_limb() -> None:
+    m = complete_anatomy(suspended_body().build(), base_declared=False)
+    assert m.wheels is not None and m.wheels.drive == "differential"
+    assert m.end_effectors == ()
+    carried = {m.links[li].name for li in wheel_carried_links(m)}
+    assert carried == {"susp_l", "susp_r", "wheel_l", "wheel_r"}

@@ -215,3 +215,21 @@ def _values(m, row: np.ndarray) -> np.ndarray:
         if qs[ji + 1] - qs[ji] == 1:
             out[ji] = row[qs[ji]]
     return out
+
+
+def test_suspensions_stay_at_rest_while_the_base_drives() -> None:
+    import sys
+    from pathlib import Path
+
+    from morphkit.synth import synthesize
+
+    sys.path.insert(0, str(Path(__file__).parents[1] / "body"))
+    from test_wheels import suspended_body
+
+    m = complete_anatomy(suspended_body().build(), base_declared=False)
+    res = synthesize(m, frames=120, fps=FPS, seed=2, progress=False)
+    qs = m.joint_q_start
+    for mo in res:
+        assert np.ptp(mo.q[:, 0]) + np.ptp(mo.q[:, 1]) > 0.0  # it drives
+        for n in ("susp_l_joint", "susp_r_joint"):
+            np.testing.assert_array_equal(mo.q[:, qs[m.joint_index(n)]], 0.0)
