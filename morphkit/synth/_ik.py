@@ -19,6 +19,11 @@ All legs and arms of a pose are solved in one :func:`~morphkit.kernels.ik.ik_ste
   knee, ankle pitch-roll): every hinge is in the solve, and two more points of the foot (ahead of and
   beside its sole) hold it level; a foot in the air is then placed exactly by a second solve that
   leaves its orientation free (:meth:`LimbSolver.leg_step_weights`), as its ankle may not reach level;
+- a leg of five hinges ending in one ankle hinge on a sole of several shapes (hip yaw-roll-pitch, knee,
+  ankle pitch): every hinge is in the solve with one more point, ahead of the sole: position, pitch and
+  heading held, five coordinates for five hinges (:func:`_five_hinge_sole`);
+- a sole made of several shapes (the G1's four spheres) is one flat foot, even where its point lies on one
+  of them (:func:`_is_sole_of_several_shapes`): it is held level, not rolled on that sphere;
 - a ball foot whose point is the ball's bottom (as :mod:`morphkit.body.anatomy` places it) has its
   target raised by what the ball turned (:meth:`LimbSolver.rolling_lift`), so it rolls, not sinks.
 """

@@ -36,7 +36,11 @@ move (the other semi-axis is ``fixed_axis_semi_axis`` of the reach, room for a t
 does not roll (or pitch) across a direction a leg cannot follow, walks only along the other, and turns
 at most ``fixed_axis_yaw_rate``. The calibration says so per leg (:attr:`LegRig.warnings`), and also
 when a step region or swing height came out small. Upright bipeds with revolute knees keep them bent
-by ``upright_knee_margin`` (:func:`keep_hinge_knees_bent`), as ball knees are.
+by ``upright_knee_margin`` (:func:`keep_hinge_knees_bent`), as ball knees are; so do legs whose IK holds a
+level sole with every ankle hinge (:func:`_level_foot_knees`), upright or not: the warm start's extrapolation at
+touchdown would otherwise straighten such a knee, where its DLS steps are singular. Such a leg counts as straight at
+rest where its knee is (:func:`_straight_knees`), not by its summed segments (a sole point ahead of the ankle and hip
+offsets make the G1's straight leg look bent), and is pre-bent at the knee alone.
 
 **Stepping** (:class:`LeggedController`, vectorised over rollouts and legs): the gait clock
 (:mod:`morphkit.synth.gait`) says when a stance foot may lift; the cycle frequency is the
