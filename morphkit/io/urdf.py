@@ -305,7 +305,7 @@ class _Reader:
             b.set_rest_pose({self.name(el, "joint", "rest_pose"): self.number(el, "value", "rest_pose") for el in rest},
                             location=self.loc(rest[0]))
         declared = base_el is not None or world_base is not None
-        reference, frames, base_note = "q = 0", [], ""
+        reference, frames, base_note, srdf_base = "q = 0", [], "", None
         if self.srdf is not None:
             skip = [self.name(world_joint, "name", "joint")] if world_joint is not None else []
             try:
@@ -320,13 +320,14 @@ class _Reader:
             frames = hints.frames
             if not declared and hints.base is not None:
                 b.set_base(hints.base)
-                declared, base_note = True, hints.base_note
+                declared, base_note, srdf_base = True, hints.base_note, hints.base
         m = warn_wheeled_without_wheels(
             b.build(), self.loc(base_el) if base_el is not None else None, how='<wheels joints="..." radius="R"/>'
         )
         self.warn_leftovers()
         m = complete_anatomy(m, frames=frames, base_declared=declared, reference=reference)
-        return dataclasses.replace(m, notes=(base_note, *m.notes)) if base_note else m
+        # said where the base stays the SRDF's (a planar base with wheels found becomes wheeled: the anatomy says so)
+        return dataclasses.replace(m, notes=(base_note, *m.notes)) if base_note and m.base == srdf_base else m
 
     def warn_leftovers(self) -> None:
         """One warning each for the file's xacro leftovers and four-number mesh scales."""
