@@ -115,14 +115,16 @@ def warn_off_data(model: Retargeter, motions: Sequence[Motion]) -> None:
     from morphkit.evaluation.table import outside_clips, reference_data
     from morphkit.retarget.training_data import character_motions
 
-    pairing, creature = model.pairing, model.creature
+    # getattr: a retargeter that lacks them (a test double, a third-party one) is told of, not crashed on
+    pairing, creature, data = (getattr(model, k, None) for k in ("pairing", "creature", "data"))
     if creature is None:
         return
-    if pairing is None:
-        print("note: this run has no Ψ pairing: its clips were not checked against the creature's data",
+    if pairing is None or data is None:
+        print("note: this retargeter has no Ψ pairing or data set: its clips were not checked against the "
+              "creature's data",
               file=sys.stderr)
         return
-    reference = reference_data(character_motions(creature, model.data, progress=False), pairing)
+    reference = reference_data(character_motions(creature, data, progress=False), pairing)
     outside = outside_clips(motions, reference, pairing)
     threshold = reference.envelope.threshold if reference.envelope is not None else float("nan")
     for name, d in outside:
