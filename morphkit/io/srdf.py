@@ -182,7 +182,7 @@ def find_srdf(urdf: str | os.PathLike[str], *, robot: str | None = None) -> Path
         robot: Its ``<robot name>`` (read from the file when not given).
     """
     p = Path(urdf)
-    folders = [p.parent, p.parent.parent / "srdf"]
+    folders = [p.parent, Path(os.path.normpath(p.parent / ".." / "srdf"))]  # "x.urdf": ../srdf, not ./srdf
     for folder in folders:
         if (folder / f"{p.stem}.srdf").is_file():
             return folder / f"{p.stem}.srdf"
