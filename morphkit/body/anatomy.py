@@ -16,8 +16,8 @@ and their ``q = 0`` is often not a standing pose (legs folded flat, straight or 
    (joint limits sampled, root at rest) is compared with the deepest; ends within
    ``leg_depth_fraction`` (:class:`AnatomyConfig`) of it are legs. Names are hints
    (:mod:`morphkit.body.roles`): an end named like an arm, hand or head is a leg only if it rests on
-   the ground at the reference pose (a dog's front paws); one named like a tail, ear or sensor is no
-   end-effector. A non-leg end ahead of and above the root, with at most
+   the ground at the reference pose beside a leg not so named (a dog's front paws); one named like a
+   tail, ear or sensor is no end-effector. A non-leg end ahead of and above the root, with at most
    three joints, is a head.
 3. **Base.** A floating base nobody declared (a URDF without a ``world`` link) whose creature has no
    feet is bolted down: fixed, every end an arm's but a head on a neck (at most three joints of its own;
