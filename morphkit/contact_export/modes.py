@@ -28,13 +28,13 @@ first drives as its wheels allow (:func:`as_driven`)."""
 def as_driven(motion: Motion) -> Motion:
     """``motion`` with a wheeled base's root path made one its wheels can drive and its steering, caster and
     steered-wheel angles set from it (:func:`~morphkit.synth.wheeled.drivable`: no sideways motion on a differential
-    or skid-steer base, no turn tighter than an Ackermann's steering allows); other bases' motions unchanged (the
-    same object)."""
+    or skid-steer base, no turn tighter than an Ackermann's steering allows); other bases' motions, and motions the
+    wheels already drive (to 1 nm or nrad: re-integration's rounding), come back as the same object."""
     m = motion.morphology
     if m.wheels is None or motion.frame_count < 2:
         return motion
     q = drivable(m, motion.q, motion.fps)
-    return motion if np.array_equal(q, motion.q) else motion.replace(q=q)
+    return motion if np.allclose(q, motion.q, rtol=0.0, atol=1e-9) else motion.replace(q=q)
 
 
 def apply_contacts(motion: Motion, mode: str, *, stance: Any = None,

@@ -64,9 +64,18 @@ def test_a_drivable_path_and_a_legged_motion_pass_unchanged() -> None:
     t = np.arange(60) / FPS
     q = np.repeat(m.rest_q()[None], 60, axis=0)
     q[:, 0] = 0.2 * t  # straight ahead: nothing for the drive to clip, the caster already trailing
+    straight = apply_contacts(Motion(m, FPS, q), "none")
+    np.testing.assert_allclose(straight.q[:, :3], q[:, :3], atol=1e-12)
+    caster = m.joint_q_start[m.joint_index(m.wheels.steered[0])]  # type: ignore[union-attr]
+    # the caster wheel (half the drive wheels' radius, 0.04 m) rolls the distance the base drives
+    np.testing.assert_allclose(np.abs(straight.q[:, caster]), q[:, 0] / 0.04, atol=1e-9)
+    assert apply_contacts(straight, "none") is straight
+    # an arc within the drive's speed: its caster swivels once to trail it, and the export is then a fixed point
+    psi = 0.3 * t
+    q[:, 0], q[:, 1], q[:, 2] = np.sin(psi) / 1.5, (1 - np.cos(psi)) / 1.5, psi  # 0.2 m/s on a circle of 2/3 m
     once = apply_contacts(Motion(m, FPS, q), "none")
-    np.testing.assert_allclose(apply_contacts(once, "none").q, once.q, atol=1e-12)
     np.testing.assert_allclose(once.q[:, :3], q[:, :3], atol=1e-12)
+    assert apply_contacts(once, "none") is once
     spot = shipped_morphology("spot")
     legged = Motion(spot, FPS, np.repeat(spot.rest_q()[None], 5, axis=0))
     assert apply_contacts(legged, "none") is legged
