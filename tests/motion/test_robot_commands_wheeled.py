@@ -123,3 +123,15 @@ def test_commands_integrated_as_arcs_drive_the_drivable_path(drive: str) -> None
     want = drivable(m, motion.q, FPS)[:, :3]
     np.testing.assert_allclose(np.array(got), want, atol=1e-9)
     assert np.abs(want[:, :2] - path[:, :2]).max() > 0.01  # the side-steps were taken out: the test can fail
+
+
+def test_holonomic_base_keeps_its_sideways_speed() -> None:
+    """Powered casters move sideways: a crab walk on a circle is commanded as it is (vy the path's speed, vx 0)."""
+    m = _robot("holonomic")
+    d = drive_of(m)
+    R, v = 2.0, 0.2
+    assert d is not None and d.kind == "holonomic" and v + v / R * d.reach < d.top_speed
+    motion = _motion(m, _arc(R, v, 60, sideways=True))
+    np.testing.assert_allclose(_column(motion, "vy"), v, rtol=1e-9)
+    np.testing.assert_allclose(_column(motion, "vx"), 0.0, atol=1e-12)
+    np.testing.assert_allclose(_column(motion, "yaw_rate"), v / R, rtol=1e-9)
