@@ -404,7 +404,9 @@ class Drive:
     def clamp(self, cmd: np.ndarray) -> np.ndarray:
         """Heading-frame velocity commands ``[..., 3]`` (forward, lateral [m/s], yaw rate [rad/s]) scaled and
         clipped into what the wheels allow (a copy): no sideways motion but on a holonomic base, no turn tighter
-        than :attr:`min_turn_radius`, no wheel faster than :attr:`top_speed`."""
+        than :attr:`min_turn_radius`, no wheel faster than :attr:`top_speed` (the rim speed ``|v| + |ω| · arm``). An
+        Ackermann command is scaled as a whole (its curvature kept); other drives keep the yaw rate while it fits
+        and give the travel speed what rim speed is left."""
         out = np.array(cmd, dtype=float, copy=True)
         v, w = out[..., 0], out[..., 2]
         if self.kind != "holonomic":
@@ -415,9 +417,18 @@ class Drive:
             w = out[..., 2] = np.clip(w, -cap, cap)
         planar = np.hypot(out[..., 0], out[..., 1])
         arm = self.reach if self.kind == "holonomic" else self.half_track
-        rim = planar + np.abs(w) * arm
-        k = np.minimum(1.0, self.top_speed / np.maximum(rim, 1e-12))
-        return out * k[..., None]
+        if self.kind == "ackermann":
+            # one scale for both keeps the curvature, which the steering bounds
+            k = np.minimum(1.0, self.top_speed / np.maximum(planar + np.abs(w) * arm, 1e-12))
+            return out * k[..., None]
+        # The turn first, then what rim speed is left for travel: a base too slow for the commanded motion gives
+        # up speed, not heading (a retargeted base then keeps facing where the human faces).
+        turn = np.minimum(1.0, self.top_speed / np.maximum(np.abs(w) * arm, 1e-12))
+        out[..., 2] = w * turn
+        left = np.maximum(self.top_speed - np.abs(out[..., 2]) * arm, 0.0)
+        k = np.minimum(1.0, left / np.maximum(planar, 1e-12))
+        out[..., :2] *= k[..., None]
+        return out
 
     def clamp_path(self, command: np.ndarray) -> np.ndarray:
         """:meth:`clamp` of each frame of commands ``[..., T, 3]``, and for an Ackermann drive no yaw rate on the

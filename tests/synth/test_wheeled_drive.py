@@ -120,6 +120,10 @@ def test_differential_and_holonomic_clamps() -> None:
     assert spin[0, 2] > 0 and spin[0, 0] == 0.0
     side = holo.clamp(np.array([[0.0, 0.2, 0.0]]))
     np.testing.assert_allclose(side, [[0.0, 0.2, 0.0]])
+    # a turn the wheels can make keeps its rate; travel takes the rim speed left (|v| = top - |w| t/2)
+    w = 0.5 * diff.top_speed / (TRACK / 2)
+    walk = diff.clamp(np.array([[2.0 * diff.top_speed, 0.0, w]]))
+    np.testing.assert_allclose(walk, [[diff.top_speed - w * TRACK / 2, 0.0, w]], rtol=1e-12)
 
 
 def test_powered_casters_point_along_a_sideways_path() -> None:
