@@ -15,8 +15,10 @@ and their ``q = 0`` is often not a standing pose (legs folded flat, straight or 
    On a floating base, feet are the ends that carry the body: each end's lowest reachable point
    (joint limits sampled, root at rest) is compared with the deepest; ends within
    ``leg_depth_fraction`` (:class:`AnatomyConfig`) of it are legs. Names are hints
-   (:mod:`morphkit.body.roles`): an end named like an arm, hand or head is a leg only if it rests on
-   the ground at the reference pose beside a leg not so named (a dog's front paws); one named like a
+   (:mod:`morphkit.body.roles`): an end named like an arm, hand or head is a leg only beside a leg not so
+   named and by the front-paw rule BVH skeletons are read by too (:mod:`morphkit.body.paws`: its limb at
+   least 0.9 of the legs' mean, resting on the ground at the reference pose, within 0.35 of the root's height
+   above it — a dog's front paws); one named like a
    tail, ear or sensor is no end-effector. A non-leg end ahead of and above the root, with at most
    three joints, is a head.
 3. **Base.** A floating base nobody declared (a URDF without a ``world`` link) whose creature has no
@@ -56,6 +58,7 @@ from functools import lru_cache
 import numpy as np
 
 from morphkit.body.kinematics import BodyKinematics
+from morphkit.body.paws import PAW_RULE, PawRule
 from morphkit.body.roles import hint_rank, name_hint
 from morphkit.body.wheels import find_wheels, wheel_carried_links
 from morphkit.graph import BaseType, EndEffector, EndEffectorRole, JointType, Morphology, ShapeType
@@ -107,9 +110,8 @@ class AnatomyConfig:
     """[m] feet this close in height are level; other shapes this far above the feet are clear of the ground."""
     straight: float = 0.97
     """A leg stretched beyond this fraction of its reach is straight (no stance: knees must bend)."""
-    paw_fraction: float = 0.15
-    """A hand-named end whose lowest point at the reference pose lies within this fraction of the ground's depth
-    rests on the ground: a front paw, so a leg."""
+    paw: PawRule = PAW_RULE
+    """When a hand-, tool- or head-named end is a front paw (a leg): the rule BVH skeletons are read by too."""
     under_hip: float = 0.25
     """A foot farther than this fraction of its leg's reach from under its hip does not stand."""
     mirror_tolerance: float = 0.02
@@ -435,7 +437,7 @@ def _under(m: Morphology, li: int, g: int) -> bool:
 
 
 def _classify(m: Morphology, parts: list[_Part], kin: BodyKinematics, shapes: _Shapes, poses: np.ndarray,
-              fixed: bool, body: Sequence[int]) -> None:
+              fixed: bool, tree: _Tree) -> None:
     rng = np.random.default_rng(0)
     for p in parts:
         if p.hint == "skip":
@@ -465,7 +467,7 @@ def _classify(m: Morphology, parts: list[_Part], kin: BodyKinematics, shapes: _S
     live = [p for p in live if p.hint != "skip"]
     # A chain carries the body only where it reaches below the body's own shapes: Baxter's arms cannot get under
     # its pedestal.
-    floor = shapes.lowest(poses, body)
+    floor = shapes.lowest(poses, tree.members[0])
     candidates = [p for p in live if p.reach <= deepest + shapes.config.leg_depth_fraction * abs(deepest)
                   and not _on_midline(m, poses, p) and p.reach < floor]
     if len(candidates) < 2:  # one chain reaching down is an arm on a pedestal, not a body on legs
@@ -475,12 +477,14 @@ def _classify(m: Morphology, parts: list[_Part], kin: BodyKinematics, shapes: _S
         # torso whose only ends that reach down are its arms (Alex) is carried by none of them.
         candidates = []
     chosen = {id(p) for p in candidates}  # by identity: `in` on a list compares dataclasses, O(ends²)
+    unnamed = [_limb_length(tree, p.end) for p in candidates if p.hint not in ("hand", "tool", "head")]
+    legs = float(np.mean(unnamed)) if unnamed else 0.0
     for p in live:
         near = id(p) in chosen
-        resting = ref_low[id(p)] <= ground_ref + shapes.config.paw_fraction * abs(ground_ref)
         if deepest >= 0 or not near:
             continue
-        if p.hint in ("hand", "tool", "head") and not resting:
+        if p.hint in ("hand", "tool", "head") and not shapes.config.paw.is_paw(
+                _limb_length(tree, p.end), legs, ref_low[id(p)] - ground_ref, abs(ground_ref)):
             continue
         p.role = EndEffectorRole.FOOT
         how = f"reaches {-p.reach:.2f} m below the root (deepest end {-deepest:.2f} m)"
@@ -498,6 +502,19 @@ def _classify(m: Morphology, parts: list[_Part], kin: BodyKinematics, shapes: _S
         else:
             why = "does not reach the ground as the legs do" if deepest < 0 else "nothing reaches below the body"
             _arm_role(p, why)
+
+
+def _limb_length(tree: _Tree, e: _End) -> float:
+    """Joint offsets [m] from the end's farthest tip link up to the group it branches off: its limb's length, in
+    any pose (the bone path a BVH skeleton's limb is measured by)."""
+    best = 0.0
+    for t in e.tips:
+        li, length = max(tree.members[t]), 0.0
+        while li and tree.group[li] != e.attach:
+            length += float(np.linalg.norm(tree.m.joints[li - 1].origin.xyz))
+            li = tree.m.link_parent[li]
+        best = max(best, length)
+    return best
 
 
 def _on_midline(m: Morphology, poses: np.ndarray, p: _Part) -> bool:
@@ -826,7 +843,7 @@ def _complete(m: Morphology, kin: BodyKinematics, shapes: _Shapes, poses: np.nda
         tool = any(name_hint(m.links[li].name) == "tool" for li in links)
         parts.append(_Part(e, hint, frame, links, tool_named=tool))
     fixed = m.base in (BaseType.FIXED, BaseType.WHEELED, BaseType.PLANAR)
-    _classify(m, parts, kin, shapes, poses, fixed, tree.members[0])
+    _classify(m, parts, kin, shapes, poses, fixed, tree)
     notes: list[str] = []
     base = m.base
     legs = [p for p in parts if p.role == EndEffectorRole.FOOT]
@@ -890,7 +907,7 @@ def leg_like_chains(m: Morphology, config: AnatomyConfig = ANATOMY) -> list[str]
     poses = kin.poses(kin.rest[None])[0]
     tree = _Tree(m, poses, config)
     parts = [_Part(e, None, None, _end_links(tree, e)) for e in tree.ends()]
-    _classify(m, parts, kin, _Shapes(m, config), poses, False, tree.members[0])
+    _classify(m, parts, kin, _Shapes(m, config), poses, False, tree)
     feet_links = {m.link_index(e.link) for e in m.end_effectors if e.role == EndEffectorRole.FOOT}
     return [m.links[max(p.links)].name for p in parts
             if p.role == EndEffectorRole.FOOT and not feet_links.intersection(p.links)]
