@@ -22,7 +22,8 @@ Extension elements under ``<robot>`` (other URDF tools ignore unknown elements):
 
     <base type="floating|planar|wheeled|fixed"/>          absent: floating (or what a world joint says)
     <end_effector name="fl_foot" link="fl_lower" role="foot" xyz="0 0 -0.32"/>
-    <wheels joints="wheel_l wheel_r" radius="0.05"/>
+    <wheels joints="wheel_l wheel_r" radius="0.05"/>   (optional: drive, steering, steered, steered_radii,
+                                                       max_steer, as YAML's wheels:)
 
 Writing produces standard URDF (every revolute/prismatic ``<limit>`` carries ``effort`` and
 ``velocity``, written as 0 where unknown, because urdfdom requires them) plus the extension
@@ -299,7 +300,14 @@ class _Reader:
         wheels = self.single(root, "wheels", "robot")
         if wheels is not None:
             names = self.attr(wheels, "joints", "wheels").split()
-            b.set_wheels(names, self.number(wheels, "radius", "wheels"), location=self.loc(wheels))
+            kw: dict[str, Any] = {k: wheels.get(k, "").split() for k in ("steering", "steered")}
+            if wheels.get("drive") is not None:
+                kw["drive"] = wheels.get("drive")
+            if wheels.get("steered_radii") is not None:
+                kw["steered_radii"] = self.floats(wheels, "steered_radii", len(kw["steered"]), "wheels")
+            if wheels.get("max_steer") is not None:
+                kw["max_steer"] = self.number(wheels, "max_steer", "wheels")
+            b.set_wheels(names, self.number(wheels, "radius", "wheels"), location=self.loc(wheels), **kw)
         rest = root.findall("rest_pose")
         if rest:
             b.set_rest_pose({self.name(el, "joint", "rest_pose"): self.number(el, "value", "rest_pose") for el in rest},
@@ -586,8 +594,15 @@ def dump_urdf(m: Morphology, *, target: str | os.PathLike[str] | None = None) ->
             f" role={quoteattr(ee.role.name.lower())} xyz={quoteattr(_nums(ee.offset))}/>"
         )
     if m.wheels is not None:
-        joints = quoteattr(" ".join(m.wheels.joints))
-        out.append(f"  <wheels joints={joints} radius={quoteattr(_num(m.wheels.radius))}/>")
+        w = m.wheels
+        extra = f" drive={quoteattr(w.drive)}" if w.drive != "differential" else ""
+        for key, names in (("steering", w.steering), ("steered", w.steered)):
+            extra += f" {key}={quoteattr(' '.join(names))}" if names else ""
+        if w.steered_radii:
+            extra += f" steered_radii={quoteattr(' '.join(_num(r) for r in w.steered_radii))}"
+        if w.max_steer is not None:
+            extra += f" max_steer={quoteattr(_num(w.max_steer))}"
+        out.append(f"  <wheels joints={quoteattr(' '.join(w.joints))} radius={quoteattr(_num(w.radius))}{extra}/>")
     for n, v in m.rest_pose:
         out.append(f"  <rest_pose joint={quoteattr(n)} value={quoteattr(_num(v))}/>")
     out.append("</robot>")

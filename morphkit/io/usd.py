@@ -2,20 +2,19 @@
 
 Reading (:func:`read_usd`)
 --------------------------
-- **Which prims.** The stage is read composed (sublayers, references, payloads) and through
-  instance proxies. The articulation's root is the prim with ``PhysicsArticulationRootAPI``
-  (the one under the default prim when there are several; more than one left is an error). On a rigid body (Isaac Sim's layout) the articulation is
-  every body reached from it through joints, wherever the joints sit (under their child link,
-  in a ``joints`` scope, in another layer); on an ancestor ``Xform`` it is the rigid bodies
-  under it, plus any prim a joint names as ``physics:body0``/``physics:body1``, and the
-  ``Physics{Revolute,Prismatic,Spherical,Fixed}Joint`` prims under it or attached to its
-  bodies. Without an articulation root the whole stage is read (it must hold one connected
-  tree). Joints with ``physics:excludeFromArticulation`` (loop closures) are skipped with a
-  warning, and so are a stage's joints and bodies the articulation does not reach; a loop a
-  joint closes without it is an error (two parents). A prim name the file repeats (the MuJoCo
-  USD converter's ``PhysicsFixedJoint`` on every foot) is prefixed with its parents' names
-  (``FL_foot_PhysicsFixedJoint``), with a warning. The creature is named by the articulation
-  root, or by the default prim when the root is a body inside it.
+- **Which prims.** The stage is read composed (sublayers, references, payloads) and through instance proxies.
+  The articulation's root is the prim with ``PhysicsArticulationRootAPI`` (the one under the default prim when
+  there are several; more than one left is an error). On a rigid body (Isaac Sim's layout) the articulation is
+  every body reached from it through joints, wherever the joints sit (under their child link, in a ``joints``
+  scope, in another layer); on an ancestor ``Xform`` it is the rigid bodies under it, plus any prim a joint
+  names as ``physics:body0``/``physics:body1``, and the ``Physics{Revolute,Prismatic,Spherical,Fixed}Joint``
+  prims under it or attached to its bodies. Without an articulation root the whole stage is read (it must hold
+  one connected tree). Joints with ``physics:excludeFromArticulation`` (loop closures) are skipped with a
+  warning, and so are a stage's joints and bodies the articulation does not reach; a loop a joint closes
+  without it is an error (two parents). A prim name the file repeats (the MuJoCo USD converter's
+  ``PhysicsFixedJoint`` on every foot) is prefixed with its parents' names (``FL_foot_PhysicsFixedJoint``),
+  with a warning. The creature is named by the articulation root, or by the default prim when the root is a
+  body inside it.
 - **Frames.** ``body0`` is the parent, ``body1`` the child. A joint's frame is
   ``(localPos0, localRot0)`` in ``body0`` and ``(localPos1, localRot1)`` in ``body1``; its axis
   token (X, Y or Z) is in that frame. morphkit's child link frame sits at the joint's pivot with
@@ -61,7 +60,9 @@ the USD file) and the mesh's points when the file can be loaded.
 On the articulation root prim:
   ``morphkit:name`` (string, the creature name), ``morphkit:base`` (token: floating, planar,
   wheeled, fixed; wins over the world-joint rule), ``morphkit:wheelJoints`` (string[],
-  joint names) and ``morphkit:wheelRadius`` (double, metres).
+  joint names) and ``morphkit:wheelRadius`` (double, metres); optionally ``morphkit:wheelDrive`` (token),
+  ``morphkit:wheelSteering`` / ``wheelSteered`` (string[]), ``wheelSteeredRadii`` (double[]) and
+  ``wheelMaxSteer`` (double, rad), as YAML's ``wheels:``.
 On link and joint prims:
   ``morphkit:name`` (string): the morphkit name when it is not a valid prim name.
 On joint prims:
@@ -273,6 +274,15 @@ def build_stage(m: Morphology, target: str | None = None) -> Any:
     if m.wheels is not None:
         _set_custom(robot, "wheelJoints", Sdf.ValueTypeNames.StringArray, list(m.wheels.joints))
         _set_custom(robot, "wheelRadius", Sdf.ValueTypeNames.Double, float(m.wheels.radius))
+        _set_custom(robot, "wheelDrive", Sdf.ValueTypeNames.Token, m.wheels.drive)
+        if m.wheels.steering:
+            _set_custom(robot, "wheelSteering", Sdf.ValueTypeNames.StringArray, list(m.wheels.steering))
+        if m.wheels.steered:
+            _set_custom(robot, "wheelSteered", Sdf.ValueTypeNames.StringArray, list(m.wheels.steered))
+        if m.wheels.steered_radii:
+            _set_custom(robot, "wheelSteeredRadii", Sdf.ValueTypeNames.DoubleArray, list(m.wheels.steered_radii))
+        if m.wheels.max_steer is not None:
+            _set_custom(robot, "wheelMaxSteer", Sdf.ValueTypeNames.Double, float(m.wheels.max_steer))
 
     target_str = os.fspath(target) if target is not None else None
     names = _Names(reserved={"joints"})
@@ -794,7 +804,15 @@ def _read_stage(r: _Reader) -> Morphology:
             radius = r.custom(info, "wheelRadius", float)
             if radius is None:
                 raise r.error(f"{_NS}wheelJoints needs {_NS}wheelRadius", info)
-            b.set_wheels(wheel_joints, radius, location=r.loc(info))
+            kw: dict[str, Any] = {"steering": r.custom(info, "wheelSteering", list) or (),
+                                  "steered": r.custom(info, "wheelSteered", list) or ()}
+            if (drive := r.custom(info, "wheelDrive", str)) is not None:
+                kw["drive"] = drive
+            if (radii := r.custom(info, "wheelSteeredRadii", list)) is not None:
+                kw["steered_radii"] = [float(v) for v in radii]
+            if (max_steer := r.custom(info, "wheelMaxSteer", float)) is not None:
+                kw["max_steer"] = max_steer
+            b.set_wheels(wheel_joints, radius, location=r.loc(info), **kw)
     return complete_anatomy(b.build(), base_declared=base_attr is not None or bool(world_joints))
 
 

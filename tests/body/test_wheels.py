@@ -85,6 +85,21 @@ def test_found_wheels_round_trip_through_yaml() -> None:
         assert back.base == BaseType.WHEELED
 
 
+@pytest.mark.parametrize("suffix", [".urdf", ".usda"])
+def test_found_wheels_round_trip_through_urdf_and_usd(tmp_path, suffix: str) -> None:
+    """Every drive's wheels written as the format's morphkit extension read back as they were found (a URDF or USD
+    written from a PR2 once came back as a plain differential drive)."""
+    from morphkit.io import read_morphology, write_morphology
+
+    for drive in WHEELED_DRIVES:
+        m = _found(drive)
+        path = tmp_path / f"{drive}{suffix}"
+        write_morphology(m, path)
+        back = read_morphology(path)
+        assert back.wheels == m.wheels, drive
+        assert back.base == BaseType.WHEELED
+
+
 def test_declared_wheels_win() -> None:
     b = MorphologyBuilder("declared")
     b.base = BaseType.WHEELED
