@@ -118,6 +118,7 @@ def converter_style_stage(folder: Path) -> Path:
     base = _body(stage, "/robot/base")
     UsdPhysics.ArticulationRootAPI.Apply(base.GetPrim())
     cube = UsdGeom.Cube.Define(stage, "/robot/base/box")
+    cube.CreateSizeAttr(0.3)  # USD's default cube is 2 m: a body reaching below its own feet stands on none of them
     UsdPhysics.CollisionAPI.Apply(cube.GetPrim())
     # A visual mesh as Isaac Sim marks it: a collider switched off, not a shape beside the box.
     shell = UsdGeom.Sphere.Define(stage, "/robot/base/shell")
