@@ -26,6 +26,7 @@ import shutil
 import subprocess
 import sys
 import time
+import warnings
 import xml.etree.ElementTree as ET
 import zipfile
 from concurrent.futures import ThreadPoolExecutor
@@ -211,6 +212,18 @@ def measure_robot(robot: Robot, robots_dir: str | os.PathLike[str], *, frames: i
             row["srdf_height"] = None if hs is None else round(hs, 4)
             if h is not None and hs is not None and hs > 1e-6:
                 row["height_ratio"] = round(h / hs, 4)
+            if robot.kind in LEGGED and hs is not None and hs > 1e-6:
+                # The stance the anatomy searches where no SRDF is beside the file (laikago, the G1, most MJCFs),
+                # judged against the same SRDF height: the reader alone would pass by taking the SRDF's pose.
+                from morphkit.io.urdf import read_urdf
+
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    alone = read_urdf(urdf, srdf=False)
+                hs_alone = stance_height(alone, state_q(alone, state[1])[0])
+                h_alone = stance_height(alone, alone.rest_q())
+                if h_alone is not None and hs_alone is not None and hs_alone > 1e-6:
+                    row["searched_ratio"] = round(h_alone / hs_alone, 4)
     if robot.kind in LEGGED and frames > 0:
         from morphkit.synth import synthesize
         from morphkit.synth.report import quality_report
@@ -244,6 +257,9 @@ def judge(row: dict[str, Any]) -> tuple[bool | None, list[str]]:
         ratio = row.get("height_ratio")
         if ratio is not None and row.get("srdf_state") in STANDING_STATES and abs(ratio - 1.0) > HEIGHT_TOLERANCE:
             why.append(f"height {100 * (ratio - 1):+.0f} %")
+        searched = row.get("searched_ratio")
+        if searched is not None and row.get("srdf_state") in STANDING_STATES and abs(searched - 1.0) > HEIGHT_TOLERANCE:
+            why.append(f"searched stance {100 * (searched - 1):+.0f} %")
         if row["max_rest_joint"] > JOINT_BOUND:
             why.append(f"joint {row['max_rest_joint']:.1f} rad")
         if "synth" in row:
@@ -274,8 +290,8 @@ def _ratio(r: dict[str, Any]) -> str:
 def format_table(rows: list[dict[str, Any]]) -> str:
     """The markdown table of measured rows, then the line ``N of M pass`` (wheeled robots not counted)."""
     lines = ["| robot | class | read | base | feet | hands/tools | SRDF state | height rest / SRDF [m] | ratio | "
-             "max \\|q\\| rest [rad] | sliding [cm/s] | under [mm] | s | verdict |",
-             "|---|---|---|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---|"]
+             "searched / SRDF | max \\|q\\| rest [rad] | sliding [cm/s] | under [mm] | s | verdict |",
+             "|---|---|---|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---|"]
     for r in rows:
         ok, why = judge(r)
         verdict = "—" if ok is None else ("pass" if ok else "**fail**")
@@ -294,6 +310,7 @@ def format_table(rows: list[dict[str, Any]]) -> str:
             r.get("srdf_state") or ("no SRDF" if r.get("srdf") is None else "no group_state"),
             f"{_f(r.get('height'), '.3f')} / {_f(r.get('srdf_height'), '.3f')}" if legged else "–",
             _ratio(r) if legged else "–",
+            _f(r.get("searched_ratio"), ".2f") if legged else "–",
             _f(r.get("max_rest_joint"), ".2f"),
             sliding if legged else "–",
             _f(r.get("under_mm"), ".1f") if legged else "–",
