@@ -91,8 +91,19 @@ def test_tiny_quadruped_height_ratio_and_verdict(tmp_path: Path) -> None:
     assert row["srdf_height"] == pytest.approx(srdf_h, abs=1e-3)
     assert row["height_ratio"] == pytest.approx(rest_h / srdf_h, abs=2e-3)
 
-    ok, why = zoo.judge(row)  # no synthesis (frames=0): height and joints only
-    expect_ok = abs(rest_h / srdf_h - 1.0) <= zoo.HEIGHT_TOLERANCE and row["max_rest_joint"] <= math.pi
+    from morphkit.io.urdf import read_urdf
+
+    alone = read_urdf(tmp_path / "tiny/urdf/tiny.urdf", srdf=False)  # the stance the anatomy searches
+    found = dict(alone.rest_pose)
+    ee_alone = {e.link: np.array(e.offset) for e in alone.end_effectors}
+    searched_h = max(_foot_depth(found.get(f"{n}_hip", 0.0), found.get(f"{n}_knee", 0.0), ee_alone[f"{n}_foot"])
+                     for n in LEGS)
+    srdf_alone_h = max(_foot_depth(HIP, KNEE, ee_alone[f"{n}_foot"]) for n in LEGS)
+    assert row["searched_ratio"] == pytest.approx(searched_h / srdf_alone_h, abs=2e-3)
+
+    ok, why = zoo.judge(row)  # no synthesis (frames=0): heights and joints only
+    expect_ok = (abs(rest_h / srdf_h - 1.0) <= zoo.HEIGHT_TOLERANCE and row["max_rest_joint"] <= math.pi
+                 and abs(searched_h / srdf_alone_h - 1.0) <= zoo.HEIGHT_TOLERANCE)
     assert ok is expect_ok, why
 
 
