@@ -232,6 +232,26 @@ def pybullet_data_file(relative: str) -> str:
     return path
 
 
+def example_robot_data_file(relative: str) -> str:
+    """A file of ``example-robot-data`` 6.0.0's robots folder (e.g. ``go2_description/urdf/go2.urdf``): from
+    ``$MORPHKIT_ERD`` (the unzipped wheel's folder), else the installed package (the dev extra installs it), else
+    the robot zoo's download in morphkit's cache; skips without any."""
+    import os
+    import sysconfig
+    from pathlib import Path
+
+    from morphkit.cache import cache_dir
+
+    sub = Path("cmeel.prefix/share/example-robot-data/robots")
+    roots = [Path(os.environ["MORPHKIT_ERD"]) / sub] if os.environ.get("MORPHKIT_ERD") else []
+    roots += [Path(sysconfig.get_paths()["purelib"]) / sub, cache_dir("robot_zoo", "example-robot-data-6.0.0") /
+              "unzipped" / sub]
+    for root in roots:
+        if (root / relative).is_file():
+            return str(root / relative)
+    pytest.skip(f"example-robot-data not found (set MORPHKIT_ERD or pip install example-robot-data==6.0.0): {relative}")
+
+
 def playground_xml(robot: str, file: str) -> str:
     """An MJCF of MuJoCo Playground's locomotion robots (``berkeley_humanoid``, ``op3``); skips without it.
 

@@ -5,12 +5,12 @@ virtual joint as the base; names the URDF lacks are one warning, a malformed SRD
 from __future__ import annotations
 
 import math
-import os
 import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
+from morphkit_testing import example_robot_data_file
 
 from morphkit.errors import DescriptionError
 from morphkit.graph import BaseType, EndEffectorRole
@@ -237,17 +237,14 @@ def test_entities_are_refused_in_an_srdf():
         parse_srdf('<!DOCTYPE r [<!ENTITY a "b">]><robot name="r"/>', source="x.srdf")
 
 
-ERD = Path(os.environ.get("MORPHKIT_ERD", "/work/robots/erd")) / "cmeel.prefix/share/example-robot-data/robots"
 
 
 @pytest.mark.parametrize("urdf", ["go2_description/urdf/go2.urdf", "talos_data/robots/talos_reduced.urdf",
                                   "solo_description/robots/solo12.urdf"])
 def test_collection_robots_stand_at_their_srdf_state(urdf):
-    """example-robot-data (MORPHKIT_ERD: the unzipped wheel's folder; skipped without it): the rest pose is the
-    SRDF's reference state, joint for joint, within ±π."""
-    path = ERD / urdf
-    if not path.is_file():
-        pytest.skip(f"example-robot-data not found at {ERD}")
+    """example-robot-data (the dev extra; skipped without it): the rest pose is the SRDF's reference state, joint
+    for joint, within ±π."""
+    path = Path(example_robot_data_file(urdf))
     srdf = find_srdf(path)
     state = parse_srdf(srdf.read_text(), source=str(srdf)).reference_state()
     with warnings.catch_warnings():
