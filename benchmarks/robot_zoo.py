@@ -325,9 +325,18 @@ def format_table(rows: list[dict[str, Any]]) -> str:
 
 
 def fetch_robots() -> Path:
-    """The wheel's robots folder in morphkit's cache, downloaded and unzipped on first use."""
+    """The installed package's robots folder (the dev extra installs 6.0.0), else the wheel's in morphkit's cache,
+    downloaded and unzipped on first use."""
+    import sysconfig
+    from importlib.metadata import PackageNotFoundError, version
+
     from morphkit._folder_lock import hold_run_folder
     from morphkit.cache import cache_dir
+
+    installed = Path(sysconfig.get_paths()["purelib"]) / ROBOTS_SUBDIR
+    with contextlib.suppress(PackageNotFoundError):
+        if version("example-robot-data") == ERD_VERSION and installed.is_dir():
+            return installed
 
     root = cache_dir("robot_zoo", f"example-robot-data-{ERD_VERSION}")
     robots = root / "unzipped" / ROBOTS_SUBDIR
