@@ -399,6 +399,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--timeout", type=float, default=600.0, help="seconds per robot (default 600)")
     parser.add_argument("--out", type=Path, help="also write the table to this file (atomically)")
     parser.add_argument("--json", type=Path, help="also write the rows as JSON to this file")
+    parser.add_argument("--sheet", type=Path, help="also draw every robot read at its rest pose into this PNG "
+                        "(the render extra; one tile per robot, labelled with its verdict)")
     parser.add_argument("--worker", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
 
@@ -443,7 +445,29 @@ def main(argv: list[str] | None = None) -> int:
             atomic_write_text(args.out, table)
         if args.json is not None:
             atomic_write_text(args.json, json.dumps(rows, indent=2) + "\n")
+    if args.sheet is not None:
+        draw_sheet(rows, robots_dir, args.sheet)
     return 0
+
+
+def draw_sheet(rows: list[dict[str, Any]], robots_dir: Path, out: Path, *, tile: tuple[int, int] = (320, 240)) -> None:
+    """One tile per robot read: its rest pose seen from the front left, labelled with its name and verdict."""
+    from morphkit.io import read_morphology
+    from morphkit.render import contact_sheet, iter_turntable_frames, write_image
+
+    frames, labels = [], []
+    for r in rows:
+        if r.get("read") != "ok":
+            continue
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # missing meshes: drawn as the links' other shapes or stand-ins
+            m = read_morphology(Path(robots_dir) / r["urdf"])
+            (frame,) = list(iter_turntable_frames(m, frames=1, size=tile, start_deg=-35.0, progress=False))
+        ok, _ = judge(r)
+        frames.append(frame)
+        labels.append(f"{r['name']}: {'pass' if ok else ('wheeled' if ok is None else 'fail')}")
+    write_image(contact_sheet(frames, columns=7, labels=labels), out)
+    print(f"sheet: {out}", file=sys.stderr)
 
 
 if __name__ == "__main__":
