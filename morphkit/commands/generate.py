@@ -1,5 +1,5 @@
-"""``morphkit generate [--family NAME | --legs N [--arm] [--tail] [--neck] ...] --out FILE``: a random creature of a
-family."""
+"""``morphkit generate [--family NAME | --legs N [--arm] [--tail] [--neck] ... | --wheels DRIVE [--arm]] --out FILE``:
+a random creature of a family, or a wheeled robot of a drive."""
 
 from __future__ import annotations
 
@@ -8,12 +8,16 @@ from pathlib import Path
 
 from morphkit.commands import _args
 
+FAMILY_NAMES = ("grazer", "hopper", "octopod")
+"""The named body plans of :data:`morphkit.synth.creatures.FAMILIES`, written out: importing the synthesis to build
+the parser would start Warp, whose banner lands on every command's stdout (``info --json`` included)."""
+WHEEL_DRIVES = ("differential", "skid_steer", "ackermann", "holonomic")
+"""The drives :func:`morphkit.synth.wheeled_bodies.wheeled_robot` builds (its ``WHEELED_DRIVES``), written out too."""
+
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    from morphkit.synth.creatures import FAMILIES
-
     p = sub.add_parser("generate", help="write a random creature of a family (legs, arm, tail, neck) to try things on")
-    p.add_argument("--family", choices=sorted(FAMILIES),
+    p.add_argument("--family", choices=FAMILY_NAMES,
                    help="a named body plan: hopper (a biped with a heavy tail resting behind, short arms, long feet), "
                         "grazer (four legs, a long neck reaching the ground, a tail), octopod (eight legs); "
                         "the flags below add to it")
@@ -26,6 +30,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="a thick three-segment tail whose tip rests just above the ground behind")
     p.add_argument("--long-neck", action="store_true", help="a three-joint neck whose head reaches the ground")
     p.add_argument("--long-feet", action="store_true", help="an ankle and a long flat foot on each leg")
+    p.add_argument("--wheels", choices=WHEEL_DRIVES, metavar="DRIVE",
+                   help="a wheeled robot instead of a creature: differential, skid_steer, ackermann or holonomic "
+                        "(with --arm: an arm on it; with --unlabelled its wheels and drive are left for the reader to "
+                        "find, as in a vendor file)")
     p.add_argument("--size", type=_args.float_in(0.01, 100.0), default=1.0,
                    help="scale of every length, 0.01 to 100 (1: a body about 0.6 m long)")
     p.add_argument("--seed", type=_args.seed, default=0, help="seed of the proportions (same seed, same creature)")
@@ -47,6 +55,20 @@ def run(args: argparse.Namespace) -> int:
                           f"supported: {', '.join(dict.fromkeys(WRITE_SUFFIXES))}")
     if Path(args.out).exists():
         raise ConfigError(f"{args.out}: exists; generate writes a new file (remove it or name another)")
+    if args.wheels is not None:
+        creature = ("family", "legs", "tail", "neck", "short_arms", "heavy_tail", "long_neck", "long_feet")
+        body_flags = [f for f in creature if getattr(args, f) not in (None, False)]
+        if body_flags:
+            raise ConfigError(f"--wheels makes a wheeled robot; --{body_flags[0].replace('_', '-')} is a creature's")
+        from morphkit.synth.wheeled_bodies import wheeled_body, wheeled_robot
+
+        # the proportions are the generator's defaults times --size (no seed: one body per drive)
+        make = wheeled_body if args.unlabelled else wheeled_robot
+        m = make(args.wheels, arm=args.arm, radius=0.08 * args.size, track=0.5 * args.size, wheelbase=0.6 * args.size)
+        write_morphology(m, args.out)
+        print(f"wrote {args.out} ({m.name}: {m.link_count} links, {len(m.end_effectors)} end-effectors, "
+              f"{args.wheels} drive)")
+        return 0
     base = FAMILIES[args.family] if args.family else CreatureFamily()
     family = CreatureFamily(
         legs=args.legs if args.legs is not None else base.legs, size=args.size,
