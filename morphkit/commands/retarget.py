@@ -87,8 +87,8 @@ def run(args: argparse.Namespace) -> int:
     if model.creature is None and args.target is None:  # NKN between human skeletons: an unseen skeleton
         model = model.with_target(DEFAULT_NKN_TARGET)
     contacts = args.contacts or ("replan" if model.creature is not None else "none")
-    if contacts != "none":
-        model = WithContacts(model, contacts)
+    if contacts != "none" or (model.creature is not None and model.creature.wheels is not None):
+        model = WithContacts(model, contacts)  # "none" too on wheels: every export drives as the wheels allow
     for path, clip in zip(paths, clips, strict=True):
         try:  # every clip checked before any is retargeted, its error naming its file
             model.intake(clip)
