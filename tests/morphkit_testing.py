@@ -232,6 +232,34 @@ def pybullet_data_file(relative: str) -> str:
     return path
 
 
+TINY_THIGH = TINY_SHIN = 0.2
+"""Segment lengths of :func:`tiny_quadruped_urdf`'s legs [m]."""
+TINY_LEGS = {"FL": (0.2, 0.1), "FR": (0.2, -0.1), "HL": (-0.2, 0.1), "HR": (-0.2, -0.1)}
+"""Its legs and their hips' (x, y) on the body [m]."""
+
+
+def tiny_quadruped_urdf(root: str = "") -> str:
+    """A URDF quadruped named ``tiny``: a 0.5 m box body, four legs (hip and knee hinges about y, a cylinder per
+    segment, a sphere foot at the shin's end); ``root`` is XML put before the body link (a world joint)."""
+    legs = ""
+    for n, (x, y) in TINY_LEGS.items():
+        legs += f"""
+  <joint name="{n}_hip" type="revolute"><parent link="base"/><child link="{n}_thigh"/>
+    <origin xyz="{x} {y} 0"/><axis xyz="0 1 0"/><limit lower="-1.5" upper="1.5" effort="10" velocity="10"/></joint>
+  <link name="{n}_thigh"><collision><origin xyz="0 0 -0.1"/>
+    <geometry><cylinder radius="0.02" length="0.2"/></geometry></collision></link>
+  <joint name="{n}_knee" type="revolute"><parent link="{n}_thigh"/><child link="{n}_shin"/>
+    <origin xyz="0 0 -{TINY_THIGH}"/><axis xyz="0 1 0"/>
+    <limit lower="-2.5" upper="0" effort="10" velocity="10"/></joint>
+  <link name="{n}_shin"><collision><origin xyz="0 0 -0.1"/>
+    <geometry><cylinder radius="0.015" length="0.2"/></geometry></collision></link>
+  <joint name="{n}_foot_fixed" type="fixed"><parent link="{n}_shin"/><child link="{n}_foot"/>
+    <origin xyz="0 0 -{TINY_SHIN}"/></joint>
+  <link name="{n}_foot"><collision><geometry><sphere radius="0.02"/></geometry></collision></link>"""
+    return (f'<?xml version="1.0"?>\n<robot name="tiny">\n{root}  <link name="base"><collision><geometry>'
+            f'<box size="0.5 0.25 0.08"/></geometry></collision></link>{legs}\n</robot>\n')
+
+
 def example_robot_data_file(relative: str) -> str:
     """A file of ``example-robot-data`` 6.0.0's robots folder (e.g. ``go2_description/urdf/go2.urdf``): from
     ``$MORPHKIT_ERD`` (the unzipped wheel's folder), else the installed package (the dev extra installs it), else

@@ -10,13 +10,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from morphkit_testing import TINY_LEGS, TINY_SHIN, TINY_THIGH, tiny_quadruped_urdf
 
 pytest.importorskip("warp")
 
 SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "robot_zoo.py"
 
-THIGH = SHIN = 0.2
-LEGS = {"FL": (0.2, 0.1), "FR": (0.2, -0.1), "HL": (-0.2, 0.1), "HR": (-0.2, -0.1)}
+THIGH, SHIN, LEGS = TINY_THIGH, TINY_SHIN, TINY_LEGS
 HIP, KNEE = 0.5, -1.0  # the SRDF's standing pose
 
 
@@ -31,25 +31,9 @@ def _zoo():
 
 
 def _write_robot(folder: Path) -> None:
-    legs = ""
-    for n, (x, y) in LEGS.items():
-        legs += f"""
-  <joint name="{n}_hip" type="revolute"><parent link="base"/><child link="{n}_thigh"/>
-    <origin xyz="{x} {y} 0"/><axis xyz="0 1 0"/><limit lower="-1.5" upper="1.5" effort="10" velocity="10"/></joint>
-  <link name="{n}_thigh"><collision><origin xyz="0 0 -0.1"/>
-    <geometry><cylinder radius="0.02" length="0.2"/></geometry></collision></link>
-  <joint name="{n}_knee" type="revolute"><parent link="{n}_thigh"/><child link="{n}_shin"/>
-    <origin xyz="0 0 -{THIGH}"/><axis xyz="0 1 0"/><limit lower="-2.5" upper="0" effort="10" velocity="10"/></joint>
-  <link name="{n}_shin"><collision><origin xyz="0 0 -0.1"/>
-    <geometry><cylinder radius="0.015" length="0.2"/></geometry></collision></link>
-  <joint name="{n}_foot_fixed" type="fixed"><parent link="{n}_shin"/><child link="{n}_foot"/>
-    <origin xyz="0 0 -{SHIN}"/></joint>
-  <link name="{n}_foot"><collision><geometry><sphere radius="0.02"/></geometry></collision></link>"""
     (folder / "tiny" / "urdf").mkdir(parents=True)
     (folder / "tiny" / "srdf").mkdir(parents=True)
-    (folder / "tiny" / "urdf" / "tiny.urdf").write_text(
-        f'<?xml version="1.0"?>\n<robot name="tiny">\n  <link name="base"><collision><geometry>'
-        f'<box size="0.5 0.25 0.08"/></geometry></collision></link>{legs}\n</robot>\n')
+    (folder / "tiny" / "urdf" / "tiny.urdf").write_text(tiny_quadruped_urdf())
     joints = "".join(f'<joint name="{n}_hip" value="{HIP}"/><joint name="{n}_knee" value="{KNEE}"/>' for n in LEGS)
     (folder / "tiny" / "srdf" / "tiny.srdf").write_text(
         '<?xml version="1.0"?>\n<robot name="tiny">\n'
