@@ -443,6 +443,18 @@ class Drive:
             out[..., 2] = np.where(near, 0.0, out[..., 2])
         return out
 
+    def path_steps(self, path: np.ndarray, fps: float) -> tuple[np.ndarray, np.ndarray]:
+        """A planar root path ``[T, 3]`` (x, y [m], yaw [rad]) sampled at ``fps`` as the drive allows it: each step's
+        chord in its mid heading frame per second ``[T - 1, 3]`` (forward, lateral [m/s], yaw rate [rad/s]),
+        clipped by :meth:`clamp_path`, and the unwrapped yaw ``[T]`` it started from."""
+        yaw = np.unwrap(path[:, 2])
+        dxy = np.diff(path[:, :2], axis=0)
+        dpsi = np.diff(yaw)
+        mid = yaw[:-1] + 0.5 * dpsi
+        c, s = np.cos(mid), np.sin(mid)
+        chord = np.stack([c * dxy[:, 0] + s * dxy[:, 1], -s * dxy[:, 0] + c * dxy[:, 1], dpsi], axis=1) * fps
+        return self.clamp_path(chord), yaw
+
     def summary(self) -> dict[str, float | str]:
         return {"drive": self.kind, "top_speed_m_s": round(self.top_speed, 4), "top_speed_rule": self.rule,
                 "min_turn_radius_m": round(self.min_turn_radius, 4)}

@@ -57,13 +57,7 @@ def drive_commands(drive: Drive, path: np.ndarray, fps: float) -> np.ndarray:
     p = np.asarray(path, dtype=float)
     if len(p) < 2:
         return np.zeros((len(p), 3))
-    yaw = np.unwrap(p[:, 2])
-    dxy = np.diff(p[:, :2], axis=0)
-    dpsi = np.diff(yaw)
-    mid = yaw[:-1] + 0.5 * dpsi
-    c, s = np.cos(mid), np.sin(mid)
-    chord = np.stack([c * dxy[:, 0] + s * dxy[:, 1], -s * dxy[:, 0] + c * dxy[:, 1], dpsi], axis=1) * fps
-    step = drive.clamp_path(chord)
+    step, _ = drive.path_steps(p, fps)
     half = 0.5 * step[:, 2] / fps
     step[:, :2] /= np.sinc(half / np.pi)[:, None]  # np.sinc(x) = sin(pi x) / (pi x)
     return np.concatenate([step[:1], step], axis=0)

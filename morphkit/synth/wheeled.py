@@ -208,13 +208,8 @@ def drivable(m: Morphology, q: np.ndarray, fps: float) -> np.ndarray:
     out = np.array(q, dtype=float, copy=True)
     if d is None or len(out) < 2:
         return out
-    yaw = np.unwrap(out[:, 2])
-    dxy = np.diff(out[:, :2], axis=0)
-    dpsi = np.diff(yaw)
-    mid = yaw[:-1] + 0.5 * dpsi
-    c, s = np.cos(mid), np.sin(mid)
-    step = np.stack([c * dxy[:, 0] + s * dxy[:, 1], -s * dxy[:, 0] + c * dxy[:, 1], dpsi], axis=1) * fps
-    step = d.clamp_path(step) / fps
+    step, yaw = d.path_steps(out, fps)
+    step = step / fps
     yaw_new = yaw[0] + np.concatenate([[0.0], np.cumsum(step[:, 2])])
     mid = yaw_new[:-1] + 0.5 * step[:, 2]
     c, s = np.cos(mid), np.sin(mid)
