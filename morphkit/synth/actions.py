@@ -8,7 +8,9 @@ elbow, a wrist, stay as they are). A key pose names a direction for the upper ar
 forearm in the root frame — forward $F$, outward $O$ (the arm's side) and up $U$ — and DLS IK
 (:func:`~morphkit.kernels.ik.ik_step`, shoulder to elbow DoFs only) puts the elbow and the hand
 there, approached in stages from the previous pose so that the elbow keeps bending the way it
-should. Poses the arm cannot reach (residual over ``reach_tolerance`` of its reach), or that hit
+should. An arm whose elbow limits keep it bent (a humanoid robot's) takes each pose as near as they
+allow: the hand drawn in along its shoulder ray to the arm's longest extent, the elbow where the two
+segments then meet. Poses the arm cannot reach (residual over ``reach_tolerance`` of its reach), or that hit
 the body, the other arm or the ground — checked at the pose and along the joint-space blends
 actions use — are dropped, and an action is offered only if all its poses were kept:
 
@@ -309,6 +311,23 @@ class _KeyPoseSolver:
         self.side = np.where(self.sh[:, 1] < -1e-3, -1.0, 1.0)
         """[A] +1 for a left arm, -1 for a right one."""
         self.reach = np.array([plan.arms[i].reach for i in arms])
+        self.extent = self._extent(m, chains.elbows, q_stance)
+        """[A] farthest the hand gets from the shoulder over the elbow's limits [m]: below ``l1 + l2`` where the
+        limits keep the elbow bent (a humanoid robot whose forearms cannot hang straight)."""
+        self.bent = self.extent < (self.l1 + self.l2) * (1.0 - 1e-3)
+
+    def _extent(self, m: Morphology, elbows: list[int], q_stance: np.ndarray) -> np.ndarray:
+        """Shoulder-to-hand distance maximised over each revolute elbow's range (others: ``l1 + l2``) [A]."""
+        out = self.l1 + self.l2
+        for a, j in enumerate(elbows):
+            lim = m.joints[j].limit
+            if m.joints[j].type != JointType.REVOLUTE or lim is None:
+                continue
+            qs = np.repeat(q_stance[None], 65, axis=0)
+            qs[:, m.joint_q_start[j]] = np.linspace(lim.lower, lim.upper, 65)
+            tips = self.root_frame(qs)[2][:, a]
+            out[a] = min(out[a], float(np.linalg.norm(tips - self.sh[a], axis=-1).max()))
+        return out
 
     def root_frame(self, qs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """FK of poses [B, C]: root transforms [B, 7], elbow and hand points in the root frame [B, A, 3]."""
@@ -330,10 +349,33 @@ class _KeyPoseSolver:
         Fd = np.array([[f[0], s * f[1], f[2]] for s in self.side])
         return _unit(U), _unit(Fd)
 
+    def _bent_targets(self, E: np.ndarray, H: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Elbow and hand targets [B, A, 3] of the arms that cannot straighten made reachable: the hand drawn in
+        along its shoulder ray to the arm's extent, the elbow where upper arm and forearm then meet, on the side of
+        the ideal elbow (keeping the pose's swivel)."""
+        sh, l1, l2 = self.sh[None], self.l1[None, :, None], self.l2[None, :, None]
+        d = H - sh
+        n = np.maximum(np.linalg.norm(d, axis=-1, keepdims=True), 1e-9)
+        w = d / n
+        n = np.clip(n, np.abs(l1 - l2) + 1e-6, self.extent[None, :, None])
+        H2 = sh + w * n
+        x = (l1 ** 2 - l2 ** 2 + n ** 2) / (2 * n)  # along the ray, from the shoulder
+        h = np.sqrt(np.maximum(l1 ** 2 - x ** 2, 0.0))
+        perp = (E - sh) - np.sum((E - sh) * w, axis=-1, keepdims=True) * w
+        # an ideal straight arm has no side: bend the elbow down (or back, for an arm pointing down)
+        for fb in (np.array([0.0, 0.0, -1.0]), np.array([-1.0, 0.0, 0.0])):
+            alt = fb - np.sum(fb * w, axis=-1, keepdims=True) * w
+            small = np.linalg.norm(perp, axis=-1, keepdims=True) < 1e-3 * l1
+            perp = np.where(small, alt, perp)
+        E2 = sh + x * w + h * _unit(perp)
+        bent = self.bent[None, :, None]
+        return np.where(bent, E2, E), np.where(bent, H2, H)
+
     def solve(self, q: np.ndarray, u0: np.ndarray, f0: np.ndarray, u1: np.ndarray, f1: np.ndarray,
               stages: int) -> tuple[np.ndarray, np.ndarray]:
         """Move elbows and hands of poses [B, C] from directions (u0, f0) to (u1, f1) [B, A, 3] in stages; returns
-        the poses and each arm's larger residual of elbow and hand [B, A] [m]."""
+        the poses and each arm's larger residual of elbow and hand [B, A] [m] (for an arm whose elbow cannot
+        straighten, from the targets the limits allow: :meth:`_bent_targets`)."""
         model, ee, mask, A, reach = self.model, self.ee, self.mask, self.A, self.reach
         Tr = np.repeat(self.Tr0, len(q), axis=0)
         for k in range(1, stages + 1):
@@ -341,6 +383,8 @@ class _KeyPoseSolver:
             u, f = _slerp_dir(u0, u1, w), _slerp_dir(f0, f1, w)
             E = self.sh[None] + self.l1[None, :, None] * u
             H = E + self.l2[None, :, None] * f
+            if self.bent.any():
+                E, H = self._bent_targets(E, H)
             tg = np.concatenate([_world(Tr, E), _world(Tr, H)], axis=1)
             it = 40 if k < stages else 120
             for _ in range(it):
