@@ -18,6 +18,7 @@ grazer whose head reaches the ground (``grazer``); an eight-legged body (``octop
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -108,6 +109,19 @@ def random_creature(family: CreatureFamily, seed: int = 0, *, labelled: bool = T
     b.set_base("floating")
     b.add_link("body", shapes=[Shape(ShapeType.BOX, Transform(), size=(length, width, height))])
 
+    stance = _add_legs(b, family, u, (length, width, height, thigh, shin, foot_r), labelled)
+    _add_arms(b, family, u, (length, width, height), labelled)
+    _add_neck(b, family, u, (length, height), labelled)
+    _add_tail(b, family, u, (length, height), stance)
+    return b.build()
+
+
+def _add_legs(b: MorphologyBuilder, family: CreatureFamily, u: Callable[[float, float], float],
+              dims: tuple[float, ...], labelled: bool) -> float:
+    """The legs (body ``dims``: length, width, height, thigh, shin, foot radius [m]); returns the body centre's
+    height above the ground at ``q = 0`` [m]. Draws from ``u`` in a fixed order (same seed, same creature)."""
+    s = family.size
+    length, width, height, thigh, shin, foot_r = dims
     # legs in pairs along the body, knees bent at q = 0 (front knees back, as most quadrupeds)
     pairs = family.legs // 2
     xs = [0.0] if pairs == 1 else list(np.linspace(0.4 * length, -0.4 * length, pairs))
@@ -143,6 +157,14 @@ def random_creature(family: CreatureFamily, seed: int = 0, *, labelled: bool = T
             elif labelled:
                 b.add_end_effector(f"{n}_foot", f"{n}_shin", offset=_sole(knee, shin, foot_r), role="foot")
 
+    return stance
+
+
+def _add_arms(b: MorphologyBuilder, family: CreatureFamily, u: Callable[[float, float], float],
+              dims: tuple[float, ...], labelled: bool) -> None:
+    """The front arm and the short arms the family has (body ``dims``: length, width, height [m])."""
+    s = family.size
+    length, width, height = dims
     if family.arm:
         upper, fore = s * u(0.18, 0.3), s * u(0.15, 0.25)
         front = (0.5 * length - 0.05 * s, 0.0, 0.5 * height)
@@ -175,6 +197,12 @@ def random_creature(family: CreatureFamily, seed: int = 0, *, labelled: bool = T
             if labelled:
                 b.add_end_effector(f"{side}_hand", f"{side}_forearm", offset=(0.0, 0.0, -arm), role="hand")
 
+
+def _add_neck(b: MorphologyBuilder, family: CreatureFamily, u: Callable[[float, float], float],
+              dims: tuple[float, ...], labelled: bool) -> None:
+    """The neck and head the family has, long or short (body ``dims``: length, height [m])."""
+    s = family.size
+    length, height = dims
     if family.long_neck:
         seg = s * u(0.16, 0.22)
         head = 0.06 * s
@@ -202,6 +230,12 @@ def random_creature(family: CreatureFamily, seed: int = 0, *, labelled: bool = T
         if labelled:
             b.add_end_effector("head_tip", "head", offset=(2.0 * head, 0.0, 0.0), role="head")
 
+
+def _add_tail(b: MorphologyBuilder, family: CreatureFamily, u: Callable[[float, float], float],
+              dims: tuple[float, ...], stance: float) -> None:
+    """The tail the family has, heavy (its tip just above the ground at the ``stance`` height [m]) or light."""
+    s = family.size
+    length, height = dims
     if family.heavy_tail:
         # thick, tapering, its tip 2 cm (× size) above the ground behind at the stance
         back = (-0.5 * length, 0.0, 0.0)
@@ -229,7 +263,6 @@ def random_creature(family: CreatureFamily, seed: int = 0, *, labelled: bool = T
                              axis=(0, 1, 0), limit=Limit(-0.8, 0.8))
         b.add_joint_revolute("tail_bend", "tail_1", "tail_2", origin=Transform((seg, 0.0, 0.0)), axis=(0, 1, 0),
                              limit=Limit(-0.8, 0.8))
-    return b.build()
 
 
 def _pitch(angle: float) -> tuple[float, float, float, float]:
