@@ -680,7 +680,6 @@ def read_usd(path: str | os.PathLike[str]) -> Morphology:
 
 
 def _read_stage(r: _Reader) -> Morphology:
-    from pxr import UsdGeom
 
     scope = r.articulation()
     bodies, joint_prims = scope.bodies, scope.joints
@@ -764,32 +763,7 @@ def _read_stage(r: _Reader) -> Morphology:
     if world_link is not None:
         b.add_link(world_link, location=SourceLocation(r.src))
     for p, prim in link_prims.items():
-        T = body_to_morph[p]
-        shapes = []
-        ees = []
-        below = _descendants(prim, link_paths)
-        # Its enabled colliders; its visual gprims where it has none (the URDF and MJCF readers' rule).
-        colliders = [d for d in below if d.IsA(UsdGeom.Gprim) and _is_collider(d)]
-        for d in below:
-            if d.GetAttribute(_NS + "endEffectorRole"):
-                ees.append(d)
-            elif d.IsA(UsdGeom.Gprim):
-                if colliders and not _is_collider(d):
-                    continue
-                s = r.shape(d, prim)
-                if s is None:
-                    continue
-                o = transform_multiply(T, s.origin.as_array())
-                shapes.append(Shape(s.type, _transform(o), s.radius, s.length, s.size, s.mesh, s.scale))
-        b.add_link(link_name[p], shapes=shapes, location=r.loc(prim))
-        for d in ees:
-            role = r.custom(d, "endEffectorRole", str)
-            role_enum = parse_enum(EndEffectorRole, role, what="end-effector role", location=r.loc(d))
-            pose, _ = r.relative(d, prim)
-            offset = transform_multiply(T, pose)[:3]
-            b.add_end_effector(
-                r.name_of(d), link_name[p], offset=tuple(float(v) for v in offset), role=role_enum, location=r.loc(d)
-            )
+        _add_body_link(r, b, prim, link_name[p], body_to_morph[p], _descendants(prim, link_paths))
     if base == BaseType.FIXED and world_joints and world_link is None:
         b.set_root(link_name[world_joints[0][2].GetPath()], location=r.loc(world_joints[0][0]))
 
@@ -799,21 +773,55 @@ def _read_stage(r: _Reader) -> Morphology:
         _add_joint(r, b, jp, joint_name[jp.GetPath()], kind, b0, b1, link_name, body_to_morph, world_link)
 
     if info is not None:
-        wheel_joints = r.custom(info, "wheelJoints", list)
-        if wheel_joints is not None:
-            radius = r.custom(info, "wheelRadius", float)
-            if radius is None:
-                raise r.error(f"{_NS}wheelJoints needs {_NS}wheelRadius", info)
-            kw: dict[str, Any] = {"steering": r.custom(info, "wheelSteering", list) or (),
-                                  "steered": r.custom(info, "wheelSteered", list) or ()}
-            if (drive := r.custom(info, "wheelDrive", str)) is not None:
-                kw["drive"] = drive
-            if (radii := r.custom(info, "wheelSteeredRadii", list)) is not None:
-                kw["steered_radii"] = [float(v) for v in radii]
-            if (max_steer := r.custom(info, "wheelMaxSteer", float)) is not None:
-                kw["max_steer"] = max_steer
-            b.set_wheels(wheel_joints, radius, location=r.loc(info), **kw)
+        _read_wheels(r, b, info)
     return complete_anatomy(b.build(), base_declared=base_attr is not None or bool(world_joints))
+
+
+def _add_body_link(r: _Reader, b: MorphologyBuilder, prim: Any, name: str, T: np.ndarray, below: list[Any]) -> None:
+    """A rigid body as the link ``name`` (its morphkit frame ``T`` in the body's [7]): its enabled colliders, or its
+    visual gprims where it has none (the URDF and MJCF readers' rule), and the end-effectors under it."""
+    from pxr import UsdGeom
+
+    shapes, ees = [], []
+    colliders = [d for d in below if d.IsA(UsdGeom.Gprim) and _is_collider(d)]
+    for d in below:
+        if d.GetAttribute(_NS + "endEffectorRole"):
+            ees.append(d)
+        elif d.IsA(UsdGeom.Gprim):
+            if colliders and not _is_collider(d):
+                continue
+            s = r.shape(d, prim)
+            if s is None:
+                continue
+            o = transform_multiply(T, s.origin.as_array())
+            shapes.append(Shape(s.type, _transform(o), s.radius, s.length, s.size, s.mesh, s.scale))
+    b.add_link(name, shapes=shapes, location=r.loc(prim))
+    for d in ees:
+        role = r.custom(d, "endEffectorRole", str)
+        role_enum = parse_enum(EndEffectorRole, role, what="end-effector role", location=r.loc(d))
+        pose, _ = r.relative(d, prim)
+        offset = transform_multiply(T, pose)[:3]
+        b.add_end_effector(r.name_of(d), name, offset=tuple(float(v) for v in offset), role=role_enum,
+                           location=r.loc(d))
+
+
+def _read_wheels(r: _Reader, b: MorphologyBuilder, info: Any) -> None:
+    """The ``morphkit:wheel*`` attributes of the creature prim ``info``, where it has them."""
+    wheel_joints = r.custom(info, "wheelJoints", list)
+    if wheel_joints is None:
+        return
+    radius = r.custom(info, "wheelRadius", float)
+    if radius is None:
+        raise r.error(f"{_NS}wheelJoints needs {_NS}wheelRadius", info)
+    kw: dict[str, Any] = {"steering": r.custom(info, "wheelSteering", list) or (),
+                          "steered": r.custom(info, "wheelSteered", list) or ()}
+    if (drive := r.custom(info, "wheelDrive", str)) is not None:
+        kw["drive"] = drive
+    if (radii := r.custom(info, "wheelSteeredRadii", list)) is not None:
+        kw["steered_radii"] = [float(v) for v in radii]
+    if (max_steer := r.custom(info, "wheelMaxSteer", float)) is not None:
+        kw["max_steer"] = max_steer
+    b.set_wheels(wheel_joints, radius, location=r.loc(info), **kw)
 
 
 def _is_collider(prim: Any) -> bool:
