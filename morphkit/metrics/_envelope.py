@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from morphkit.errors import ConfigError
-from morphkit.metrics._distribution import as_matrix
+from morphkit.metrics._distribution import as_matrix, gaussian_statistics
 
 __all__ = ["FLOOR", "DataEnvelope", "data_envelope"]
 
@@ -105,8 +105,10 @@ def data_envelope(psi_per_clip: Sequence[Any], *, segment: int = 60, quantile: f
     if len({c.shape[1] for c in clips}) != 1:
         raise ConfigError("data_envelope: the data's clips have different Ψ widths")
     x = np.concatenate(clips, axis=0)
-    mean = x.mean(axis=0)
-    cov = np.atleast_2d(np.cov(x, rowvar=False)) if x.shape[0] > 1 else np.zeros((x.shape[1], x.shape[1]))
+    if x.shape[0] > 1:
+        mean, cov = gaussian_statistics(x)  # FID's own model of the data
+    else:
+        mean, cov = x.mean(axis=0), np.zeros((x.shape[1], x.shape[1]))
     cov = cov + floor**2 * np.eye(cov.shape[0])
     whiten = np.linalg.inv(np.linalg.cholesky(cov))
     probe = DataEnvelope(mean, whiten, np.inf, quantile, int(segment), 0)

@@ -30,6 +30,7 @@ from morphkit.body.kinematics import BodyKinematics
 from morphkit.body.wheels import drive_of
 from morphkit.graph import BaseType, JointType, Morphology
 from morphkit.rotations import quat_from_yaw
+from morphkit.synth._util import rotate2
 from morphkit.synth.analysis import BodyPlan
 
 __all__ = ["Locomotion", "base_coordinates", "drivable", "glide_height", "locomotion_of", "rolled_angle",
@@ -85,12 +86,6 @@ def rolled_angle(centres: np.ndarray, axes: np.ndarray, radius: float) -> np.nda
     return np.concatenate([np.zeros((*step.shape[:-1], 1)), np.cumsum(step, axis=-1)], axis=-1)
 
 
-def _rot2(yaw: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Planar vectors ``v`` [..., 2] turned by ``yaw`` [...]."""
-    c, s = np.cos(yaw), np.sin(yaw)
-    return np.stack([c * v[..., 0] - s * v[..., 1], s * v[..., 0] + c * v[..., 1]], axis=-1)
-
-
 def steer_wheels(m: Morphology, q: np.ndarray, fps: float, *, still: float = 1e-3) -> None:
     """Set the steering, caster and steered-wheel coordinates of motions ``q`` [..., T, C] in place from their
     root paths ``q[..., :3] = (x, y, yaw)``.
@@ -136,9 +131,9 @@ def steer_wheels(m: Morphology, q: np.ndarray, fps: float, *, still: float = 1e-
         roll0 = np.array([axis0[1], -axis0[0]])
         heading0 = math.atan2(roll0[1], roll0[0])
         # the pivot's velocity in the root frame (central differences; ends one-sided)
-        world = xy + _rot2(yaw, np.broadcast_to(pivot, xy.shape))
+        world = xy + rotate2(np.cos(yaw), np.sin(yaw), np.broadcast_to(pivot, xy.shape))
         vel = np.gradient(world, dt, axis=-2) if world.shape[-2] > 1 else np.zeros_like(world)
-        local = _rot2(-yaw, vel)
+        local = rotate2(np.cos(-yaw), np.sin(-yaw), vel)
         speed = np.linalg.norm(local, axis=-1)
         want = np.arctan2(local[..., 1], local[..., 0]) - heading0
         if trail_caster:
@@ -156,7 +151,8 @@ def steer_wheels(m: Morphology, q: np.ndarray, fps: float, *, still: float = 1e-
             prev = np.where(speed[..., t] > still, d, prev)
             delta[..., t] = prev
         off = c0[:2] - pivot
-        centre = xy + _rot2(yaw, pivot + _rot2(delta, np.broadcast_to(off, (*delta.shape, 2))))
+        arm = rotate2(np.cos(delta), np.sin(delta), np.broadcast_to(off, (*delta.shape, 2)))
+        centre = xy + rotate2(np.cos(yaw), np.sin(yaw), pivot + arm)
         ang = yaw + delta
         axes = np.stack([np.cos(ang) * axis0[0] - np.sin(ang) * axis0[1],
                          np.sin(ang) * axis0[0] + np.cos(ang) * axis0[1], np.full(ang.shape, axis0[2])], axis=-1)
