@@ -454,11 +454,8 @@ class Validation:
 
     @torch.no_grad()
     def feature_loss(self, generator: torch.nn.Module, prior: torch.nn.Module) -> float:
-        """L_fea (Eq. 9, unweighted) of ``generator``'s rollouts over the windows."""
-        _, fake = rollout(generator, prior, self.human, self.start)
-        fmap = self.features
-        fixed, _ = fmap.creature_with_fk(fake)
-        return float(feature_loss(fmap.human_psi(self.human), fmap.psi_of_fixed(fixed)))
+        """L_fea (Eq. 9, unweighted) of ``generator``'s rollouts over the windows (:meth:`score`'s first figure)."""
+        return self.score(generator, prior).feature_loss
 
 
 @dataclass(frozen=True)
