@@ -53,14 +53,13 @@ import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from functools import lru_cache
 
 import numpy as np
 
 from morphkit.body.kinematics import BodyKinematics
 from morphkit.body.paws import PAW_RULE, PawRule
 from morphkit.body.roles import hint_rank, name_hint
-from morphkit.body.wheels import find_wheels, wheel_carried_links
+from morphkit.body.wheels import find_wheels, mesh_bounds, wheel_carried_links
 from morphkit.graph import BaseType, EndEffector, EndEffectorRole, JointType, Morphology, ShapeType
 from morphkit.rotations import transform_multiply
 
@@ -144,18 +143,6 @@ class Frame:
 # ---------------------------------------------------------------------------------------------
 # shapes as points
 # ---------------------------------------------------------------------------------------------
-@lru_cache(maxsize=256)
-def _mesh_bounds(path: str) -> tuple[tuple[float, ...], tuple[float, ...]] | None:
-    try:
-        import trimesh
-
-        mesh = trimesh.load(path, force="mesh")
-        lo, hi = mesh.bounds
-        return tuple(float(v) for v in lo), tuple(float(v) for v in hi)
-    except Exception:  # an unreadable mesh only loses its points here; the renderer reports it
-        return None
-
-
 def _shape_points(shape) -> tuple[np.ndarray, float]:
     """Core points [k, 3] of a shape in its link frame and the radius around them [m]."""
     T = shape.origin.as_array()
@@ -177,7 +164,7 @@ def _shape_points(shape) -> tuple[np.ndarray, float]:
         caps = np.concatenate([ring - half, ring + half])
         return place(caps), 0.0
     if shape.type == ShapeType.MESH and shape.mesh:
-        bounds = _mesh_bounds(shape.mesh)
+        bounds = mesh_bounds(shape.mesh)
         if bounds is not None:
             lo, hi = np.asarray(bounds[0]), np.asarray(bounds[1])
             return place((lo + (corners + 0.5) * (hi - lo)) * np.asarray(shape.scale)), 0.0

@@ -81,13 +81,15 @@ def _unit(v: np.ndarray) -> np.ndarray:
 
 
 @lru_cache(maxsize=256)
-def _mesh_bounds(path: str) -> tuple[tuple[float, ...], tuple[float, ...]] | None:
+def mesh_bounds(path: str) -> tuple[tuple[float, ...], tuple[float, ...]] | None:
+    """A mesh file's axis-aligned bounds in its own frame (lower, upper corners [m]), or None where it cannot be
+    read (the reader reported it). Cached: the wheel finding and the anatomy ask for the same meshes."""
     try:
         import trimesh
 
         lo, hi = trimesh.load(path, force="mesh").bounds
         return tuple(float(v) for v in lo), tuple(float(v) for v in hi)
-    except Exception:  # an unreadable mesh only loses its radius here; the reader reported it
+    except Exception:  # an unreadable mesh only loses its points here
         return None
 
 
@@ -113,7 +115,7 @@ def _round_radius(shape, T: np.ndarray, axis: np.ndarray, centre: np.ndarray) ->
     if shape.type == ShapeType.SPHERE and off_axle <= _ROUND * shape.radius:
         return shape.radius, "sphere"
     if shape.type == ShapeType.MESH and shape.mesh:
-        b = _mesh_bounds(shape.mesh)
+        b = mesh_bounds(shape.mesh)
         if b is None:
             return None
         lo, hi = np.asarray(b[0]) * shape.scale, np.asarray(b[1]) * shape.scale
@@ -145,7 +147,7 @@ def _lowest(m: Morphology, poses: np.ndarray) -> float | None:
                 low = min(low, M[2, 3] - abs(a[2]) * s.length / 2 - rim)
             elif s.type == ShapeType.BOX:
                 low = min(low, float((M[:3, :3] @ (corners * s.size).T)[2].min() + M[2, 3]))
-            elif s.type == ShapeType.MESH and s.mesh and (b := _mesh_bounds(s.mesh)) is not None:
+            elif s.type == ShapeType.MESH and s.mesh and (b := mesh_bounds(s.mesh)) is not None:
                 lo, hi = np.asarray(b[0]) * s.scale, np.asarray(b[1]) * s.scale
                 pts = (corners + 0.5) * (hi - lo) + lo
                 low = min(low, float((M[:3, :3] @ pts.T)[2].min() + M[2, 3]))
@@ -213,7 +215,7 @@ def found_wheels(m: Morphology) -> tuple[list[FoundWheel], float]:
                 if got is not None and (best is None or got[0] > best[0]):
                     best = got
         shapes_known = any(
-            s.type != ShapeType.MESH or (s.mesh and _mesh_bounds(s.mesh) is not None)
+            s.type != ShapeType.MESH or (s.mesh and mesh_bounds(s.mesh) is not None)
             for li in fixed_subtree(child) for s in m.links[li].shapes)
         if best is None and shapes_known:
             continue  # it has a body, and that body is not round about the axle: a roll joint, not a wheel

@@ -7,12 +7,11 @@ import argparse
 from pathlib import Path
 
 from morphkit.commands import _args
+from morphkit.graph.elements import WHEEL_DRIVES
 
 FAMILY_NAMES = ("grazer", "hopper", "octopod")
 """The named body plans of :data:`morphkit.synth.creatures.FAMILIES`, written out: importing the synthesis to build
 the parser would start Warp, whose banner lands on every command's stdout (``info --json`` included)."""
-WHEEL_DRIVES = ("differential", "skid_steer", "ackermann", "holonomic")
-"""The drives :func:`morphkit.synth.wheeled_bodies.wheeled_robot` builds (its ``WHEELED_DRIVES``), written out too."""
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:

@@ -19,10 +19,12 @@ import math
 
 from morphkit.body.anatomy import complete_anatomy
 from morphkit.graph import JointType, Limit, Morphology, MorphologyBuilder, Shape, ShapeType, Transform
+from morphkit.graph.elements import WHEEL_DRIVES
 
 __all__ = ["WHEELED_DRIVES", "wheeled_body", "wheeled_robot"]
 
-WHEELED_DRIVES = ("differential", "skid_steer", "ackermann", "holonomic")
+WHEELED_DRIVES = WHEEL_DRIVES
+"""The drives :func:`wheeled_body` builds: every one the graph knows."""
 
 _SIDEWAYS = (math.pi / 2, 0.0, 0.0)
 """A cylinder's (and a wheel joint's) z axis turned onto the base's y axis."""
